@@ -1,0 +1,73 @@
+"""TOML reading and writing of rig files (``[rig]`` and ``[operating]`` tables, FORMAT.md).
+
+Reading uses the standard library's :mod:`tomllib`; writing is a small emitter because a rig file
+is a flat table of floats and strings (no extra dependency). Files are written atomically.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import tempfile
+import tomllib
+from pathlib import Path
+from typing import Any, Mapping
+
+from impactid.errors import RigParameterError
+
+
+def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """Read a TOML file, raising :class:`RigParameterError` naming the file on any problem."""
+    path = Path(path)
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise RigParameterError(f"{path}: rig file not found") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise RigParameterError(f"{path}: not a valid TOML file ({exc})") from None
+    except OSError as exc:
+        raise RigParameterError(f"{path}: cannot read rig file ({exc.strerror})") from None
+
+
+def _format_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"cannot write non-finite value {value!r} to TOML")
+        return repr(value)
+    if isinstance(value, str):
+        escaped = value.replace("\\", "\\\\").replace('"', '\\"')
+        return f'"{escaped}"'
+    raise TypeError(f"cannot write {type(value).__name__} to a rig TOML file")
+
+
+def format_toml(tables: Mapping[str, Mapping[str, Any]], header: str = "") -> str:
+    """Format flat tables of scalars as TOML text."""
+    lines = [f"# {line}" for line in header.splitlines()] if header else []
+    for name, table in tables.items():
+        if lines:
+            lines.append("")
+        lines.append(f"[{name}]")
+        for key, value in table.items():
+            lines.append(f"{key} = {_format_value(value)}")
+    return "\n".join(lines) + "\n"
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path

@@ -1,0 +1,793 @@
+"""Compiled (numba) event-driven hybrid integrator for rig P.
+
+This module is the only hot loop of impactid's simulations. Everything here works on scalars and
+preallocated arrays; there is no Python in the inner loop and no allocation per step.
+
+Method
+------
+* Dormand–Prince 5(4) (the tableau of ``scipy.integrate.RK45``, taken from SciPy so that it is not
+  retyped), local extrapolation, FSAL, the standard step-size controller (safety 0.9, factor
+  limits 0.2 and 10) and the 4th-order continuous extension for dense output.
+* The state is ``(alpha, alpha_dot)``; the cam angle is ``Theta(t) = theta_ref + omega t``.
+* Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force, S-11..S-18),
+  ``STICK`` (rigid contact constraint ``psi_i = 0``, used only by the restitution model when an
+  approach speed falls below ``v_stick``; its normal force ``lambda`` follows from the constraint).
+* Exact switching: after each accepted step the switching function of the current mode (the gap
+  ``psi_i``, or ``lambda`` when sticking) is checked for a sign change in the direction that ends
+  the mode. The root is found with Brent's method on the dense output, the step is then
+  re-integrated from its start to the root, and for gap events one Newton correction
+  ``h -= psi/dpsi`` (another re-integration) puts the switch where ``|psi_i|`` is at round-off
+  level. The new mode starts from that state; no smoothing, no fixed step through the contact.
+* Non-terminal events located on the dense output in the same way: maxima of ``alpha``
+  (``alpha_dot`` crossing 0 downwards), peak indentation (``dpsi_i/dt`` crossing 0 upwards in
+  contact), peak contact force (``dF/dt`` crossing 0 downwards), reversals of the sliding
+  velocity (friction direction) during a contact.
+
+Status codes are returned instead of raising (numba cannot raise rich errors from parallel
+loops); :mod:`impactid.simulate.runs` turns them into :class:`~impactid.errors.SimulationError`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+from scipy.integrate._ivp.rk import RK45 as _RK45
+
+from impactid import contact as _contact
+from impactid.rigs import pivoted as _geo
+
+_jit = njit(cache=True, inline="always")
+
+# Shared physics, compiled from the very functions the public API uses.
+_gap = _jit(_geo.gap)
+_lever_arm = _jit(_geo.lever_arm)
+_tangential_gap_rate = _jit(_geo.tangential_gap_rate)
+_sliding_velocity_from = _jit(_geo.sliding_velocity)
+_spring_force = _jit(_geo.spring_force)
+_free_torque = _jit(_geo.free_torque)
+_hunt_crossley = _jit(_contact.hunt_crossley_force)
+
+# Dormand–Prince 5(4) tableau, from SciPy.
+_C = np.ascontiguousarray(_RK45.C, dtype=np.float64)
+_A = np.ascontiguousarray(_RK45.A, dtype=np.float64)
+_B = np.ascontiguousarray(_RK45.B, dtype=np.float64)
+_E = np.ascontiguousarray(_RK45.E, dtype=np.float64)
+_P = np.ascontiguousarray(_RK45.P, dtype=np.float64)
+
+# ---- parameter vector layout (built by runs.pack_rig) --------------------------------------
+PE_X, PE_Y, ECC, RSUM, R_C, H_P, M_B, GRAV, L_G, K_S, L_SU, D_Y, D_X, W_B, I_B, K_H, MU = range(17)
+N_RIG = 17
+# ---- law vector layout ---------------------------------------------------------------------
+LAW_KIND, BETA, N_EXP, CLIP, XI0, GAMMA, V_STICK = range(7)
+N_LAW = 7
+KIND_COMPLIANT = 0.0
+KIND_RESTITUTION = 1.0
+# ---- modes ---------------------------------------------------------------------------------
+FREE, CONTACT, STICK = 0, 1, 2
+# ---- event functions -----------------------------------------------------------------------
+EV_GAP, EV_RATE, EV_GAPRATE, EV_DFORCE, EV_VR, EV_LAMBDA = range(6)
+# ---- contact table columns -----------------------------------------------------------------
+(C_T_START, C_T_END, C_DPSI_START, C_DPSI_END, C_PEAK_DELTA, C_PEAK_FORCE, C_ALPHA_START,
+ C_RATE_START, C_ALPHA_END, C_RATE_END, C_KIND, C_FRICTION_REVERSALS, C_T_PEAK_FORCE,
+ C_T_PEAK_DELTA, C_XI) = range(15)
+N_CCOL = 15
+ROW_COMPLIANT, ROW_IMPACT, ROW_STICK = 1.0, 2.0, 3.0
+# ---- status codes --------------------------------------------------------------------------
+OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, CONTACTS_FULL, APEX_FULL, XI_NEGATIVE, BAD_INPUT = range(8)
+STATUS_MESSAGES = {
+    OK: "ok",
+    MAX_STEPS: "maximum number of integration steps reached",
+    STEP_UNDERFLOW: "step size fell below the floating-point resolution of t",
+    NONFINITE: "the state became non-finite",
+    CONTACTS_FULL: "contact table full",
+    APEX_FULL: "apex table full",
+    XI_NEGATIVE: "restitution law gave xi < 0 (approach speed beyond 1/gamma: outside the law's range)",
+    BAD_INPUT: "invalid input to the integrator",
+}
+# ---- summary columns of the batch entry point ----------------------------------------------
+(S_ALPHA_M, S_T_ALPHA_M, S_N_CONTACTS, S_T_START, S_T_END, S_DPSI_START, S_DPSI_END,
+ S_PEAK_FORCE, S_PEAK_DELTA, S_ALPHA_END, S_RATE_END, S_STATUS, S_N_STEPS) = range(13)
+N_SUM = 13
+
+
+# ============================================================================================
+# Right-hand side and observables
+# ============================================================================================
+
+
+@_jit
+def _torque(a, p):
+    spring = _spring_force(a, p[K_S], p[L_SU], p[D_Y], p[D_X], p[W_B])
+    return _free_torque(a, spring, p[M_B], p[GRAV], p[L_G], p[D_X])
+
+
+@_jit
+def _sliding_velocity(a, ad, th, omega, psi, rsum, ecc, r_c):
+    dpsi_j = _tangential_gap_rate(a, ad, th, omega, psi, rsum, ecc)
+    return _sliding_velocity_from(a, ad, th, omega, dpsi_j, ecc, r_c)
+
+
+@_jit
+def _force_law(psi, dpsi, p, law):
+    force = _hunt_crossley(-psi, dpsi, p[K_H], law[BETA], law[N_EXP])
+    if law[CLIP] != 0.0 and force < 0.0:
+        force = 0.0
+    return force
+
+
+@njit(cache=True)
+def stick_acceleration(t, a, ad, p, theta_ref, omega):
+    """Angular acceleration that keeps ``d2psi/dt2 = 0`` (rigid contact) [rad/s^2]."""
+    th = theta_ref + omega * t
+    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+    s = math.sin(a + th)
+    chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
+    return -(chi_dot * ad + p[ECC] * s * (ad + omega) * omega) / chi
+
+
+@njit(cache=True)
+def stick_force(t, a, ad, p, theta_ref, omega):
+    """Normal force ``lambda`` [N] that the rigid constraint needs (negative = would pull)."""
+    th = theta_ref + omega * t
+    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+    add = stick_acceleration(t, a, ad, p, theta_ref, omega)
+    vr = _sliding_velocity(a, ad, th, omega, psi, p[RSUM], p[ECC], p[R_C])
+    return (p[I_B] * add - _torque(a, p)) / (chi - p[MU] * np.sign(vr) * p[H_P])
+
+
+@njit(cache=True)
+def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
+    """``alpha_ddot`` [rad/s^2] in the given mode."""
+    if mode == FREE:
+        return _torque(a, p) / p[I_B]
+    if mode == STICK:
+        return stick_acceleration(t, a, ad, p, theta_ref, omega)
+    th = theta_ref + omega * t
+    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+    dpsi = chi * ad - p[ECC] * math.cos(a + th) * omega
+    force = _force_law(psi, dpsi, p, law)
+    vr = _sliding_velocity(a, ad, th, omega, psi, p[RSUM], p[ECC], p[R_C])
+    return (_torque(a, p) + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) / p[I_B]
+
+
+@njit(cache=True)
+def contact_force(mode, t, a, ad, p, law, theta_ref, omega):
+    """Normal contact force [N]: Hunt–Crossley in CONTACT, ``lambda`` in STICK, 0 in FREE."""
+    if mode == FREE:
+        return 0.0
+    if mode == STICK:
+        return stick_force(t, a, ad, p, theta_ref, omega)
+    th = theta_ref + omega * t
+    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+    dpsi = chi * ad - p[ECC] * math.cos(a + th) * omega
+    return _force_law(psi, dpsi, p, law)
+
+
+@njit(cache=True)
+def _force_rate(t, a, ad, p, law, theta_ref, omega):
+    """``dF/dt`` of the Hunt–Crossley force in contact [N/s]."""
+    th = theta_ref + omega * t
+    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+    s = math.sin(a + th)
+    dpsi = chi * ad - p[ECC] * math.cos(a + th) * omega
+    add = acceleration(CONTACT, t, a, ad, p, law, theta_ref, omega)
+    chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
+    ddpsi = chi_dot * ad + chi * add + p[ECC] * s * (ad + omega) * omega
+    delta = -psi
+    if delta <= 0.0:
+        return 0.0
+    beta = law[BETA]
+    n = law[N_EXP]
+    rate = -1.5 * p[K_H] * math.sqrt(delta) * dpsi - beta * delta**n * ddpsi
+    if n != 0.0:
+        rate += beta * n * delta ** (n - 1.0) * dpsi * dpsi
+    if law[CLIP] != 0.0 and _force_law(psi, dpsi, p, law) <= 0.0:
+        return 0.0
+    return rate
+
+
+@njit(cache=True)
+def _event_value(kind, mode, t, a, ad, p, law, theta_ref, omega):
+    th = theta_ref + omega * t
+    if kind == EV_RATE:
+        return ad
+    if kind == EV_GAP:
+        return _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+    if kind == EV_GAPRATE:
+        chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+        return chi * ad - p[ECC] * math.cos(a + th) * omega
+    if kind == EV_DFORCE:
+        return _force_rate(t, a, ad, p, law, theta_ref, omega)
+    if kind == EV_VR:
+        psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+        return _sliding_velocity(a, ad, th, omega, psi, p[RSUM], p[ECC], p[R_C])
+    # EV_LAMBDA
+    return stick_force(t, a, ad, p, theta_ref, omega)
+
+
+@njit(cache=True)
+def observe(t, a, ad, mode, p, law, theta_ref, omega, out):
+    """Observables on arrays: fills ``out[:, k]`` with psi, dpsi, chi, force, alpha_ddot, v_r.
+
+    ``out`` has shape (len(t), 6). Used for histories on sample grids.
+    """
+    for i in range(t.shape[0]):
+        th = theta_ref + omega * t[i]
+        psi = _gap(a[i], th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
+        chi = _lever_arm(a[i], th, p[PE_X], p[PE_Y], p[ECC])
+        out[i, 0] = psi
+        out[i, 1] = chi * ad[i] - p[ECC] * math.cos(a[i] + th) * omega
+        out[i, 2] = chi
+        out[i, 3] = contact_force(mode[i], t[i], a[i], ad[i], p, law, theta_ref, omega)
+        out[i, 4] = acceleration(mode[i], t[i], a[i], ad[i], p, law, theta_ref, omega)
+        out[i, 5] = _sliding_velocity(a[i], ad[i], th, omega, psi, p[RSUM], p[ECC], p[R_C])
+
+
+# ============================================================================================
+# Dormand–Prince step, dense output, root finding
+# ============================================================================================
+
+
+@njit(cache=True)
+def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K):
+    """One DP5 step from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2).
+
+    Returns (a_new, ad_new, err_a, err_ad)."""
+    K[0, 0] = ad
+    K[0, 1] = f0
+    for s in range(1, 6):
+        sa = 0.0
+        sd = 0.0
+        for j in range(s):
+            sa += _A[s, j] * K[j, 0]
+            sd += _A[s, j] * K[j, 1]
+        ys = a + h * sa
+        yds = ad + h * sd
+        K[s, 0] = yds
+        K[s, 1] = acceleration(mode, t + _C[s] * h, ys, yds, p, law, theta_ref, omega)
+    sa = 0.0
+    sd = 0.0
+    for j in range(6):
+        sa += _B[j] * K[j, 0]
+        sd += _B[j] * K[j, 1]
+    a1 = a + h * sa
+    ad1 = ad + h * sd
+    K[6, 0] = ad1
+    K[6, 1] = acceleration(mode, t + h, a1, ad1, p, law, theta_ref, omega)
+    ea = 0.0
+    ed = 0.0
+    for j in range(7):
+        ea += _E[j] * K[j, 0]
+        ed += _E[j] * K[j, 1]
+    return a1, ad1, h * ea, h * ed
+
+
+@njit(cache=True)
+def _dense_coefficients(K, Q):
+    for c in range(2):
+        for j in range(4):
+            s = 0.0
+            for i in range(7):
+                s += K[i, c] * _P[i, j]
+            Q[c, j] = s
+
+
+@njit(cache=True)
+def _dense(x, h, a0, ad0, Q):
+    x2 = x * x
+    x3 = x2 * x
+    x4 = x3 * x
+    a = a0 + h * (Q[0, 0] * x + Q[0, 1] * x2 + Q[0, 2] * x3 + Q[0, 3] * x4)
+    ad = ad0 + h * (Q[1, 0] * x + Q[1, 1] * x2 + Q[1, 2] * x3 + Q[1, 3] * x4)
+    return a, ad
+
+
+@njit(cache=True)
+def _g_dense(x, kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega):
+    a, ad = _dense(x, h, a0, ad0, Q)
+    return _event_value(kind, mode, t0 + x * h, a, ad, p, law, theta_ref, omega)
+
+
+@njit(cache=True)
+def _root_dense(kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega, g0, g1):
+    """Brent's method for the root of an event function on [0, 1] (fraction of the step)."""
+    xtol = max(4e-16, 1e-16 / h)
+    xa = 0.0
+    xb = 1.0
+    fa = g0
+    fb = g1
+    if fa == 0.0:
+        return 0.0
+    if fb == 0.0:
+        return 1.0
+    xc = xa
+    fc = fa
+    d = xb - xa
+    e = d
+    for _ in range(100):
+        if (fb > 0.0) == (fc > 0.0):
+            xc = xa
+            fc = fa
+            d = xb - xa
+            e = d
+        if abs(fc) < abs(fb):
+            xa = xb
+            xb = xc
+            xc = xa
+            fa = fb
+            fb = fc
+            fc = fa
+        tol = 2.0 * 2.2e-16 * abs(xb) + 0.5 * xtol
+        m = 0.5 * (xc - xb)
+        if abs(m) <= tol or fb == 0.0:
+            break
+        if abs(e) >= tol and abs(fa) > abs(fb):
+            s = fb / fa
+            if xa == xc:
+                pp = 2.0 * m * s
+                qq = 1.0 - s
+            else:
+                qq = fa / fc
+                r = fb / fc
+                pp = s * (2.0 * m * qq * (qq - r) - (xb - xa) * (r - 1.0))
+                qq = (qq - 1.0) * (r - 1.0) * (s - 1.0)
+            if pp > 0.0:
+                qq = -qq
+            else:
+                pp = -pp
+            if 2.0 * pp < min(3.0 * m * qq - abs(tol * qq), abs(e * qq)):
+                e = d
+                d = pp / qq
+            else:
+                d = m
+                e = m
+        else:
+            d = m
+            e = m
+        xa = xb
+        fa = fb
+        if abs(d) > tol:
+            xb += d
+        else:
+            xb += tol if m > 0.0 else -tol
+        fb = _g_dense(xb, kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega)
+    return min(max(xb, 0.0), 1.0)
+
+
+@njit(cache=True)
+def _error_norm(a0, ad0, a1, ad1, ea, ed, rtol, atol_a, atol_d):
+    sa = atol_a + rtol * max(abs(a0), abs(a1))
+    sd = atol_d + rtol * max(abs(ad0), abs(ad1))
+    return math.sqrt(0.5 * ((ea / sa) ** 2 + (ed / sd) ** 2))
+
+
+@njit(cache=True)
+def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max):
+    """Hairer–Nørsett–Wanner starting step (as scipy's ``select_initial_step``), order 5."""
+    sa = atol_a + rtol * abs(a)
+    sd = atol_d + rtol * abs(ad)
+    d0 = math.sqrt(0.5 * ((a / sa) ** 2 + (ad / sd) ** 2))
+    d1 = math.sqrt(0.5 * ((ad / sa) ** 2 + (f0 / sd) ** 2))
+    if d0 < 1e-5 or d1 < 1e-5:
+        h0 = 1e-6
+    else:
+        h0 = 0.01 * d0 / d1
+    h0 = min(h0, h_max)
+    a1 = a + h0 * ad
+    ad1 = ad + h0 * f0
+    f1 = acceleration(mode, t + h0, a1, ad1, p, law, theta_ref, omega)
+    d2 = math.sqrt(0.5 * (((ad1 - ad) / sa) ** 2 + ((f1 - f0) / sd) ** 2)) / h0
+    if d1 <= 1e-15 and d2 <= 1e-15:
+        h1 = max(1e-6, h0 * 1e-3)
+    else:
+        h1 = (0.01 / max(d1, d2)) ** 0.2
+    return min(100.0 * h0, h1, h_max)
+
+
+# ============================================================================================
+# The hybrid integrator
+# ============================================================================================
+
+
+@njit(cache=True)
+def initial_mode(t, a, ad, p, law, theta_ref, omega):
+    """Mode of a state: in contact if ``psi_i < 0``, or ``psi_i ~ 0`` and approaching."""
+    psi = _event_value(EV_GAP, FREE, t, a, ad, p, law, theta_ref, omega)
+    dpsi = _event_value(EV_GAPRATE, FREE, t, a, ad, p, law, theta_ref, omega)
+    touching = psi < 0.0 or (abs(psi) <= 1e-15 and dpsi < 0.0)
+    if not touching:
+        return FREE
+    if law[LAW_KIND] == KIND_COMPLIANT:
+        return CONTACT
+    return STICK  # restitution model: a state inside the cam is projected onto the constraint
+
+
+@njit(cache=True)
+def _open_row(contacts, n_contacts, kind, t, a, ad, dpsi):
+    r = n_contacts
+    for c in range(N_CCOL):
+        contacts[r, c] = np.nan
+    contacts[r, C_KIND] = kind
+    contacts[r, C_T_START] = t
+    contacts[r, C_ALPHA_START] = a
+    contacts[r, C_RATE_START] = ad
+    contacts[r, C_DPSI_START] = dpsi
+    contacts[r, C_PEAK_DELTA] = 0.0
+    contacts[r, C_PEAK_FORCE] = -np.inf
+    contacts[r, C_FRICTION_REVERSALS] = 0.0
+
+
+@njit(cache=True)
+def _close_row(contacts, r, t, a, ad, dpsi):
+    contacts[r, C_T_END] = t
+    contacts[r, C_ALPHA_END] = a
+    contacts[r, C_RATE_END] = ad
+    contacts[r, C_DPSI_END] = dpsi
+    if contacts[r, C_DPSI_START] < 0.0:
+        contacts[r, C_XI] = -dpsi / contacts[r, C_DPSI_START]
+
+
+@njit(cache=True)
+def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
+              rtol, atol_a, atol_d, h_max, max_steps,
+              grid, g_a, g_d, g_mode, contacts, apexes):
+    """Integrate the hybrid model from ``t0`` to ``t_end``.
+
+    Parameters
+    ----------
+    t0, a0, ad0, mode0 : initial time [s], state [rad, rad/s] and mode (FREE/CONTACT/STICK).
+    t_end : final time [s].
+    p, law : packed rig parameters and contact/restitution law (layouts above).
+    theta_ref, omega : cam angle ``Theta(t) = theta_ref + omega t`` [rad, rad/s].
+    rtol, atol_a, atol_d : error tolerances (relative; absolute for alpha [rad], alpha_dot [rad/s]).
+    h_max : largest step [s] (guards against stepping over grazing contacts).
+    max_steps : step budget.
+    grid : sorted times in [t0, t_end] at which the state is written to g_a, g_d, g_mode.
+    contacts : (capacity, N_CCOL) table of contact phases/impacts, filled in order.
+    apexes : (capacity, 2) table of local maxima (t, alpha); capacity 0 disables it.
+
+    Returns
+    -------
+    (status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rejected)
+    """
+    t = t0
+    a = a0
+    ad = ad0
+    mode = mode0
+    n_contacts = 0
+    n_apexes = 0
+    n_steps = 0
+    n_rej = 0
+    alpha_max = a0
+    t_alpha_max = t0
+    status = OK
+    K = np.empty((7, 2))
+    Q = np.empty((2, 4))
+    restitution = law[LAW_KIND] == KIND_RESTITUTION
+    n_grid = grid.shape[0]
+    cap_c = contacts.shape[0]
+    cap_a = apexes.shape[0]
+    gi = 0
+    if not (math.isfinite(a0) and math.isfinite(ad0) and math.isfinite(t0) and math.isfinite(t_end)):
+        return (BAD_INPUT, 0, 0, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
+    while gi < n_grid and grid[gi] <= t0:
+        g_a[gi] = a0
+        g_d[gi] = ad0
+        g_mode[gi] = mode0
+        gi += 1
+    open_row = -1
+    if mode == CONTACT or mode == STICK:
+        if n_contacts >= cap_c:
+            return (CONTACTS_FULL, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
+        dpsi0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+        _open_row(contacts, n_contacts, ROW_COMPLIANT if mode == CONTACT else ROW_STICK, t, a, ad, dpsi0)
+        f_start = contact_force(mode, t, a, ad, p, law, theta_ref, omega)
+        contacts[n_contacts, C_PEAK_FORCE] = f_start
+        contacts[n_contacts, C_T_PEAK_FORCE] = t
+        open_row = n_contacts
+        n_contacts += 1
+    f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
+    h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
+    step_rejected = False
+    span = t_end - t0
+    while t < t_end:
+        if n_steps >= max_steps:
+            status = MAX_STEPS
+            break
+        h = min(h, h_max)
+        if t + h >= t_end or t_end - (t + h) < 1e-12 * span:
+            h = t_end - t
+        if h <= 16.0 * 2.2e-16 * max(abs(t), 1e-300):
+            status = STEP_UNDERFLOW
+            break
+        a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K)
+        if not (math.isfinite(a1) and math.isfinite(ad1)):
+            # treat like a failed step: shrink hard
+            h *= 0.1
+            n_rej += 1
+            step_rejected = True
+            if h < 1e-300:
+                status = NONFINITE
+                break
+            continue
+        err = _error_norm(a, ad, a1, ad1, ea, ed, rtol, atol_a, atol_d)
+        if err > 1.0:
+            h *= max(0.2, 0.9 * err ** -0.2)
+            n_rej += 1
+            step_rejected = True
+            continue
+        # ---- accepted: look for the event that ends the current mode ------------------------
+        if err == 0.0:
+            factor = 10.0
+        else:
+            factor = min(10.0, 0.9 * err ** -0.2)
+        if step_rejected:
+            factor = min(1.0, factor)
+        step_rejected = False
+        _dense_coefficients(K, Q)
+        switch = False
+        switch_now = False
+        if mode == STICK:
+            term_kind = EV_LAMBDA
+        else:
+            term_kind = EV_GAP
+        g0 = _event_value(term_kind, mode, t, a, ad, p, law, theta_ref, omega)
+        g1 = _event_value(term_kind, mode, t + h, a1, ad1, p, law, theta_ref, omega)
+        if mode == FREE:
+            if g0 > 0.0 and g1 <= 0.0:
+                switch = True
+            elif g0 <= 0.0 and g1 < -1e-13:
+                switch_now = True  # started touching and goes in: switch at the step start
+        elif mode == CONTACT:
+            if g0 < 0.0 and g1 >= 0.0:
+                switch = True
+            elif g0 >= 0.0 and g1 > 1e-13:
+                switch_now = True
+        else:  # STICK ends when lambda reaches 0 from above
+            if g0 > 0.0 and g1 <= 0.0:
+                switch = True
+            elif g0 <= 0.0:
+                switch_now = True
+        if switch_now:
+            # no step taken; mode changes at the current state
+            a1 = a
+            ad1 = ad
+            h = 0.0
+            switch = True
+        elif switch:
+            x = _root_dense(term_kind, mode, t, h, a, ad, Q, p, law, theta_ref, omega, g0, g1)
+            h_ev = x * h
+            if h_ev <= 0.0:
+                a1 = a
+                ad1 = ad
+                h = 0.0
+            else:
+                a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_ev, f0, p, law, theta_ref, omega, K)
+                if term_kind == EV_GAP:
+                    g_new = _event_value(EV_GAP, mode, t + h_ev, a1, ad1, p, law, theta_ref, omega)
+                    rate = _event_value(EV_GAPRATE, mode, t + h_ev, a1, ad1, p, law, theta_ref, omega)
+                    if g_new != 0.0 and rate != 0.0:
+                        h_new = h_ev - g_new / rate
+                        if h_new > 0.0 and h_new <= h:
+                            a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_new, f0, p, law, theta_ref, omega, K)
+                            h_ev = h_new
+                h = h_ev
+                _dense_coefficients(K, Q)
+        t1 = t + h if h > 0.0 else t
+        if h > 0.0:
+            n_steps += 1
+            # ---- non-terminal events inside [t, t1] -------------------------------------------
+            if ad > 0.0 and ad1 <= 0.0:
+                x = _root_dense(EV_RATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, ad, ad1)
+                ax, adx = _dense(x, h, a, ad, Q)
+                if cap_a > 0:
+                    if n_apexes >= cap_a:
+                        status = APEX_FULL
+                        break
+                    apexes[n_apexes, 0] = t + x * h
+                    apexes[n_apexes, 1] = ax
+                    n_apexes += 1
+                if ax > alpha_max:
+                    alpha_max = ax
+                    t_alpha_max = t + x * h
+            if a1 > alpha_max:
+                alpha_max = a1
+                t_alpha_max = t1
+            if mode == CONTACT and open_row >= 0:
+                # peak indentation: dpsi crosses 0 upwards
+                q0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+                q1 = _event_value(EV_GAPRATE, mode, t1, a1, ad1, p, law, theta_ref, omega)
+                delta1 = -_event_value(EV_GAP, mode, t1, a1, ad1, p, law, theta_ref, omega)
+                if delta1 > contacts[open_row, C_PEAK_DELTA]:
+                    contacts[open_row, C_PEAK_DELTA] = delta1
+                    contacts[open_row, C_T_PEAK_DELTA] = t1
+                if q0 < 0.0 and q1 >= 0.0:
+                    x = _root_dense(EV_GAPRATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, q0, q1)
+                    ax, adx = _dense(x, h, a, ad, Q)
+                    dx = -_event_value(EV_GAP, mode, t + x * h, ax, adx, p, law, theta_ref, omega)
+                    if dx > contacts[open_row, C_PEAK_DELTA]:
+                        contacts[open_row, C_PEAK_DELTA] = dx
+                        contacts[open_row, C_T_PEAK_DELTA] = t + x * h
+                # peak force: dF/dt crosses 0 downwards
+                r0 = _event_value(EV_DFORCE, mode, t, a, ad, p, law, theta_ref, omega)
+                r1 = _event_value(EV_DFORCE, mode, t1, a1, ad1, p, law, theta_ref, omega)
+                f1 = contact_force(mode, t1, a1, ad1, p, law, theta_ref, omega)
+                if f1 > contacts[open_row, C_PEAK_FORCE]:
+                    contacts[open_row, C_PEAK_FORCE] = f1
+                    contacts[open_row, C_T_PEAK_FORCE] = t1
+                if r0 > 0.0 and r1 <= 0.0:
+                    x = _root_dense(EV_DFORCE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, r0, r1)
+                    ax, adx = _dense(x, h, a, ad, Q)
+                    fx = contact_force(mode, t + x * h, ax, adx, p, law, theta_ref, omega)
+                    if fx > contacts[open_row, C_PEAK_FORCE]:
+                        contacts[open_row, C_PEAK_FORCE] = fx
+                        contacts[open_row, C_T_PEAK_FORCE] = t + x * h
+                if p[MU] != 0.0:
+                    v0 = _event_value(EV_VR, mode, t, a, ad, p, law, theta_ref, omega)
+                    v1 = _event_value(EV_VR, mode, t1, a1, ad1, p, law, theta_ref, omega)
+                    if (v0 > 0.0) != (v1 > 0.0):
+                        contacts[open_row, C_FRICTION_REVERSALS] += 1.0
+            elif mode == STICK and open_row >= 0:
+                f1 = contact_force(mode, t1, a1, ad1, p, law, theta_ref, omega)
+                if f1 > contacts[open_row, C_PEAK_FORCE]:
+                    contacts[open_row, C_PEAK_FORCE] = f1
+                    contacts[open_row, C_T_PEAK_FORCE] = t1
+            # ---- dense output on the grid -------------------------------------------------------
+            while gi < n_grid and grid[gi] <= t1:
+                x = (grid[gi] - t) / h
+                ga, gd = _dense(x, h, a, ad, Q)
+                g_a[gi] = ga
+                g_d[gi] = gd
+                g_mode[gi] = mode
+                gi += 1
+        t = t1
+        a = a1
+        ad = ad1
+        if not switch:
+            f0 = K[6, 1]
+            h = h * factor
+            continue
+        # ---- mode switch at (t, a, ad) --------------------------------------------------------
+        dpsi = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+        if mode == FREE:
+            if n_contacts >= cap_c:
+                status = CONTACTS_FULL
+                break
+            if not restitution:
+                _open_row(contacts, n_contacts, ROW_COMPLIANT, t, a, ad, dpsi)
+                f_start = contact_force(CONTACT, t, a, ad, p, law, theta_ref, omega)
+                contacts[n_contacts, C_PEAK_FORCE] = f_start
+                contacts[n_contacts, C_T_PEAK_FORCE] = t
+                open_row = n_contacts
+                n_contacts += 1
+                mode = CONTACT
+            else:
+                # instantaneous impact (S-27): alpha, Theta keep their values, dpsi -> -xi dpsi
+                th = theta_ref + omega * t
+                chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
+                cam_term = p[ECC] * math.cos(a + th) * omega
+                v_a = -dpsi if dpsi < 0.0 else 0.0
+                xi = law[XI0] - law[GAMMA] * v_a
+                if xi < 0.0:
+                    status = XI_NEGATIVE
+                    break
+                dpsi_after = xi * v_a
+                ad_before = ad
+                _open_row(contacts, n_contacts, ROW_IMPACT, t, a, ad_before, dpsi)
+                if dpsi_after < law[V_STICK]:
+                    ad_stick = cam_term / chi
+                    lam = stick_force(t, a, ad_stick, p, theta_ref, omega)
+                    if lam > 0.0:
+                        ad = ad_stick
+                        _close_row(contacts, n_contacts, t, a, ad, 0.0)
+                        contacts[n_contacts, C_XI] = xi
+                        n_contacts += 1
+                        if n_contacts >= cap_c:
+                            status = CONTACTS_FULL
+                            break
+                        _open_row(contacts, n_contacts, ROW_STICK, t, a, ad, 0.0)
+                        contacts[n_contacts, C_PEAK_FORCE] = lam
+                        contacts[n_contacts, C_T_PEAK_FORCE] = t
+                        open_row = n_contacts
+                        n_contacts += 1
+                        mode = STICK
+                    else:
+                        ad = (dpsi_after + cam_term) / chi
+                        _close_row(contacts, n_contacts, t, a, ad, dpsi_after)
+                        contacts[n_contacts, C_XI] = xi
+                        n_contacts += 1
+                        open_row = -1
+                else:
+                    ad = (dpsi_after + cam_term) / chi
+                    _close_row(contacts, n_contacts, t, a, ad, dpsi_after)
+                    contacts[n_contacts, C_XI] = xi
+                    n_contacts += 1
+                    open_row = -1
+        else:
+            if open_row >= 0:
+                _close_row(contacts, open_row, t, a, ad, dpsi)
+            open_row = -1
+            mode = FREE
+        f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
+        h_prev = h
+        h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
+        if h_prev > 0.0 and mode == FREE:
+            h = max(h, min(h_prev, h_max))
+    return (status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rej)
+
+
+# ============================================================================================
+# Batch of S1 events x trial laws, in parallel
+# ============================================================================================
+
+
+@njit(cache=True, parallel=True)
+def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_d, h_max,
+                 max_steps, grid, grid_offsets, summary, hist_force, hist_gap, contact_capacity):
+    """Run every event (rows of ``states`` = alpha, alpha_dot, Theta at t = 0) for every trial
+    law (rows of ``trials`` = beta, n), in parallel over the flattened (trial, event) pairs.
+
+    ``summary`` (n_trials, n_events, N_SUM) receives the per-run summary; when ``grid`` is not
+    empty, ``hist_force`` / ``hist_gap`` (n_trials, len(grid)) receive the contact force and gap
+    on each event's slice ``grid[grid_offsets[i]:grid_offsets[i+1]]`` (times from the event start).
+    """
+    n_ev = states.shape[0]
+    n_tr = trials.shape[0]
+    want_hist = grid.shape[0] > 0
+    for job in prange(n_ev * n_tr):
+        tr = job // n_ev
+        ev = job % n_ev
+        law = law_base.copy()
+        law[BETA] = trials[tr, 0]
+        law[N_EXP] = trials[tr, 1]
+        a0 = states[ev, 0]
+        ad0 = states[ev, 1]
+        th0 = states[ev, 2]
+        contacts = np.empty((contact_capacity, N_CCOL))
+        apexes = np.empty((0, 2))
+        if want_hist:
+            lo = grid_offsets[ev]
+            hi = grid_offsets[ev + 1]
+        else:
+            lo = 0
+            hi = 0
+        gt = grid[lo:hi]
+        ga = np.empty(hi - lo)
+        gd = np.empty(hi - lo)
+        gm = np.empty(hi - lo, dtype=np.int8)
+        mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
+        res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
+                        h_max, max_steps, gt, ga, gd, gm, contacts, apexes)
+        st = res[0]
+        nc = res[1]
+        out = summary[tr, ev]
+        out[S_ALPHA_M] = res[7]
+        out[S_T_ALPHA_M] = res[8]
+        out[S_N_CONTACTS] = nc
+        out[S_ALPHA_END] = res[4]
+        out[S_RATE_END] = res[5]
+        out[S_STATUS] = st
+        out[S_N_STEPS] = res[9]
+        if nc > 0:
+            out[S_T_START] = contacts[0, C_T_START]
+            out[S_T_END] = contacts[0, C_T_END]
+            out[S_DPSI_START] = contacts[0, C_DPSI_START]
+            out[S_DPSI_END] = contacts[0, C_DPSI_END]
+            out[S_PEAK_FORCE] = contacts[0, C_PEAK_FORCE]
+            out[S_PEAK_DELTA] = contacts[0, C_PEAK_DELTA]
+        else:
+            for c in (S_T_START, S_T_END, S_DPSI_START, S_DPSI_END, S_PEAK_FORCE, S_PEAK_DELTA):
+                out[c] = np.nan
+        if want_hist and hi > lo:
+            obs = np.empty((hi - lo, 6))
+            observe(gt, ga, gd, gm, p, law, th0, omega, obs)
+            for k in range(hi - lo):
+                hist_force[tr, lo + k] = obs[k, 3]
+                hist_gap[tr, lo + k] = obs[k, 0]

@@ -1,0 +1,483 @@
+"""Simulation runs of rig P built on the compiled hybrid integrator.
+
+* :func:`simulate` — a long run (the papers' S2 with a :class:`~impactid.contact.HuntCrossley`
+  law, S3 with a :class:`~impactid.contact.Restitution` law), from static equilibrium by default.
+* :func:`simulate_event` — S1: one impact event from a measured state through the contact and
+  the free flight to a given end time.
+* :func:`simulate_events` — the batch entry point: many S1 events for many trial ``(beta, n)``
+  in one call, in parallel on all cores, with no Python in the inner loop.
+
+All inputs and outputs are SI: cam speed in Hz (``Theta_dot = 2 pi cam_speed_hz``), angles in rad.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from impactid.contact import HuntCrossley, Restitution
+from impactid.errors import SimulationError, SimulationInputError
+from impactid.rigs.pivoted import PivotedFollowerRig
+from impactid.simulate import _kernel as K
+
+Law = HuntCrossley | Restitution
+
+MODE_NAMES = {K.FREE: "free", K.CONTACT: "contact", K.STICK: "stick"}
+_ROW_KINDS = {K.ROW_COMPLIANT: "contact", K.ROW_IMPACT: "impact", K.ROW_STICK: "stick"}
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Integrator settings.
+
+    Attributes
+    ----------
+    rtol : relative tolerance of the embedded error estimate [-].
+    atol_alpha : absolute tolerance on the follower angle [rad].
+    atol_rate : absolute tolerance on the follower rate [rad/s].
+    max_step_revolutions : largest step as a fraction of a cam revolution; bounds the step in free
+        flight so that a grazing contact cannot be stepped over.
+    max_steps : step budget of one call (a run that needs more raises SimulationError).
+
+    The defaults (rtol 1e-10) make alpha, contact times and peak forces agree with a
+    ``solve_ivp`` DOP853 reference at rtol 1e-12 to better than 1e-8 relative, 1e-9 s and
+    1e-6 relative (tests/simulate/test_against_solve_ivp.py).
+    """
+
+    rtol: float = 1e-10
+    atol_alpha: float = 1e-13
+    atol_rate: float = 1e-11
+    max_step_revolutions: float = 1.0 / 50.0
+    max_steps: int = 50_000_000
+
+    def __post_init__(self) -> None:
+        for name in ("rtol", "atol_alpha", "atol_rate", "max_step_revolutions"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise SimulationInputError(f"tolerance {name} must be positive and finite, got {value!r}")
+        if self.rtol < 1e-14:
+            raise SimulationInputError(f"rtol {self.rtol!r} is below what double precision supports (1e-14)")
+
+
+DEFAULT_TOLERANCES = Tolerances()
+
+
+# ---------------------------------------------------------------------------------------------
+# packing and validation
+# ---------------------------------------------------------------------------------------------
+
+
+def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
+    """Rig parameters as the kernel's parameter vector (optionally overriding ``mu``)."""
+    if not isinstance(rig, PivotedFollowerRig):
+        raise SimulationInputError(f"expected a PivotedFollowerRig, got {type(rig).__name__}")
+    p = np.empty(K.N_RIG)
+    p[K.PE_X], p[K.PE_Y], p[K.ECC] = rig.PE_x, rig.PE_y, rig.e
+    p[K.RSUM], p[K.R_C], p[K.H_P] = rig.contact_radius, rig.r_c, rig.h_p
+    p[K.M_B], p[K.GRAV], p[K.L_G] = rig.m_b, rig.g, rig.l_g
+    p[K.K_S], p[K.L_SU], p[K.D_Y], p[K.D_X], p[K.W_B] = rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b
+    p[K.I_B], p[K.K_H] = rig.I_b, rig.k_H
+    if mu is None:
+        mu = rig.mu
+    mu = _finite("mu", mu)
+    if mu < 0.0:
+        raise SimulationInputError(f"friction coefficient mu must be >= 0, got {mu!r}")
+    p[K.MU] = mu
+    return p
+
+
+def pack_law(law: Law) -> np.ndarray:
+    """Contact or restitution law as the kernel's law vector."""
+    v = np.zeros(K.N_LAW)
+    if isinstance(law, HuntCrossley):
+        v[K.LAW_KIND] = K.KIND_COMPLIANT
+        v[K.BETA], v[K.N_EXP], v[K.CLIP] = law.beta, law.n, float(law.clip)
+    elif isinstance(law, Restitution):
+        v[K.LAW_KIND] = K.KIND_RESTITUTION
+        v[K.XI0], v[K.GAMMA], v[K.V_STICK] = law.xi0, law.gamma, law.v_stick
+    else:
+        raise SimulationInputError(f"law must be HuntCrossley or Restitution, got {type(law).__name__}")
+    return v
+
+
+def _finite(name: str, value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise SimulationInputError(f"{name} must be a number, got {value!r}") from None
+    if not math.isfinite(value):
+        raise SimulationInputError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+def _cam_speed(cam_speed_hz) -> float:
+    cam_speed_hz = _finite("cam_speed_hz", cam_speed_hz)
+    if cam_speed_hz <= 0.0:
+        raise SimulationInputError(f"cam speed must be positive, got {cam_speed_hz!r} Hz")
+    return cam_speed_hz
+
+
+def _raise_status(status: int, what: str, t: float) -> None:
+    if status != K.OK:
+        raise SimulationError(f"{what}: {K.STATUS_MESSAGES.get(status, status)} (at t = {t:.9g} s)")
+
+
+def _contact_frame(table: np.ndarray) -> pd.DataFrame:
+    cols = {
+        "t_start": K.C_T_START, "t_end": K.C_T_END, "gap_rate_start": K.C_DPSI_START,
+        "gap_rate_end": K.C_DPSI_END, "peak_indentation": K.C_PEAK_DELTA, "peak_force": K.C_PEAK_FORCE,
+        "t_peak_force": K.C_T_PEAK_FORCE, "t_peak_indentation": K.C_T_PEAK_DELTA,
+        "alpha_start": K.C_ALPHA_START, "alpha_dot_start": K.C_RATE_START,
+        "alpha_end": K.C_ALPHA_END, "alpha_dot_end": K.C_RATE_END, "xi": K.C_XI,
+        "friction_reversals": K.C_FRICTION_REVERSALS,
+    }
+    frame = pd.DataFrame({name: table[:, c] for name, c in cols.items()})
+    frame.insert(2, "duration", frame["t_end"] - frame["t_start"])
+    frame.insert(0, "kind", [_ROW_KINDS.get(k, "?") for k in table[:, K.C_KIND]])
+    frame["friction_reversals"] = frame["friction_reversals"].fillna(0).astype(int)
+    return frame
+
+
+def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, grid, capacity, apex_capacity):
+    """Call the kernel, growing the tables until they are large enough."""
+    mode0 = K.initial_mode(t0, alpha0, rate0, p, law_vec, theta_ref, omega)
+    h_max = tol.max_step_revolutions * 2.0 * math.pi / omega
+    g_a = np.empty(grid.shape[0])
+    g_d = np.empty(grid.shape[0])
+    g_m = np.empty(grid.shape[0], dtype=np.int8)
+    for _ in range(6):
+        contacts = np.empty((capacity, K.N_CCOL))
+        apexes = np.empty((apex_capacity, 2))
+        res = K.integrate(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
+                          tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
+                          grid, g_a, g_d, g_m, contacts, apexes)
+        status = res[0]
+        if status == K.CONTACTS_FULL:
+            capacity *= 8
+            continue
+        if status == K.APEX_FULL:
+            apex_capacity *= 8
+            continue
+        break
+    return res, contacts, apexes, g_a, g_d, g_m
+
+
+def _time_grid(t_eval, t0: float, t_end: float) -> np.ndarray:
+    if t_eval is None:
+        return np.empty(0)
+    grid = np.ascontiguousarray(np.asarray(t_eval, dtype=float).ravel())
+    if grid.size and not np.all(np.isfinite(grid)):
+        raise SimulationInputError("t_eval contains non-finite times")
+    if grid.size and (np.any(np.diff(grid) < 0.0) or grid[0] < t0 or grid[-1] > t_end * (1 + 1e-15) + 1e-300):
+        raise SimulationInputError(f"t_eval must be sorted and lie within [{t0}, {t_end}] s")
+    return grid
+
+
+# ---------------------------------------------------------------------------------------------
+# results
+# ---------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """A long run (S2 or S3).
+
+    Attributes
+    ----------
+    t : sample times [s] (the requested ``t_eval``; empty if none was requested).
+    alpha, alpha_dot : follower angle [rad] and rate [rad/s] at ``t``.
+    mode : int8 mode at ``t`` (0 free, 1 compliant contact, 2 sticking).
+    contacts : one row per contact phase (S2), impact or sticking phase (S3): start and end
+        times [s], gap rates at start (approach, negative) and end (separation) [m/s], peak
+        indentation [m] and force [N], states at start and end, ``xi`` = -rate_end/rate_start.
+    apexes : local maxima of alpha: columns ``t`` [s], ``alpha`` [rad].
+    final_time, final_alpha, final_alpha_dot : state at the end of the run.
+    rig, law, cam_speed_hz, theta_ref : what was simulated; ``Theta(t) = theta_ref + 2 pi f t``.
+    n_steps, n_rejected : integrator statistics.
+    """
+
+    t: np.ndarray
+    alpha: np.ndarray
+    alpha_dot: np.ndarray
+    mode: np.ndarray
+    contacts: pd.DataFrame
+    apexes: pd.DataFrame
+    final_time: float
+    final_alpha: float
+    final_alpha_dot: float
+    rig: PivotedFollowerRig
+    law: Law
+    cam_speed_hz: float
+    theta_ref: float
+    mu: float
+    n_steps: int
+    n_rejected: int
+
+    @property
+    def theta(self) -> np.ndarray:
+        """Cam angle at ``t`` [rad]."""
+        return self.theta_ref + 2.0 * math.pi * self.cam_speed_hz * self.t
+
+    def observables(self) -> pd.DataFrame:
+        """Gap, gap rate, lever arm, contact force, angular acceleration and sliding velocity at ``t``."""
+        return observables(self.rig, self.law, self.cam_speed_hz, self.t, self.alpha, self.alpha_dot,
+                           self.mode, theta_ref=self.theta_ref, mu=self.mu)
+
+
+@dataclass(frozen=True)
+class EventResult:
+    """One S1 event.
+
+    Attributes
+    ----------
+    alpha_m : maximum follower angle over the event [rad] (S-22), ``t_alpha_m`` its time [s].
+    contact_duration : duration of the first contact [s] (``t_a``); NaN if no contact occurred.
+    exit_alpha, exit_alpha_dot : state at the end of the first contact [rad, rad/s].
+    approach_gap_rate, separation_gap_rate : ``dpsi_i/dt`` at the first contact's start and end [m/s].
+    peak_force [N], peak_indentation [m] : maxima during the first contact.
+    n_contacts : number of contacts during the event (more than 1 means re-contact/chatter).
+    contacts : the full contact table.
+    t, contact_force, indentation, alpha, alpha_dot : histories on the requested grid
+        (``indentation = -psi_i``, positive in contact).
+    final_alpha, final_alpha_dot : state at the end time.
+    """
+
+    alpha_m: float
+    t_alpha_m: float
+    contact_duration: float
+    exit_alpha: float
+    exit_alpha_dot: float
+    approach_gap_rate: float
+    separation_gap_rate: float
+    peak_force: float
+    peak_indentation: float
+    n_contacts: int
+    contacts: pd.DataFrame
+    t: np.ndarray
+    contact_force: np.ndarray
+    indentation: np.ndarray
+    alpha: np.ndarray
+    alpha_dot: np.ndarray
+    final_alpha: float
+    final_alpha_dot: float
+    n_steps: int = field(default=0)
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Many S1 events for many trial laws. Arrays have shape (n_trials, n_events)."""
+
+    trials: np.ndarray
+    alpha_m: np.ndarray
+    t_alpha_m: np.ndarray
+    n_contacts: np.ndarray
+    contact_start: np.ndarray
+    contact_end: np.ndarray
+    approach_gap_rate: np.ndarray
+    separation_gap_rate: np.ndarray
+    peak_force: np.ndarray
+    peak_indentation: np.ndarray
+    final_alpha: np.ndarray
+    final_alpha_dot: np.ndarray
+    n_steps: np.ndarray
+    grid: np.ndarray
+    grid_offsets: np.ndarray
+    contact_force: np.ndarray | None
+    gap: np.ndarray | None
+
+    @property
+    def contact_duration(self) -> np.ndarray:
+        """Duration of the first contact of each run [s]."""
+        return self.contact_end - self.contact_start
+
+
+# ---------------------------------------------------------------------------------------------
+# public runs
+# ---------------------------------------------------------------------------------------------
+
+
+def simulate(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, duration: float, *,
+             t_eval: Sequence[float] | np.ndarray | None = None, initial_state: tuple[float, float] | None = None,
+             t_start: float = 0.0, theta_ref: float = 0.0, mu: float | None = None,
+             tolerances: Tolerances = DEFAULT_TOLERANCES) -> SimulationResult:
+    """Long run of rig P (S2 for a Hunt–Crossley law, S3 for a restitution law).
+
+    Parameters
+    ----------
+    rig : rig parameters.
+    cam_speed_hz : constant cam speed ``Omega_c`` [Hz].
+    law : :class:`HuntCrossley` (compliant contact) or :class:`Restitution` (instantaneous impacts).
+    duration : simulated time [s] after ``t_start``.
+    t_eval : times [s] at which to return the state (dense output); none by default.
+    initial_state : ``(alpha, alpha_dot)`` at ``t_start``; default: static equilibrium with the cam at
+        ``theta_ref`` and ``alpha_dot = 0`` (MODEL.md 1.9).
+    theta_ref : cam angle at ``t = 0`` [rad]; ``Theta(t) = theta_ref + 2 pi cam_speed_hz t``.
+    mu : friction coefficient; default ``rig.mu``.
+    tolerances : integrator settings.
+
+    Raises
+    ------
+    SimulationInputError : non-physical input (zero cam speed, NaN state, ...).
+    SimulationError : the integrator failed.
+    """
+    cam_speed_hz = _cam_speed(cam_speed_hz)
+    duration = _finite("duration", duration)
+    if duration <= 0.0:
+        raise SimulationInputError(f"duration must be positive, got {duration!r} s")
+    t_start = _finite("t_start", t_start)
+    theta_ref = _finite("theta_ref", theta_ref)
+    p = pack_rig(rig, mu)
+    law_vec = pack_law(law)
+    omega = 2.0 * math.pi * cam_speed_hz
+    if initial_state is None:
+        alpha0 = rig.static_equilibrium(theta_ref + omega * t_start)
+        if isinstance(law, Restitution):
+            alpha0 = float(rig.contact_angle(theta_ref + omega * t_start))
+        rate0 = 0.0
+    else:
+        alpha0, rate0 = (_finite("initial alpha", initial_state[0]), _finite("initial alpha_dot", initial_state[1]))
+    t_end = t_start + duration
+    grid = _time_grid(t_eval, t_start, t_end)
+    revolutions = duration * cam_speed_hz
+    res, contacts, apexes, g_a, g_d, g_m = _run_kernel(
+        t_start, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tolerances, grid,
+        capacity=int(8 * revolutions) + 64, apex_capacity=int(8 * revolutions) + 64)
+    status, n_c, n_ap, t_fin, a_fin, ad_fin = res[0], res[1], res[2], res[3], res[4], res[5]
+    _raise_status(status, f"simulation at {cam_speed_hz} Hz", t_fin)
+    return SimulationResult(
+        t=grid, alpha=g_a, alpha_dot=g_d, mode=g_m, contacts=_contact_frame(contacts[:n_c]),
+        apexes=pd.DataFrame({"t": apexes[:n_ap, 0], "alpha": apexes[:n_ap, 1]}),
+        final_time=t_fin, final_alpha=a_fin, final_alpha_dot=ad_fin, rig=rig, law=law,
+        cam_speed_hz=cam_speed_hz, theta_ref=theta_ref, mu=float(p[K.MU]), n_steps=int(res[9]),
+        n_rejected=int(res[10]))
+
+
+def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha0: float, alpha_dot0: float,
+                   theta0: float, t_end: float, *, t_eval: Sequence[float] | np.ndarray | None = None,
+                   mu: float | None = None, tolerances: Tolerances = DEFAULT_TOLERANCES) -> EventResult:
+    """S1: one impact event from ``(alpha0, alpha_dot0, Theta0)`` at ``t = 0`` to ``t_end``.
+
+    The run starts in contact if the gap is negative (or zero and closing), otherwise in free
+    flight; it follows every contact and free-flight phase until ``t_end`` [s].
+    """
+    cam_speed_hz = _cam_speed(cam_speed_hz)
+    for name, v in (("alpha0", alpha0), ("alpha_dot0", alpha_dot0), ("theta0", theta0), ("t_end", t_end)):
+        _finite(name, v)
+    if t_end <= 0.0:
+        raise SimulationInputError(f"t_end must be positive, got {t_end!r} s")
+    p = pack_rig(rig, mu)
+    law_vec = pack_law(law)
+    omega = 2.0 * math.pi * cam_speed_hz
+    grid = _time_grid(t_eval, 0.0, float(t_end))
+    res, contacts, _, g_a, g_d, g_m = _run_kernel(
+        0.0, float(alpha0), float(alpha_dot0), float(t_end), p, law_vec, float(theta0), omega, tolerances,
+        grid, capacity=16, apex_capacity=0)
+    _raise_status(res[0], "S1 event", res[3])
+    table = _contact_frame(contacts[: res[1]])
+    obs = np.empty((grid.shape[0], 6))
+    K.observe(grid, g_a, g_d, g_m, p, law_vec, float(theta0), omega, obs)
+    first = table.iloc[0] if len(table) else None
+    nan = float("nan")
+    return EventResult(
+        alpha_m=float(res[7]), t_alpha_m=float(res[8]),
+        contact_duration=float(first["duration"]) if first is not None else nan,
+        exit_alpha=float(first["alpha_end"]) if first is not None else nan,
+        exit_alpha_dot=float(first["alpha_dot_end"]) if first is not None else nan,
+        approach_gap_rate=float(first["gap_rate_start"]) if first is not None else nan,
+        separation_gap_rate=float(first["gap_rate_end"]) if first is not None else nan,
+        peak_force=float(first["peak_force"]) if first is not None else nan,
+        peak_indentation=float(first["peak_indentation"]) if first is not None else nan,
+        n_contacts=int(res[1]), contacts=table, t=grid, contact_force=obs[:, 3],
+        indentation=np.where(g_m != K.FREE, -obs[:, 0], 0.0), alpha=g_a, alpha_dot=g_d,
+        final_alpha=float(res[4]), final_alpha_dot=float(res[5]), n_steps=int(res[9]))
+
+
+def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,
+                    trials: np.ndarray, *, clip: bool = False, mu: float | None = None,
+                    grids: Sequence[np.ndarray] | None = None,
+                    tolerances: Tolerances = DEFAULT_TOLERANCES) -> BatchResult:
+    """Batch S1: every event for every trial ``(beta, n)``, in parallel (numba ``prange``).
+
+    Parameters
+    ----------
+    states : (n_events, 3) array of ``alpha [rad], alpha_dot [rad/s], Theta [rad]`` at each event start.
+    t_end : (n_events,) end time of each event [s] (e.g. the measured next onset ``t_e``).
+    trials : (n_trials, 2) array of ``beta [N s m^-(n+1)], n [-]``.
+    grids : optional per-event time grids [s] (from the event start) on which the contact force
+        and gap histories are returned (``contact_force``, ``gap``: (n_trials, total grid length),
+        event i in columns ``grid_offsets[i]:grid_offsets[i+1]``).
+
+    Runs that fail raise :class:`SimulationError` naming the event and trial.
+    """
+    cam_speed_hz = _cam_speed(cam_speed_hz)
+    states = np.ascontiguousarray(np.atleast_2d(np.asarray(states, dtype=float)))
+    t_end = np.ascontiguousarray(np.atleast_1d(np.asarray(t_end, dtype=float)))
+    trials = np.ascontiguousarray(np.atleast_2d(np.asarray(trials, dtype=float)))
+    if states.shape[1] != 3:
+        raise SimulationInputError(f"states must have shape (n_events, 3), got {states.shape}")
+    if t_end.shape != (states.shape[0],):
+        raise SimulationInputError(f"t_end must have one entry per event ({states.shape[0]}), got {t_end.shape}")
+    if trials.shape[1] != 2:
+        raise SimulationInputError(f"trials must have shape (n_trials, 2) of (beta, n), got {trials.shape}")
+    for name, arr in (("states", states), ("t_end", t_end), ("trials", trials)):
+        if not np.all(np.isfinite(arr)):
+            raise SimulationInputError(f"{name} contains non-finite values")
+    if np.any(t_end <= 0.0):
+        raise SimulationInputError("every t_end must be positive")
+    if np.any(trials < 0.0):
+        raise SimulationInputError("trial beta and n must be >= 0")
+    p = pack_rig(rig, mu)
+    law_vec = pack_law(HuntCrossley(beta=1.0, n=1.5, clip=clip))
+    omega = 2.0 * math.pi * cam_speed_hz
+    n_ev, n_tr = states.shape[0], trials.shape[0]
+    if grids is not None:
+        if len(grids) != n_ev:
+            raise SimulationInputError("grids must have one array per event")
+        parts = [_time_grid(g, 0.0, float(te)) for g, te in zip(grids, t_end)]
+        offsets = np.zeros(n_ev + 1, dtype=np.int64)
+        offsets[1:] = np.cumsum([len(g) for g in parts])
+        grid = np.ascontiguousarray(np.concatenate(parts)) if parts else np.empty(0)
+    else:
+        grid = np.empty(0)
+        offsets = np.zeros(n_ev + 1, dtype=np.int64)
+    hist_force = np.empty((n_tr, grid.shape[0]))
+    hist_gap = np.empty((n_tr, grid.shape[0]))
+    summary = np.empty((n_tr, n_ev, K.N_SUM))
+    h_max = tolerances.max_step_revolutions * 2.0 * math.pi / omega
+    K.batch_events(states, t_end, trials, p, law_vec, omega, tolerances.rtol, tolerances.atol_alpha,
+                   tolerances.atol_rate, h_max, tolerances.max_steps, grid, offsets, summary,
+                   hist_force, hist_gap, 64)
+    status = summary[:, :, K.S_STATUS].astype(int)
+    if np.any(status != K.OK):
+        tr, ev = np.argwhere(status != K.OK)[0]
+        raise SimulationError(
+            f"S1 batch: event {ev} with beta={trials[tr, 0]:.6g}, n={trials[tr, 1]:.6g} failed: "
+            f"{K.STATUS_MESSAGES.get(int(status[tr, ev]), status[tr, ev])}")
+    s = summary
+    return BatchResult(
+        trials=trials, alpha_m=s[:, :, K.S_ALPHA_M], t_alpha_m=s[:, :, K.S_T_ALPHA_M],
+        n_contacts=s[:, :, K.S_N_CONTACTS].astype(int), contact_start=s[:, :, K.S_T_START],
+        contact_end=s[:, :, K.S_T_END], approach_gap_rate=s[:, :, K.S_DPSI_START],
+        separation_gap_rate=s[:, :, K.S_DPSI_END], peak_force=s[:, :, K.S_PEAK_FORCE],
+        peak_indentation=s[:, :, K.S_PEAK_DELTA], final_alpha=s[:, :, K.S_ALPHA_END],
+        final_alpha_dot=s[:, :, K.S_RATE_END], n_steps=s[:, :, K.S_N_STEPS].astype(int),
+        grid=grid, grid_offsets=offsets,
+        contact_force=hist_force if grid.size else None, gap=hist_gap if grid.size else None)
+
+
+def observables(rig: PivotedFollowerRig, law: Law, cam_speed_hz: float, t, alpha, alpha_dot, mode, *,
+                theta_ref: float = 0.0, mu: float | None = None) -> pd.DataFrame:
+    """Gap ``psi_i`` [m], gap rate [m/s], lever arm [m], contact force [N], ``alpha_ddot``
+    [rad/s^2] and sliding velocity [m/s] for states sampled at times ``t`` in the given modes."""
+    p = pack_rig(rig, mu)
+    law_vec = pack_law(law)
+    t = np.ascontiguousarray(t, dtype=float)
+    out = np.empty((t.shape[0], 6))
+    K.observe(t, np.ascontiguousarray(alpha, dtype=float), np.ascontiguousarray(alpha_dot, dtype=float),
+              np.ascontiguousarray(mode, dtype=np.int8), p, law_vec, theta_ref, 2.0 * math.pi * cam_speed_hz, out)
+    return pd.DataFrame(out, columns=["gap", "gap_rate", "lever_arm", "contact_force", "alpha_ddot",
+                                      "sliding_velocity"], index=pd.Index(t, name="t"))
