@@ -540,27 +540,46 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             term_kind = EV_GAP
         g0 = _event_value(term_kind, mode, t, a, ad, p, law, theta_ref, omega)
         g1 = _event_value(term_kind, mode, t + h, a1, ad1, p, law, theta_ref, omega)
+        # At the surface (g0 on the boundary) the gap rate decides: leaving means no event, and a
+        # step that nevertheless ends on the wrong side hides a whole flight (or contact) inside
+        # it, so it is rejected and shortened until the crossing can be bracketed properly.
+        bracket_fail = False
         if mode == FREE:
-            if g0 > 0.0 and g1 <= 0.0:
-                switch = True
-            elif g0 <= 0.0 and g1 < -1e-13:
-                switch_now = True  # started touching and goes in: switch at the step start
+            if g0 > 0.0:
+                switch = g1 <= 0.0
+            else:
+                rate0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+                if rate0 < 0.0 or (rate0 == 0.0 and g1 < 0.0):
+                    switch_now = True  # touching and approaching
+                elif g1 <= 0.0:
+                    bracket_fail = True
         elif mode == CONTACT:
-            if g0 < 0.0 and g1 >= 0.0:
-                switch = True
-            elif g0 >= 0.0 and g1 > 1e-13:
-                switch_now = True
+            if g0 < 0.0:
+                switch = g1 >= 0.0
+            else:
+                rate0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+                if rate0 > 0.0 or (rate0 == 0.0 and g1 > 0.0):
+                    switch_now = True  # at the surface and leaving
+                elif g1 >= 0.0:
+                    bracket_fail = True
         else:  # STICK ends when lambda reaches 0 from above
-            if g0 > 0.0 and g1 <= 0.0:
-                switch = True
-            elif g0 <= 0.0:
+            if g0 > 0.0:
+                switch = g1 <= 0.0
+            else:
                 switch_now = True
+        if bracket_fail:
+            h *= 0.25
+            n_rej += 1
+            step_rejected = True
+            continue
         if switch_now:
-            # no step taken; mode changes at the current state
+            # no step taken; mode changes at the current state (counted as a step so that a
+            # pathological sequence of switches still meets the step budget)
             a1 = a
             ad1 = ad
             h = 0.0
             switch = True
+            n_steps += 1
         elif switch:
             x = _root_dense(term_kind, mode, t, h, a, ad, Q, p, law, theta_ref, omega, g0, g1)
             h_ev = x * h

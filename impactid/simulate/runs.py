@@ -149,20 +149,22 @@ def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, gri
     g_a = np.empty(grid.shape[0])
     g_d = np.empty(grid.shape[0])
     g_m = np.empty(grid.shape[0], dtype=np.int8)
-    for _ in range(6):
+    # grow the tables (x8) when they fill, but never beyond about 400 MB: a run with that many
+    # contacts is chattering and is reported rather than allowed to exhaust memory
+    limit = 4_000_000
+    while True:
         contacts = np.empty((capacity, K.N_CCOL))
         apexes = np.empty((apex_capacity, 2))
         res = K.integrate(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
                           tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
                           grid, g_a, g_d, g_m, contacts, apexes)
         status = res[0]
-        if status == K.CONTACTS_FULL:
-            capacity *= 8
-            continue
-        if status == K.APEX_FULL:
-            apex_capacity *= 8
-            continue
-        break
+        if status == K.CONTACTS_FULL and capacity < limit:
+            capacity = min(capacity * 8, limit)
+        elif status == K.APEX_FULL and apex_capacity < limit:
+            apex_capacity = min(apex_capacity * 8, limit)
+        else:
+            break
     return res, contacts, apexes, g_a, g_d, g_m
 
 

@@ -1,0 +1,217 @@
+"""The ``impactid`` command line. Thin: parses arguments, calls the public API, prints results.
+
+Units on the command line are SI like everywhere else (``--beta`` in N s m^-(n+1), e.g. 24.7e9 for
+the seed's 24.7 GN s m^-2.5), except cam speeds, which are in Hz (``--cam-speed``) as in the papers.
+Errors that come from the user's input print one line ``impactid: error: ...`` and exit with 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+from typing import Sequence
+
+from impactid import __version__
+from impactid.contact import HuntCrossley
+from impactid.errors import ImpactidError
+from impactid.rigs.pivoted import SEED001_TABLE1, PivotedFollowerRig, load_rig_toml
+
+EXIT_INPUT_ERROR = 2
+
+
+def _rig(args) -> PivotedFollowerRig:
+    if getattr(args, "rig", None):
+        rig, _ = load_rig_toml(args.rig)
+        if not isinstance(rig, PivotedFollowerRig):
+            raise ImpactidError(f"{args.rig}: this command supports the 'pivoted-follower' rig only")
+    else:
+        rig = SEED001_TABLE1
+    if getattr(args, "e_over_rc", None) is not None:
+        rig = rig.with_eccentricity_ratio(args.e_over_rc)
+    return rig
+
+
+def _law(args) -> HuntCrossley:
+    return HuntCrossley(beta=args.beta, n=args.n, clip=getattr(args, "clip", False))
+
+
+def _json_default(value):
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if hasattr(value, "item"):
+        return value.item()
+    raise TypeError(type(value).__name__)
+
+
+def _print_json(data) -> None:
+    print(json.dumps(data, indent=2, default=_json_default, allow_nan=False))
+
+
+def _range(text: str) -> list[float]:
+    """``a:b:n`` (n values from a to b) or a comma-separated list."""
+    import numpy as np
+
+    try:
+        if ":" in text:
+            a, b, n = text.split(":")
+            return [float(x) for x in np.linspace(float(a), float(b), int(n))]
+        return [float(x) for x in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'start:stop:count' or 'v1,v2,...', got {text!r}") from None
+
+
+# ---- commands ---------------------------------------------------------------------------------
+
+
+def cmd_regime(args) -> int:
+    from impactid.simulate.regimes import classify_regime, detachment_speed
+
+    rig = _rig(args)
+    result = classify_regime(rig, args.cam_speed, _law(args), mu=args.mu, max_revolutions=args.max_revolutions)
+    data = result.to_dict()
+    data["detachment_hz"] = detachment_speed(rig, mu=args.mu).cam_speed_hz
+    if args.json:
+        _print_json(data)
+    else:
+        per = f", {result.period_revolutions} revolution(s)" if result.period_revolutions else ""
+        print(f"e/r_c = {rig.e_over_rc:.4g}, cam speed {args.cam_speed:g} Hz: {result.regime}{per}")
+        print(f"  impacts per revolution (last window): {result.impacts_per_revolution:.3g}")
+        print(f"  simulated {result.simulated_s:.2f} s; detachment speed {data['detachment_hz']:.4g} Hz")
+        if result.settling:
+            print("  note: the motion was still settling when the run ended")
+    return 0
+
+
+def cmd_detachment(args) -> int:
+    from impactid.simulate.regimes import detachment_speed
+
+    result = detachment_speed(_rig(args), mu=args.mu)
+    if args.json:
+        _print_json(result.to_dict())
+    else:
+        print(f"detachment at {result.cam_speed_hz:.6g} Hz ({result.cam_speed_rpm:.6g} rpm), "
+              f"cam angle {result.cam_angle:.4f} rad")
+    return 0
+
+
+def cmd_regime_map(args) -> int:
+    from impactid.simulate.regimes import regime_map
+
+    rig = _rig(args)
+    out = Path(args.out)
+
+    def progress(done, total):
+        if not args.quiet:
+            print(f"\r  {done}/{total} operating points", end="", file=sys.stderr, flush=True)
+
+    frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu, progress=progress,
+                       max_revolutions=args.max_revolutions)
+    if not args.quiet:
+        print(file=sys.stderr)
+    from impactid.reports import write_regime_map
+
+    paths = write_regime_map(frame, out)
+    for path in paths:
+        print(path)
+    return 0
+
+
+def cmd_simulate(args) -> int:
+    from impactid.simulate import simulate
+
+    rig = _rig(args)
+    run = simulate(rig, args.cam_speed, _law(args), args.duration, mu=args.mu)
+    table = run.contacts
+    if args.out:
+        from impactid.reports import write_csv_atomic
+
+        write_csv_atomic(table, args.out)
+    if args.json:
+        _print_json({"contacts": len(table), "final_alpha": run.final_alpha, "final_alpha_dot": run.final_alpha_dot,
+                     "n_steps": run.n_steps, "contact_table": table.to_dict(orient="list")})
+    else:
+        print(f"e/r_c = {rig.e_over_rc:.4g}, {args.cam_speed:g} Hz, beta = {args.beta:.4g}, n = {args.n:g}: "
+              f"{len(table)} contacts in {args.duration:g} s ({run.n_steps} integrator steps)")
+        cols = ["t_start", "duration", "gap_rate_start", "gap_rate_end", "peak_indentation", "peak_force", "xi"]
+        with_units = table[cols].tail(args.show).rename(columns={
+            "t_start": "t_start[s]", "duration": "duration[s]", "gap_rate_start": "v_approach[m/s]",
+            "gap_rate_end": "v_separation[m/s]", "peak_indentation": "peak_indent[m]", "peak_force": "peak_force[N]"})
+        print(with_units.to_string(index=False, float_format=lambda x: f"{x:.6g}"))
+    return 0
+
+
+# ---- parser -----------------------------------------------------------------------------------
+
+
+def _add_rig_args(p: argparse.ArgumentParser, with_ratio: bool = True) -> None:
+    p.add_argument("--rig", metavar="RIG.toml", help="rig file (FORMAT.md); default: seed 001 Table 1")
+    if with_ratio:
+        p.add_argument("--e-over-rc", type=float, default=None, help="eccentricity ratio e/r_c (default: rig's)")
+
+
+def _add_law_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--beta", type=float, default=24.7e9, help="damping coefficient [N s m^-(n+1)] (default 24.7e9)")
+    p.add_argument("--n", type=float, default=1.5, help="damping index (default 1.5)")
+    p.add_argument("--mu", type=float, default=None, help="friction coefficient (default: rig's)")
+    p.add_argument("--clip", action="store_true", help="clip tensile contact force to 0")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="impactid", description=__doc__.splitlines()[0])
+    parser.add_argument("--version", action="version", version=f"impactid {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("regime", help="classify the motion of rig P at one operating point")
+    _add_rig_args(p)
+    p.add_argument("--cam-speed", type=float, required=True, metavar="HZ", help="cam speed [Hz]")
+    _add_law_args(p)
+    p.add_argument("--max-revolutions", type=int, default=2000, help="longest run while settling")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_regime)
+
+    p = sub.add_parser("detachment", help="cam speed at which the follower leaves the cam (inverse kinematics)")
+    _add_rig_args(p)
+    p.add_argument("--mu", type=float, default=None, help="friction coefficient (default: rig's)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_detachment)
+
+    p = sub.add_parser("regime-map", help="regime map over (e/r_c, cam speed), CSV and PNG (Fig. 3 of seed 001)")
+    _add_rig_args(p, with_ratio=False)
+    p.add_argument("--e-over-rc-values", type=_range, default=_range("0.05:0.25:5"),
+                   help="e/r_c values: 'start:stop:count' or a list (default 0.05:0.25:5)")
+    p.add_argument("--cam-speeds", type=_range, default=_range("4:24:21"),
+                   help="cam speeds [Hz]: 'start:stop:count' or a list (default 4:24:21)")
+    _add_law_args(p)
+    p.add_argument("--max-revolutions", type=int, default=2000, help="longest run per point while settling")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_regime_map)
+
+    p = sub.add_parser("simulate", help="long S2 run from static equilibrium; prints the contact table")
+    _add_rig_args(p)
+    p.add_argument("--cam-speed", type=float, required=True, metavar="HZ", help="cam speed [Hz]")
+    p.add_argument("--duration", type=float, default=2.0, help="simulated time [s] (default 2)")
+    _add_law_args(p)
+    p.add_argument("--out", metavar="CONTACTS.csv", help="write the contact table as CSV")
+    p.add_argument("--show", type=int, default=8, help="rows of the contact table to print (last ones)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_simulate)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``impactid`` command; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except ImpactidError as exc:
+        print(f"impactid: error: {exc}", file=sys.stderr)
+        return EXIT_INPUT_ERROR
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
