@@ -17,8 +17,8 @@ import numpy as np
 from impactid.errors import SimulationInputError
 
 
-def hunt_crossley_force(delta, gap_rate, k_H, beta, n):
-    """Generalised Hunt–Crossley contact force ``F = k_H delta^1.5 - beta delta^n dpsi/dt`` [N].
+def hunt_crossley_force(delta, gap_rate, k_H, beta, n, p=1.5):
+    """Generalised Hunt–Crossley contact force ``F = k_H delta^p - beta delta^n dpsi/dt`` [N].
 
     Parameters
     ----------
@@ -27,6 +27,7 @@ def hunt_crossley_force(delta, gap_rate, k_H, beta, n):
     k_H : Hertz stiffness [N m^-1.5].
     beta : damping coefficient [N s m^-(n+1)].
     n : damping index [-]; ``n = 0`` is viscous damping (force ``-beta dpsi/dt`` from first touch).
+    p : stiffness exponent [-]; 1.5 for Hertz point contact (the papers), 1 for a linear spring.
 
     Returns
     -------
@@ -36,7 +37,7 @@ def hunt_crossley_force(delta, gap_rate, k_H, beta, n):
     (``delta = 0``) the force is 0 for ``n > 0`` and ``-beta dpsi/dt`` for ``n = 0`` (viscous).
     """
     d = np.maximum(delta, 0.0)
-    return k_H * d * np.sqrt(d) - beta * np.power(d, n) * gap_rate
+    return k_H * np.power(d, p) - beta * np.power(d, n) * gap_rate
 
 
 def viscous_force(delta, gap_rate, k_H, c):
@@ -101,11 +102,14 @@ class HuntCrossley:
     beta : damping coefficient [N s m^-(n+1)] (the papers quote GN s m^-2.5 for n = 1.5).
     n : damping index [-]; 0 is viscous damping.
     clip : replace tensile force by 0 (the paper's model is unclipped; default False).
+    stiffness_exponent : exponent p of the elastic term ``k_H delta^p`` (1.5, Hertz, by default;
+        1 makes a linear spring–dashpot with ``n = 0``).
     """
 
     beta: float
     n: float = 1.5
     clip: bool = False
+    stiffness_exponent: float = 1.5
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "beta", _check_finite("beta", self.beta))
@@ -114,6 +118,9 @@ class HuntCrossley:
             raise SimulationInputError(f"beta must be >= 0, got {self.beta!r} N s m^-(n+1)")
         if self.n < 0.0:
             raise SimulationInputError(f"damping index n must be >= 0, got {self.n!r}")
+        object.__setattr__(self, "stiffness_exponent", _check_finite("stiffness_exponent", self.stiffness_exponent))
+        if self.stiffness_exponent < 1.0:
+            raise SimulationInputError(f"stiffness exponent must be >= 1, got {self.stiffness_exponent!r}")
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ Method
   retyped), local extrapolation, FSAL, the standard step-size controller (safety 0.9, factor
   limits 0.2 and 10) and the 4th-order continuous extension for dense output.
 * The state is ``(alpha, alpha_dot)``; the cam angle is ``Theta(t) = theta_ref + omega t``.
-* Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force, S-11..S-18),
+* Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force ``k delta^p - beta delta^n dpsi/dt``, S-11..S-18),
   ``STICK`` (rigid contact constraint ``psi_i = 0``, used only by the restitution model when an
   approach speed falls below ``v_stick``; its normal force ``lambda`` follows from the constraint).
 * Exact switching: after each accepted step the switching function of the current mode (the gap
@@ -60,8 +60,8 @@ _P = np.ascontiguousarray(_RK45.P, dtype=np.float64)
 PE_X, PE_Y, ECC, RSUM, R_C, H_P, M_B, GRAV, L_G, K_S, L_SU, D_Y, D_X, W_B, I_B, K_H, MU = range(17)
 N_RIG = 17
 # ---- law vector layout ---------------------------------------------------------------------
-LAW_KIND, BETA, N_EXP, CLIP, XI0, GAMMA, V_STICK = range(7)
-N_LAW = 7
+LAW_KIND, BETA, N_EXP, CLIP, XI0, GAMMA, V_STICK, P_EXP = range(8)
+N_LAW = 8
 KIND_COMPLIANT = 0.0
 KIND_RESTITUTION = 1.0
 # ---- modes ---------------------------------------------------------------------------------
@@ -111,7 +111,7 @@ def _sliding_velocity(a, ad, th, omega, psi, rsum, ecc, r_c):
 
 @_jit
 def _force_law(psi, dpsi, p, law):
-    force = _hunt_crossley(-psi, dpsi, p[K_H], law[BETA], law[N_EXP])
+    force = _hunt_crossley(-psi, dpsi, p[K_H], law[BETA], law[N_EXP], law[P_EXP])
     if law[CLIP] != 0.0 and force < 0.0:
         force = 0.0
     return force
@@ -185,7 +185,8 @@ def _force_rate(t, a, ad, p, law, theta_ref, omega):
         return 0.0
     beta = law[BETA]
     n = law[N_EXP]
-    rate = -1.5 * p[K_H] * math.sqrt(delta) * dpsi - beta * delta**n * ddpsi
+    pe = law[P_EXP]
+    rate = -pe * p[K_H] * delta ** (pe - 1.0) * dpsi - beta * delta**n * ddpsi
     if n != 0.0:
         rate += beta * n * delta ** (n - 1.0) * dpsi * dpsi
     if law[CLIP] != 0.0 and _force_law(psi, dpsi, p, law) <= 0.0:

@@ -96,9 +96,11 @@ def pack_law(law: Law) -> np.ndarray:
     if isinstance(law, HuntCrossley):
         v[K.LAW_KIND] = K.KIND_COMPLIANT
         v[K.BETA], v[K.N_EXP], v[K.CLIP] = law.beta, law.n, float(law.clip)
+        v[K.P_EXP] = law.stiffness_exponent
     elif isinstance(law, Restitution):
         v[K.LAW_KIND] = K.KIND_RESTITUTION
         v[K.XI0], v[K.GAMMA], v[K.V_STICK] = law.xi0, law.gamma, law.v_stick
+        v[K.P_EXP] = 1.5
     else:
         raise SimulationInputError(f"law must be HuntCrossley or Restitution, got {type(law).__name__}")
     return v
