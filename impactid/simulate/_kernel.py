@@ -139,20 +139,51 @@ def stick_force(t, a, ad, p, theta_ref, omega):
     return (p[I_B] * add - _torque(a, p)) / (chi - p[MU] * np.sign(vr) * p[H_P])
 
 
+@_jit
+def _power(d, exponent):
+    """``d**exponent`` with the exponents of the papers (0, 1, 1.5) as cheap special cases."""
+    if exponent == 1.5:
+        return d * math.sqrt(d)
+    if exponent == 1.0:
+        return d
+    if exponent == 0.0:
+        return 1.0
+    return d**exponent
+
+
 @njit(cache=True)
 def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
-    """``alpha_ddot`` [rad/s^2] in the given mode."""
-    if mode == FREE:
-        return _torque(a, p) / p[I_B]
+    """``alpha_ddot`` [rad/s^2] in the given mode.
+
+    The hot path of the integrator: the formulas of ``rigs.pivoted`` (gap, lever arm, gap rate,
+    sliding velocity, spring torque) and ``contact.hunt_crossley_force`` fused here so that the
+    trigonometric functions of alpha and Theta are computed once. ``tests/simulate/
+    test_kernel_rhs.py`` checks it against those public functions to round-off.
+    """
     if mode == STICK:
         return stick_acceleration(t, a, ad, p, theta_ref, omega)
+    sa = math.sin(a)
+    ca = math.cos(a)
+    torque = p[M_B] * p[GRAV] * p[L_G] * ca - p[K_S] * (
+        p[L_SU] - p[D_Y] + p[D_X] * sa / ca + 0.5 * p[W_B] / ca) * p[D_X]
+    if mode == FREE:
+        return torque / p[I_B]
     th = theta_ref + omega * t
-    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
-    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
-    dpsi = chi * ad - p[ECC] * math.cos(a + th) * omega
-    force = _force_law(psi, dpsi, p, law)
-    vr = _sliding_velocity(a, ad, th, omega, psi, p[RSUM], p[ECC], p[R_C])
-    return (_torque(a, p) + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) / p[I_B]
+    st = math.sin(th)
+    ct = math.cos(th)
+    gx = p[PE_X] - p[ECC] * ct
+    gy = p[PE_Y] - p[ECC] * st
+    psi = sa * gx + ca * gy - p[RSUM]
+    chi = ca * gx - sa * gy
+    s = sa * ct + ca * st  # sin(alpha + Theta)
+    c = ca * ct - sa * st  # cos(alpha + Theta)
+    dpsi = chi * ad - p[ECC] * c * omega
+    d = -psi if psi < 0.0 else 0.0
+    force = p[K_H] * _power(d, law[P_EXP]) - law[BETA] * _power(d, law[N_EXP]) * dpsi
+    if law[CLIP] != 0.0 and force < 0.0:
+        force = 0.0
+    vr = ad * (psi + p[RSUM]) - p[ECC] * omega * s - (p[R_C] + p[ECC] * s) * (ad + omega)
+    return (torque + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) / p[I_B]
 
 
 @njit(cache=True)
@@ -192,6 +223,47 @@ def _force_rate(t, a, ad, p, law, theta_ref, omega):
     if law[CLIP] != 0.0 and _force_law(psi, dpsi, p, law) <= 0.0:
         return 0.0
     return rate
+
+
+@njit(cache=True)
+def _snapshot(mode, t, a, ad, add, p, law, theta_ref, omega):
+    """Switching and monitoring quantities at a state whose ``alpha_ddot`` is known (FSAL).
+
+    Returns ``(g, dpsi, force, dforce, v_r)``: ``g`` is the function whose zero ends the mode
+    (the gap, or the constraint force when sticking), then the gap rate, the contact force, its
+    rate (contact only) and the sliding velocity (contact only). Shares the trigonometry so a
+    step costs one evaluation instead of one per monitored quantity.
+    """
+    th = theta_ref + omega * t
+    sa = math.sin(a)
+    ca = math.cos(a)
+    gx = p[PE_X] - p[ECC] * math.cos(th)
+    gy = p[PE_Y] - p[ECC] * math.sin(th)
+    psi = sa * gx + ca * gy - p[RSUM]
+    chi = ca * gx - sa * gy
+    s = math.sin(a + th)
+    c = math.cos(a + th)
+    dpsi = chi * ad - p[ECC] * c * omega
+    if mode == FREE:
+        return psi, dpsi, 0.0, 0.0, 0.0
+    dpsi_j = ad * (psi + p[RSUM]) - p[ECC] * omega * s
+    vr = dpsi_j - (p[R_C] + p[ECC] * s) * (ad + omega)
+    if mode == STICK:
+        lam = (p[I_B] * add - _torque(a, p)) / (chi - p[MU] * np.sign(vr) * p[H_P])
+        return lam, dpsi, lam, 0.0, vr
+    force = _force_law(psi, dpsi, p, law)
+    delta = -psi
+    dforce = 0.0
+    if delta > 0.0 and not (law[CLIP] != 0.0 and force <= 0.0):
+        chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
+        ddpsi = chi_dot * ad + chi * add + p[ECC] * s * (ad + omega) * omega
+        beta = law[BETA]
+        n = law[N_EXP]
+        pe = law[P_EXP]
+        dforce = -pe * p[K_H] * delta ** (pe - 1.0) * dpsi - beta * delta**n * ddpsi
+        if n != 0.0:
+            dforce += beta * n * delta ** (n - 1.0) * dpsi * dpsi
+    return psi, dpsi, force, dforce, vr
 
 
 @njit(cache=True)
@@ -495,6 +567,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         open_row = n_contacts
         n_contacts += 1
     f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
+    g0, q0, f0c, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
     h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
     step_rejected = False
     span = t_end - t0
@@ -535,12 +608,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         _dense_coefficients(K, Q)
         switch = False
         switch_now = False
-        if mode == STICK:
-            term_kind = EV_LAMBDA
-        else:
-            term_kind = EV_GAP
-        g0 = _event_value(term_kind, mode, t, a, ad, p, law, theta_ref, omega)
-        g1 = _event_value(term_kind, mode, t + h, a1, ad1, p, law, theta_ref, omega)
+        g1, q1, f1, r1, v1 = _snapshot(mode, t + h, a1, ad1, K[6, 1], p, law, theta_ref, omega)
         # At the surface (g0 on the boundary) the gap rate decides: leaving means no event, and a
         # step that nevertheless ends on the wrong side hides a whole flight (or contact) inside
         # it, so it is rejected and shortened until the crossing can be bracketed properly.
@@ -548,21 +616,17 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         if mode == FREE:
             if g0 > 0.0:
                 switch = g1 <= 0.0
-            else:
-                rate0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
-                if rate0 < 0.0 or (rate0 == 0.0 and g1 < 0.0):
-                    switch_now = True  # touching and approaching
-                elif g1 <= 0.0:
-                    bracket_fail = True
+            elif q0 < 0.0 or (q0 == 0.0 and g1 < 0.0):
+                switch_now = True  # touching and approaching
+            elif g1 <= 0.0:
+                bracket_fail = True
         elif mode == CONTACT:
             if g0 < 0.0:
                 switch = g1 >= 0.0
-            else:
-                rate0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
-                if rate0 > 0.0 or (rate0 == 0.0 and g1 > 0.0):
-                    switch_now = True  # at the surface and leaving
-                elif g1 >= 0.0:
-                    bracket_fail = True
+            elif q0 > 0.0 or (q0 == 0.0 and g1 > 0.0):
+                switch_now = True  # at the surface and leaving
+            elif g1 >= 0.0:
+                bracket_fail = True
         else:  # STICK ends when lambda reaches 0 from above
             if g0 > 0.0:
                 switch = g1 <= 0.0
@@ -582,6 +646,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             switch = True
             n_steps += 1
         elif switch:
+            term_kind = EV_LAMBDA if mode == STICK else EV_GAP
             x = _root_dense(term_kind, mode, t, h, a, ad, Q, p, law, theta_ref, omega, g0, g1)
             h_ev = x * h
             if h_ev <= 0.0:
@@ -591,8 +656,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             else:
                 a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_ev, f0, p, law, theta_ref, omega, K)
                 if term_kind == EV_GAP:
-                    g_new = _event_value(EV_GAP, mode, t + h_ev, a1, ad1, p, law, theta_ref, omega)
-                    rate = _event_value(EV_GAPRATE, mode, t + h_ev, a1, ad1, p, law, theta_ref, omega)
+                    g_new, rate, _f, _r, _v = _snapshot(FREE, t + h_ev, a1, ad1, 0.0, p, law, theta_ref, omega)
                     if g_new != 0.0 and rate != 0.0:
                         h_new = h_ev - g_new / rate
                         if h_new > 0.0 and h_new <= h:
@@ -600,6 +664,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                             h_ev = h_new
                 h = h_ev
                 _dense_coefficients(K, Q)
+                g1, q1, f1, r1, v1 = _snapshot(mode, t + h, a1, ad1, K[6, 1], p, law, theta_ref, omega)
         t1 = t + h if h > 0.0 else t
         if h > 0.0:
             n_steps += 1
@@ -622,11 +687,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 t_alpha_max = t1
             if mode == CONTACT and open_row >= 0:
                 # peak indentation: dpsi crosses 0 upwards
-                q0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
-                q1 = _event_value(EV_GAPRATE, mode, t1, a1, ad1, p, law, theta_ref, omega)
-                delta1 = -_event_value(EV_GAP, mode, t1, a1, ad1, p, law, theta_ref, omega)
-                if delta1 > contacts[open_row, C_PEAK_DELTA]:
-                    contacts[open_row, C_PEAK_DELTA] = delta1
+                if -g1 > contacts[open_row, C_PEAK_DELTA]:
+                    contacts[open_row, C_PEAK_DELTA] = -g1
                     contacts[open_row, C_T_PEAK_DELTA] = t1
                 if q0 < 0.0 and q1 >= 0.0:
                     x = _root_dense(EV_GAPRATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, q0, q1)
@@ -636,9 +698,6 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                         contacts[open_row, C_PEAK_DELTA] = dx
                         contacts[open_row, C_T_PEAK_DELTA] = t + x * h
                 # peak force: dF/dt crosses 0 downwards
-                r0 = _event_value(EV_DFORCE, mode, t, a, ad, p, law, theta_ref, omega)
-                r1 = _event_value(EV_DFORCE, mode, t1, a1, ad1, p, law, theta_ref, omega)
-                f1 = contact_force(mode, t1, a1, ad1, p, law, theta_ref, omega)
                 if f1 > contacts[open_row, C_PEAK_FORCE]:
                     contacts[open_row, C_PEAK_FORCE] = f1
                     contacts[open_row, C_T_PEAK_FORCE] = t1
@@ -649,13 +708,9 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                     if fx > contacts[open_row, C_PEAK_FORCE]:
                         contacts[open_row, C_PEAK_FORCE] = fx
                         contacts[open_row, C_T_PEAK_FORCE] = t + x * h
-                if p[MU] != 0.0:
-                    v0 = _event_value(EV_VR, mode, t, a, ad, p, law, theta_ref, omega)
-                    v1 = _event_value(EV_VR, mode, t1, a1, ad1, p, law, theta_ref, omega)
-                    if (v0 > 0.0) != (v1 > 0.0):
-                        contacts[open_row, C_FRICTION_REVERSALS] += 1.0
+                if p[MU] != 0.0 and (v0 > 0.0) != (v1 > 0.0):
+                    contacts[open_row, C_FRICTION_REVERSALS] += 1.0
             elif mode == STICK and open_row >= 0:
-                f1 = contact_force(mode, t1, a1, ad1, p, law, theta_ref, omega)
                 if f1 > contacts[open_row, C_PEAK_FORCE]:
                     contacts[open_row, C_PEAK_FORCE] = f1
                     contacts[open_row, C_T_PEAK_FORCE] = t1
@@ -672,6 +727,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         ad = ad1
         if not switch:
             f0 = K[6, 1]
+            g0, q0, f0c, r0, v0 = g1, q1, f1, r1, v1
             h = h * factor
             continue
         # ---- mode switch at (t, a, ad) --------------------------------------------------------
@@ -736,6 +792,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             open_row = -1
             mode = FREE
         f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
+        g0, q0, f0c, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
         h_prev = h
         h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
         if h_prev > 0.0 and mode == FREE:
