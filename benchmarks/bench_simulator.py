@@ -1,0 +1,147 @@
+"""Benchmark of the compiled simulator (issue 2). Run: ``python benchmarks/bench_simulator.py``.
+
+Measures, in one run on this machine:
+
+1. one S1 event (contact + one revolution of free flight at e/r_c = 0.2, 16 Hz, starting at a
+   contact onset of the settled period-1 motion) with the compiled simulator at its default
+   tolerances, and with scipy's ``solve_ivp`` (the independent reference model of
+   tests/reference_rigp.py) for each method and tolerance; the baseline is the fastest
+   ``solve_ivp`` setting whose errors (alpha_m, contact end time, peak force, against a DOP853
+   rtol 1e-13 solution) are no larger than the compiled simulator's; prints the ratio and the
+   microseconds per event;
+2. the throughput of the batch entry point (events per second) on 1 and 2 threads;
+3. cold (empty numba cache: compile) and warm (cached) start of a fresh process.
+
+Targets (issue 2): >= 200x faster than solve_ivp, <= 100 us per event on one core, near-linear
+scaling to 2 cores, cached compilation.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+import numba  # noqa: E402
+
+from impactid import SEED001_TABLE1, HuntCrossley, simulate, simulate_event, simulate_events  # noqa: E402
+from tests import reference_rigp as ref  # noqa: E402
+
+
+def best_time(fn, repeat=5, min_time=0.2):
+    """Best-of-``repeat`` mean time of ``fn`` [s], each repeat running at least ``min_time``."""
+    best = math.inf
+    for _ in range(repeat):
+        n, t0 = 0, time.perf_counter()
+        while True:
+            fn()
+            n += 1
+            elapsed = time.perf_counter() - t0
+            if elapsed >= min_time:
+                break
+        best = min(best, elapsed / n)
+    return best
+
+
+def errors(result_alpha_m, result_t_end, result_peak, truth):
+    c = truth["contacts"][0]
+    return (abs(result_alpha_m / truth["alpha_m"] - 1.0), abs(result_t_end - c["t_end"]),
+            abs(result_peak / c["peak_force"] - 1.0))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats (for CI smoke runs)")
+    args = parser.parse_args(argv)
+    repeat = 2 if args.quick else 5
+
+    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    law = HuntCrossley(24.7e9, 1.5)
+    hz = 16.0
+    settled = simulate(rig, hz, law, 40.0)
+    onset = settled.contacts.iloc[-2]
+    a0, ad0 = float(onset["alpha_start"]), float(onset["alpha_dot_start"])
+    th0 = 2 * math.pi * hz * float(onset["t_start"])
+    t_end = 1.0 / hz
+    p = ref.reference_params(0.2)
+
+    print("== S1 event: e/r_c = 0.2, 16 Hz, contact + one revolution of free flight ==")
+    truth = ref.run_hybrid(a0, ad0, th0, hz, t_end, p, law.beta, law.n, rig.mu, rtol=1e-13, atol=1e-16)
+    ev = simulate_event(rig, hz, law, a0, ad0, th0, t_end)
+    ours_err = errors(ev.alpha_m, ev.contact_duration, ev.peak_force, truth)
+    t_ours = best_time(lambda: simulate_event(rig, hz, law, a0, ad0, th0, t_end), repeat=repeat)
+    print(f"compiled (rtol 1e-10): {t_ours * 1e6:8.1f} us/event   errors: alpha_m {ours_err[0]:.1e} rel, "
+          f"t_a {ours_err[1]:.1e} s, peak force {ours_err[2]:.1e} rel   ({ev.n_steps} steps)")
+
+    candidates = []
+    for method in ("RK45", "DOP853", "LSODA", "Radau"):
+        for rtol in (1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12):
+            try:
+                run = ref.run_hybrid(a0, ad0, th0, hz, t_end, p, law.beta, law.n, rig.mu, rtol=rtol,
+                                     atol=rtol * 1e-3, method=method)
+            except Exception as exc:  # a method that fails at some tolerance is just not a candidate
+                print(f"  {method:6s} rtol {rtol:.0e}: failed ({exc.__class__.__name__})")
+                continue
+            c = run["contacts"][0]
+            err = errors(run["alpha_m"], c["t_end"] - c["t_start"], c["peak_force"], truth)
+            if all(e <= max(o, 1e-15) for e, o in zip(err, ours_err)):
+                t = best_time(lambda m=method, r=rtol: ref.run_hybrid(
+                    a0, ad0, th0, hz, t_end, p, law.beta, law.n, rig.mu, rtol=r, atol=r * 1e-3, method=m),
+                    repeat=max(1, repeat // 2), min_time=0.05)
+                candidates.append((t, method, rtol, err))
+                print(f"  {method:6s} rtol {rtol:.0e}: {t * 1e3:8.2f} ms/event  errors {err[0]:.1e} {err[1]:.1e} "
+                      f"{err[2]:.1e}  (as accurate: candidate)")
+                break
+            print(f"  {method:6s} rtol {rtol:.0e}: less accurate ({err[0]:.1e} {err[1]:.1e} {err[2]:.1e})")
+    if candidates:
+        t_base, method, rtol, _ = min(candidates)
+        print(f"baseline: solve_ivp {method} rtol {rtol:.0e}: {t_base * 1e3:.2f} ms/event")
+        print(f"RATIO solve_ivp / compiled: {t_base / t_ours:.0f}x   (target >= 200x)")
+    else:
+        print("no solve_ivp setting reached the compiled simulator's accuracy")
+    print(f"US_PER_EVENT {t_ours * 1e6:.1f}   (target <= 100 us on one core)")
+
+    print("\n== batch entry point: events x trial (beta, n) in parallel ==")
+    rng = np.random.default_rng(0)
+    n_ev, n_tr = 32, 16
+    states = np.column_stack([np.full(n_ev, a0), ad0 * rng.uniform(0.95, 1.05, n_ev), np.full(n_ev, th0)])
+    t_ends = np.full(n_ev, t_end)
+    trials = np.column_stack([np.geomspace(10e9, 50e9, n_tr), np.full(n_tr, 1.5)])
+    rates = {}
+    max_threads = numba.config.NUMBA_NUM_THREADS
+    for threads in sorted({1, min(2, max_threads)}):
+        numba.set_num_threads(threads)
+        simulate_events(rig, hz, states[:2], t_ends[:2], trials[:2])
+        t = best_time(lambda: simulate_events(rig, hz, states, t_ends, trials), repeat=repeat, min_time=0.3)
+        rates[threads] = n_ev * n_tr / t
+        print(f"{threads} thread(s): {rates[threads]:10.0f} events/s")
+    numba.set_num_threads(max_threads)
+    if 2 in rates:
+        print(f"SCALING 2 threads / 1 thread: {rates[2] / rates[1]:.2f}x   (ideal 2.00x; {os.cpu_count()} cores)")
+
+    print("\n== start-up: fresh process, one S1 event ==")
+    code = ("import time; t=time.perf_counter(); import impactid as I; "
+            "I.simulate_event(I.SEED001_TABLE1, 16.0, I.HuntCrossley(24.7e9), 0.07, -4.0, 0.3, 0.0625); "
+            "I.simulate(I.SEED001_TABLE1, 16.0, I.HuntCrossley(24.7e9), 0.1); print(time.perf_counter()-t)")
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        for label in ("cold (empty numba cache)", "warm (cached)"):
+            t0 = time.perf_counter()
+            out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
+            wall = time.perf_counter() - t0
+            print(f"{label:26s}: {wall:6.2f} s wall  (import + first calls {float(out.stdout):.2f} s)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
