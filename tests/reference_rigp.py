@@ -223,7 +223,7 @@ def free_flight_energy(alpha, alpha_dot, p, alpha_ref=0.0):
         return float(spring_force(a, p)) * p["d_x"] - p["m_b"] * p["g"] * p["l_g"] * math.cos(a)
 
     def one(a, ad):
-        V, _ = quad(integrand, alpha_ref, float(a), epsabs=0.0, epsrel=1e-14, limit=200)
+        V, _ = quad(integrand, alpha_ref, float(a), epsabs=0.0, epsrel=1e-13, limit=200)
         return 0.5 * p["I_b"] * float(ad) ** 2 + V
 
     if np.ndim(alpha) == 0:
