@@ -148,6 +148,8 @@ def _power(d, exponent):
         return d
     if exponent == 0.0:
         return 1.0
+    if exponent == 0.5:
+        return math.sqrt(d)
     return d**exponent
 
 
@@ -179,7 +181,9 @@ def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
     c = ca * ct - sa * st  # cos(alpha + Theta)
     dpsi = chi * ad - p[ECC] * c * omega
     d = -psi if psi < 0.0 else 0.0
-    force = p[K_H] * _power(d, law[P_EXP]) - law[BETA] * _power(d, law[N_EXP]) * dpsi
+    stiff = _power(d, law[P_EXP])
+    damp = stiff if law[N_EXP] == law[P_EXP] else _power(d, law[N_EXP])
+    force = p[K_H] * stiff - law[BETA] * damp * dpsi
     if law[CLIP] != 0.0 and force < 0.0:
         force = 0.0
     vr = ad * (psi + p[RSUM]) - p[ECC] * omega * s - (p[R_C] + p[ECC] * s) * (ad + omega)
@@ -260,9 +264,9 @@ def _snapshot(mode, t, a, ad, add, p, law, theta_ref, omega):
         beta = law[BETA]
         n = law[N_EXP]
         pe = law[P_EXP]
-        dforce = -pe * p[K_H] * delta ** (pe - 1.0) * dpsi - beta * delta**n * ddpsi
+        dforce = -pe * p[K_H] * _power(delta, pe - 1.0) * dpsi - beta * _power(delta, n) * ddpsi
         if n != 0.0:
-            dforce += beta * n * delta ** (n - 1.0) * dpsi * dpsi
+            dforce += beta * n * _power(delta, n - 1.0) * dpsi * dpsi
     return psi, dpsi, force, dforce, vr
 
 
@@ -605,7 +609,6 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         if step_rejected:
             factor = min(1.0, factor)
         step_rejected = False
-        _dense_coefficients(K, Q)
         switch = False
         switch_now = False
         g1, q1, f1, r1, v1 = _snapshot(mode, t + h, a1, ad1, K[6, 1], p, law, theta_ref, omega)
@@ -647,6 +650,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             n_steps += 1
         elif switch:
             term_kind = EV_LAMBDA if mode == STICK else EV_GAP
+            _dense_coefficients(K, Q)
             x = _root_dense(term_kind, mode, t, h, a, ad, Q, p, law, theta_ref, omega, g0, g1)
             h_ev = x * h
             if h_ev <= 0.0:
@@ -663,11 +667,14 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                             a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_new, f0, p, law, theta_ref, omega, K)
                             h_ev = h_new
                 h = h_ev
-                _dense_coefficients(K, Q)
                 g1, q1, f1, r1, v1 = _snapshot(mode, t + h, a1, ad1, K[6, 1], p, law, theta_ref, omega)
         t1 = t + h if h > 0.0 else t
         if h > 0.0:
             n_steps += 1
+            # dense-output coefficients only when this step needs them (events, grid points)
+            if (ad > 0.0 and ad1 <= 0.0) or (q0 < 0.0 and q1 >= 0.0) or (r0 > 0.0 and r1 <= 0.0) or (
+                    gi < n_grid and grid[gi] <= t1):
+                _dense_coefficients(K, Q)
             # ---- non-terminal events inside [t, t1] -------------------------------------------
             if ad > 0.0 and ad1 <= 0.0:
                 x = _root_dense(EV_RATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, ad, ad1)

@@ -12,6 +12,7 @@ All inputs and outputs are SI: cam speed in Hz (``Theta_dot = 2 pi cam_speed_hz`
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -72,7 +73,16 @@ DEFAULT_TOLERANCES = Tolerances()
 
 
 def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
-    """Rig parameters as the kernel's parameter vector (optionally overriding ``mu``)."""
+    """Rig parameters as the kernel's parameter vector (optionally overriding ``mu``).
+
+    Cached per (rig, mu): rigs are frozen, and S1 events are simulated by the thousand."""
+    if not isinstance(rig, PivotedFollowerRig):
+        raise SimulationInputError(f"expected a PivotedFollowerRig, got {type(rig).__name__}")
+    return _pack_rig_cached(rig, None if mu is None else _finite("mu", mu))
+
+
+@functools.lru_cache(maxsize=256)
+def _pack_rig_cached(rig: PivotedFollowerRig, mu: float | None) -> np.ndarray:
     if not isinstance(rig, PivotedFollowerRig):
         raise SimulationInputError(f"expected a PivotedFollowerRig, got {type(rig).__name__}")
     p = np.empty(K.N_RIG)
@@ -87,11 +97,13 @@ def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
     if mu < 0.0:
         raise SimulationInputError(f"friction coefficient mu must be >= 0, got {mu!r}")
     p[K.MU] = mu
+    p.setflags(write=False)
     return p
 
 
+@functools.lru_cache(maxsize=256)
 def pack_law(law: Law) -> np.ndarray:
-    """Contact or restitution law as the kernel's law vector."""
+    """Contact or restitution law as the kernel's law vector (cached; read-only)."""
     v = np.zeros(K.N_LAW)
     if isinstance(law, HuntCrossley):
         v[K.LAW_KIND] = K.KIND_COMPLIANT
@@ -103,6 +115,7 @@ def pack_law(law: Law) -> np.ndarray:
         v[K.P_EXP] = 1.5
     else:
         raise SimulationInputError(f"law must be HuntCrossley or Restitution, got {type(law).__name__}")
+    v.setflags(write=False)
     return v
 
 
@@ -244,7 +257,8 @@ class EventResult:
     approach_gap_rate, separation_gap_rate : ``dpsi_i/dt`` at the first contact's start and end [m/s].
     peak_force [N], peak_indentation [m] : maxima during the first contact.
     n_contacts : number of contacts during the event (more than 1 means re-contact/chatter).
-    contacts : the full contact table.
+    contacts : the full contact table (a pandas DataFrame, built on first access from
+        ``contact_table``, the kernel's raw array, so that simulating events stays cheap).
     t, contact_force, indentation, alpha, alpha_dot : histories on the requested grid
         (``indentation = -psi_i``, positive in contact).
     final_alpha, final_alpha_dot : state at the end time.
@@ -260,7 +274,7 @@ class EventResult:
     peak_force: float
     peak_indentation: float
     n_contacts: int
-    contacts: pd.DataFrame
+    contact_table: np.ndarray
     t: np.ndarray
     contact_force: np.ndarray
     indentation: np.ndarray
@@ -269,6 +283,10 @@ class EventResult:
     final_alpha: float
     final_alpha_dot: float
     n_steps: int = field(default=0)
+
+    @functools.cached_property
+    def contacts(self) -> pd.DataFrame:
+        return _contact_frame(self.contact_table)
 
 
 @dataclass(frozen=True)
@@ -381,23 +399,23 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
         0.0, float(alpha0), float(alpha_dot0), float(t_end), p, law_vec, float(theta0), omega, tolerances,
         grid, capacity=16, apex_capacity=0)
     _raise_status(res[0], "S1 event", res[3])
-    table = _contact_frame(contacts[: res[1]])
+    table = contacts[: res[1]]
     obs = np.empty((grid.shape[0], 6))
-    K.observe(grid, g_a, g_d, g_m, p, law_vec, float(theta0), omega, obs)
-    first = table.iloc[0] if len(table) else None
-    nan = float("nan")
+    if grid.shape[0]:
+        K.observe(grid, g_a, g_d, g_m, p, law_vec, float(theta0), omega, obs)
+    if res[1]:
+        first = table[0]
+        first_values = (first[K.C_T_END] - first[K.C_T_START], first[K.C_ALPHA_END], first[K.C_RATE_END],
+                        first[K.C_DPSI_START], first[K.C_DPSI_END], first[K.C_PEAK_FORCE], first[K.C_PEAK_DELTA])
+    else:
+        first_values = (math.nan,) * 7
+    duration, exit_a, exit_ad, approach, separation, peak_f, peak_d = (float(x) for x in first_values)
     return EventResult(
-        alpha_m=float(res[7]), t_alpha_m=float(res[8]),
-        contact_duration=float(first["duration"]) if first is not None else nan,
-        exit_alpha=float(first["alpha_end"]) if first is not None else nan,
-        exit_alpha_dot=float(first["alpha_dot_end"]) if first is not None else nan,
-        approach_gap_rate=float(first["gap_rate_start"]) if first is not None else nan,
-        separation_gap_rate=float(first["gap_rate_end"]) if first is not None else nan,
-        peak_force=float(first["peak_force"]) if first is not None else nan,
-        peak_indentation=float(first["peak_indentation"]) if first is not None else nan,
-        n_contacts=int(res[1]), contacts=table, t=grid, contact_force=obs[:, 3],
-        indentation=np.where(g_m != K.FREE, -obs[:, 0], 0.0), alpha=g_a, alpha_dot=g_d,
-        final_alpha=float(res[4]), final_alpha_dot=float(res[5]), n_steps=int(res[9]))
+        alpha_m=float(res[7]), t_alpha_m=float(res[8]), contact_duration=duration, exit_alpha=exit_a,
+        exit_alpha_dot=exit_ad, approach_gap_rate=approach, separation_gap_rate=separation, peak_force=peak_f,
+        peak_indentation=peak_d, n_contacts=int(res[1]), contact_table=table, t=grid,
+        contact_force=obs[:, 3], indentation=np.where(g_m != K.FREE, -obs[:, 0], 0.0), alpha=g_a,
+        alpha_dot=g_d, final_alpha=float(res[4]), final_alpha_dot=float(res[5]), n_steps=int(res[9]))
 
 
 def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,

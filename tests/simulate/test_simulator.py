@@ -33,7 +33,7 @@ def _point_mass_parameters(mass, stiffness, arm=1000.0, contact_radius=0.03):
     sin(alpha) = alpha to 1e-19 and chi = L to 1e-12 relative: the gap is L alpha, the effective
     mass I / chi^2 = m, so the contact is the textbook 1-DOF impact.
     """
-    p = pack_rig(SEED001_TABLE1, mu=0.0)
+    p = pack_rig(SEED001_TABLE1, mu=0.0).copy()
     p[K.PE_X], p[K.PE_Y], p[K.ECC], p[K.RSUM] = arm, contact_radius, 0.0, contact_radius
     p[K.K_S], p[K.GRAV] = 0.0, 0.0
     p[K.I_B], p[K.K_H] = mass * arm**2, stiffness
@@ -100,7 +100,7 @@ def _free_energy(rig, alpha, alpha_dot):
 
 def test_free_flight_conserves_energy():
     rig = SEED001_TABLE1
-    p = pack_rig(rig)
+    p = pack_rig(rig).copy()
     p[K.PE_Y] = 1.0  # move the cam out of reach: pure free flight of the real follower dynamics
     law = pack_law(HuntCrossley(24.7e9, 1.5))
     a0, ad0 = 0.12, 0.0
