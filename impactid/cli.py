@@ -11,8 +11,8 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 from impactid import __version__
 from impactid.contact import HuntCrossley

@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, HuntCrossley, Restitution, SimulationInputError
-from impactid import contact
+from impactid import SEED001_TABLE1, HuntCrossley, Restitution, SimulationInputError, contact
 
 
 def test_hunt_crossley_conversion_matches_paper():

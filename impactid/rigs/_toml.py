@@ -10,8 +10,9 @@ import math
 import os
 import tempfile
 import tomllib
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from impactid.errors import RigParameterError
 

@@ -19,9 +19,10 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any, ClassVar, Mapping
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy import optimize
@@ -240,7 +241,7 @@ class PivotedFollowerRig:
             )
 
     @classmethod
-    def from_mapping(cls, values: Mapping[str, Any], source: str = "") -> "PivotedFollowerRig":
+    def from_mapping(cls, values: Mapping[str, Any], source: str = "") -> PivotedFollowerRig:
         """Build a rig from a mapping of parameter names to values, naming missing/unknown keys."""
         where = f"{source}: " if source else ""
         names = [f.name for f in fields(cls)]
@@ -259,11 +260,11 @@ class PivotedFollowerRig:
         """Parameters as a plain dict (FORMAT.md names, SI units)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
-    def replace(self, **changes: float) -> "PivotedFollowerRig":
+    def replace(self, **changes: float) -> PivotedFollowerRig:
         """A copy with some parameters changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
-    def with_eccentricity_ratio(self, e_over_rc: float) -> "PivotedFollowerRig":
+    def with_eccentricity_ratio(self, e_over_rc: float) -> PivotedFollowerRig:
         """A copy with ``e = e_over_rc * r_c``."""
         if not (isinstance(e_over_rc, (int, float)) and math.isfinite(e_over_rc)):
             raise RigParameterError(f"e/r_c must be a finite number, got {e_over_rc!r}")

@@ -9,7 +9,8 @@ Method
   retyped), local extrapolation, FSAL, the standard step-size controller (safety 0.9, factor
   limits 0.2 and 10) and the 4th-order continuous extension for dense output.
 * The state is ``(alpha, alpha_dot)``; the cam angle is ``Theta(t) = theta_ref + omega t``.
-* Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force ``k delta^p - beta delta^n dpsi/dt``, S-11..S-18),
+* Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force
+  ``k delta^p - beta delta^n dpsi/dt``, S-11..S-18),
   ``STICK`` (rigid contact constraint ``psi_i = 0``, used only by the restitution model when an
   approach speed falls below ``v_stick``; its normal force ``lambda`` follows from the constraint).
 * Exact switching: after each accepted step the switching function of the current mode (the gap
@@ -519,7 +520,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
 
     Parameters
     ----------
-    t0, a0, ad0, mode0 : initial time [s], state [rad, rad/s] and mode (FREE/CONTACT/STICK).
+    t0, a0, ad0, mode0 : initial time [s], state [rad, rad/s] and mode (FREE/CONTACT/STICK;
+        -1 to derive it from the state with :func:`initial_mode`).
     t_end : final time [s].
     p, law : packed rig parameters and contact/restitution law (layouts above).
     theta_ref, omega : cam angle ``Theta(t) = theta_ref + omega t`` [rad, rad/s].
@@ -537,7 +539,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     t = t0
     a = a0
     ad = ad0
-    mode = mode0
+    mode = mode0 if mode0 >= 0 else initial_mode(t0, a0, ad0, p, law, theta_ref, omega)
+    mode0 = mode
     n_contacts = 0
     n_apexes = 0
     n_steps = 0
@@ -825,53 +828,66 @@ def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_
     n_ev = states.shape[0]
     n_tr = trials.shape[0]
     want_hist = grid.shape[0] > 0
-    for job in prange(n_ev * n_tr):
-        tr = job // n_ev
-        ev = job % n_ev
-        law = law_base.copy()
-        law[BETA] = trials[tr, 0]
-        law[N_EXP] = trials[tr, 1]
-        a0 = states[ev, 0]
-        ad0 = states[ev, 1]
-        th0 = states[ev, 2]
+    n_jobs = n_ev * n_tr
+    # Jobs are dealt out round-robin to 64 chunks so that every thread gets a mix of cheap and
+    # expensive trial laws (prange splits its range into contiguous blocks); buffers are reused
+    # within a chunk.
+    n_chunks = min(64, n_jobs)
+    for chunk in prange(n_chunks):
         contacts = np.empty((contact_capacity, N_CCOL))
         apexes = np.empty((0, 2))
-        if want_hist:
-            lo = grid_offsets[ev]
-            hi = grid_offsets[ev + 1]
-        else:
-            lo = 0
-            hi = 0
-        gt = grid[lo:hi]
-        ga = np.empty(hi - lo)
-        gd = np.empty(hi - lo)
-        gm = np.empty(hi - lo, dtype=np.int8)
-        mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
-        res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
-                        h_max, max_steps, gt, ga, gd, gm, contacts, apexes)
-        st = res[0]
-        nc = res[1]
-        out = summary[tr, ev]
-        out[S_ALPHA_M] = res[7]
-        out[S_T_ALPHA_M] = res[8]
-        out[S_N_CONTACTS] = nc
-        out[S_ALPHA_END] = res[4]
-        out[S_RATE_END] = res[5]
-        out[S_STATUS] = st
-        out[S_N_STEPS] = res[9]
-        if nc > 0:
-            out[S_T_START] = contacts[0, C_T_START]
-            out[S_T_END] = contacts[0, C_T_END]
-            out[S_DPSI_START] = contacts[0, C_DPSI_START]
-            out[S_DPSI_END] = contacts[0, C_DPSI_END]
-            out[S_PEAK_FORCE] = contacts[0, C_PEAK_FORCE]
-            out[S_PEAK_DELTA] = contacts[0, C_PEAK_DELTA]
-        else:
-            for c in (S_T_START, S_T_END, S_DPSI_START, S_DPSI_END, S_PEAK_FORCE, S_PEAK_DELTA):
-                out[c] = np.nan
-        if want_hist and hi > lo:
-            obs = np.empty((hi - lo, 6))
-            observe(gt, ga, gd, gm, p, law, th0, omega, obs)
-            for k in range(hi - lo):
-                hist_force[tr, lo + k] = obs[k, 3]
-                hist_gap[tr, lo + k] = obs[k, 0]
+        law = law_base.copy()
+        for job in range(chunk, n_jobs, n_chunks):
+            _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, atol_d, h_max, max_steps,
+                       grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist)
+
+
+@njit(cache=True)
+def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, atol_d, h_max, max_steps,
+               grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist):
+    tr = job // n_ev
+    ev = job % n_ev
+    law[BETA] = trials[tr, 0]
+    law[N_EXP] = trials[tr, 1]
+    a0 = states[ev, 0]
+    ad0 = states[ev, 1]
+    th0 = states[ev, 2]
+    if want_hist:
+        lo = grid_offsets[ev]
+        hi = grid_offsets[ev + 1]
+    else:
+        lo = 0
+        hi = 0
+    gt = grid[lo:hi]
+    ga = np.empty(hi - lo)
+    gd = np.empty(hi - lo)
+    gm = np.empty(hi - lo, dtype=np.int8)
+    mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
+    res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
+                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes)
+    st = res[0]
+    nc = res[1]
+    out = summary[tr, ev]
+    out[S_ALPHA_M] = res[7]
+    out[S_T_ALPHA_M] = res[8]
+    out[S_N_CONTACTS] = nc
+    out[S_ALPHA_END] = res[4]
+    out[S_RATE_END] = res[5]
+    out[S_STATUS] = st
+    out[S_N_STEPS] = res[9]
+    if nc > 0:
+        out[S_T_START] = contacts[0, C_T_START]
+        out[S_T_END] = contacts[0, C_T_END]
+        out[S_DPSI_START] = contacts[0, C_DPSI_START]
+        out[S_DPSI_END] = contacts[0, C_DPSI_END]
+        out[S_PEAK_FORCE] = contacts[0, C_PEAK_FORCE]
+        out[S_PEAK_DELTA] = contacts[0, C_PEAK_DELTA]
+    else:
+        for c in (S_T_START, S_T_END, S_DPSI_START, S_DPSI_END, S_PEAK_FORCE, S_PEAK_DELTA):
+            out[c] = np.nan
+    if want_hist and hi > lo:
+        obs = np.empty((hi - lo, 6))
+        observe(gt, ga, gd, gm, p, law, th0, omega, obs)
+        for k in range(hi - lo):
+            hist_force[tr, lo + k] = obs[k, 3]
+            hist_gap[tr, lo + k] = obs[k, 0]

@@ -184,7 +184,8 @@ def classify_regime(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law | Non
             n = law.n if isinstance(law, HuntCrossley) else math.nan
             return RegimeResult(
                 regime=regime, period_revolutions=int(k), impacts_per_period=float(impacts_per_period),
-                impacts_per_revolution=float(per_rev), settled_after_s=float(t - 2 * window * period) if stable else math.nan,
+                impacts_per_revolution=float(per_rev),
+                settled_after_s=float(t - 2 * window * period) if stable else math.nan,
                 simulated_s=float(t), stroboscopic_spread=spread, settling=bool(settling),
                 e_over_rc=rig.e_over_rc, cam_speed_hz=float(cam_speed_hz), beta=float(beta), n=float(n),
                 mu=float(run.mu))

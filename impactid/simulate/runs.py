@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -159,7 +159,7 @@ def _contact_frame(table: np.ndarray) -> pd.DataFrame:
 
 def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, grid, capacity, apex_capacity):
     """Call the kernel, growing the tables until they are large enough."""
-    mode0 = K.initial_mode(t0, alpha0, rate0, p, law_vec, theta_ref, omega)
+    mode0 = -1  # the kernel derives the initial mode from the state (saves a dispatch)
     h_max = tol.max_step_revolutions * 2.0 * math.pi / omega
     g_a = np.empty(grid.shape[0])
     g_d = np.empty(grid.shape[0])

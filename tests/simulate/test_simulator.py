@@ -182,7 +182,8 @@ def test_batch_equals_single_events(seed_law):
 @pytest.mark.parametrize(
     ("call", "error", "message"),
     [
-        (lambda: simulate(SEED001_TABLE1, 0.0, HuntCrossley(24.7e9), 1.0), SimulationInputError, "cam speed must be positive"),
+        (lambda: simulate(SEED001_TABLE1, 0.0, HuntCrossley(24.7e9), 1.0), SimulationInputError,
+         "cam speed must be positive"),
         (lambda: simulate(SEED001_TABLE1, float("nan"), HuntCrossley(24.7e9), 1.0), SimulationInputError, "finite"),
         (lambda: simulate(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9), 1.0, initial_state=(float("nan"), 0.0)),
          SimulationInputError, "initial alpha must be finite"),
