@@ -767,35 +767,29 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 dpsi_after = xi * v_a
                 ad_before = ad
                 _open_row(contacts, n_contacts, ROW_IMPACT, t, a, ad_before, dpsi)
+                # a slow enough impact ends in sticking if the constraint force is compressive
+                stick = False
+                ad_stick = 0.0
+                lam = 0.0
                 if dpsi_after < law[V_STICK]:
                     ad_stick = cam_term / chi
                     lam = stick_force(t, a, ad_stick, p, theta_ref, omega)
-                    if lam > 0.0:
-                        ad = ad_stick
-                        _close_row(contacts, n_contacts, t, a, ad, 0.0)
-                        contacts[n_contacts, C_XI] = xi
-                        n_contacts += 1
-                        if n_contacts >= cap_c:
-                            status = CONTACTS_FULL
-                            break
-                        _open_row(contacts, n_contacts, ROW_STICK, t, a, ad, 0.0)
-                        contacts[n_contacts, C_PEAK_FORCE] = lam
-                        contacts[n_contacts, C_T_PEAK_FORCE] = t
-                        open_row = n_contacts
-                        n_contacts += 1
-                        mode = STICK
-                    else:
-                        ad = (dpsi_after + cam_term) / chi
-                        _close_row(contacts, n_contacts, t, a, ad, dpsi_after)
-                        contacts[n_contacts, C_XI] = xi
-                        n_contacts += 1
-                        open_row = -1
-                else:
-                    ad = (dpsi_after + cam_term) / chi
-                    _close_row(contacts, n_contacts, t, a, ad, dpsi_after)
-                    contacts[n_contacts, C_XI] = xi
+                    stick = lam > 0.0
+                ad = ad_stick if stick else (dpsi_after + cam_term) / chi
+                _close_row(contacts, n_contacts, t, a, ad, 0.0 if stick else dpsi_after)
+                contacts[n_contacts, C_XI] = xi
+                n_contacts += 1
+                open_row = -1
+                if stick:
+                    if n_contacts >= cap_c:
+                        status = CONTACTS_FULL
+                        break
+                    _open_row(contacts, n_contacts, ROW_STICK, t, a, ad, 0.0)
+                    contacts[n_contacts, C_PEAK_FORCE] = lam
+                    contacts[n_contacts, C_T_PEAK_FORCE] = t
+                    open_row = n_contacts
                     n_contacts += 1
-                    open_row = -1
+                    mode = STICK
         else:
             if open_row >= 0:
                 _close_row(contacts, open_row, t, a, ad, dpsi)
