@@ -132,12 +132,8 @@ def stick_acceleration(t, a, ad, p, theta_ref, omega):
 @njit(cache=True)
 def stick_force(t, a, ad, p, theta_ref, omega):
     """Normal force ``lambda`` [N] that the rigid constraint needs (negative = would pull)."""
-    th = theta_ref + omega * t
-    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
-    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
     add = stick_acceleration(t, a, ad, p, theta_ref, omega)
-    vr = _sliding_velocity(a, ad, th, omega, psi, p[RSUM], p[ECC], p[R_C])
-    return (p[I_B] * add - _torque(a, p)) / (chi - p[MU] * np.sign(vr) * p[H_P])
+    return _snapshot(STICK, t, a, ad, add, p, np.zeros(N_LAW), theta_ref, omega)[2]
 
 
 @_jit
@@ -207,27 +203,9 @@ def contact_force(mode, t, a, ad, p, law, theta_ref, omega):
 
 @njit(cache=True)
 def _force_rate(t, a, ad, p, law, theta_ref, omega):
-    """``dF/dt`` of the Hunt–Crossley force in contact [N/s]."""
-    th = theta_ref + omega * t
-    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
-    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
-    s = math.sin(a + th)
-    dpsi = chi * ad - p[ECC] * math.cos(a + th) * omega
+    """``dF/dt`` of the Hunt–Crossley force in contact [N/s] (the formula lives in ``_snapshot``)."""
     add = acceleration(CONTACT, t, a, ad, p, law, theta_ref, omega)
-    chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
-    ddpsi = chi_dot * ad + chi * add + p[ECC] * s * (ad + omega) * omega
-    delta = -psi
-    if delta <= 0.0:
-        return 0.0
-    beta = law[BETA]
-    n = law[N_EXP]
-    pe = law[P_EXP]
-    rate = -pe * p[K_H] * delta ** (pe - 1.0) * dpsi - beta * delta**n * ddpsi
-    if n != 0.0:
-        rate += beta * n * delta ** (n - 1.0) * dpsi * dpsi
-    if law[CLIP] != 0.0 and _force_law(psi, dpsi, p, law) <= 0.0:
-        return 0.0
-    return rate
+    return _snapshot(CONTACT, t, a, ad, add, p, law, theta_ref, omega)[3]
 
 
 @njit(cache=True)
@@ -574,7 +552,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         open_row = n_contacts
         n_contacts += 1
     f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
-    g0, q0, f0c, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
+    g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
     h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
     step_rejected = False
     span = t_end - t0
@@ -737,7 +715,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         ad = ad1
         if not switch:
             f0 = K[6, 1]
-            g0, q0, f0c, r0, v0 = g1, q1, f1, r1, v1
+            g0, q0, _, r0, v0 = g1, q1, f1, r1, v1
             h = h * factor
             continue
         # ---- mode switch at (t, a, ad) --------------------------------------------------------
@@ -796,7 +774,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             open_row = -1
             mode = FREE
         f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
-        g0, q0, f0c, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
+        g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
         h_prev = h
         h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
         if h_prev > 0.0 and mode == FREE:

@@ -42,6 +42,9 @@ from impactid.simulate.runs import DEFAULT_TOLERANCES, Tolerances, simulate
 
 Law = HuntCrossley | Restitution
 
+#: the seed's S2 contact law (Table 2 of seed 001), the default of every regime computation
+SEED_S2_LAW = HuntCrossley(beta=24.7e9, n=1.5)
+
 
 @dataclass(frozen=True)
 class RegimeResult:
@@ -127,7 +130,7 @@ def classify_regime(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law | Non
         branches; a transient decaying slower than this is reported as not yet settled.
     """
     if law is None:
-        law = HuntCrossley(beta=24.7e9, n=1.5)
+        law = SEED_S2_LAW
     if cam_speed_hz is None or not math.isfinite(cam_speed_hz) or cam_speed_hz <= 0.0:
         raise SimulationInputError(f"cam speed must be positive, got {cam_speed_hz!r} Hz")
     period = 1.0 / cam_speed_hz
@@ -299,6 +302,7 @@ def regime_map(rig: PivotedFollowerRig, e_over_rc, cam_speeds_hz, law: Law | Non
     """
     import pandas as pd
 
+    law = SEED_S2_LAW if law is None else law
     rows = []
     e_values = [float(x) for x in np.atleast_1d(e_over_rc)]
     speeds = [float(x) for x in np.atleast_1d(cam_speeds_hz)]
@@ -311,8 +315,7 @@ def regime_map(rig: PivotedFollowerRig, e_over_rc, cam_speeds_hz, law: Law | Non
             if hz < det:
                 # below detachment the follower stays on the cam: no need to simulate
                 row = RegimeResult("contact", 1, 0.0, 0.0, 0.0, 0.0, 0.0, False, ratio, hz,
-                                   getattr(law, "beta", 24.7e9) if law is not None else 24.7e9,
-                                   getattr(law, "n", 1.5) if law is not None else 1.5,
+                                   getattr(law, "beta", math.nan), getattr(law, "n", math.nan),
                                    r.mu if mu is None else mu).to_dict()
                 row["simulated"] = False
             else:

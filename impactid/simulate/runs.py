@@ -83,8 +83,6 @@ def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
 
 @functools.lru_cache(maxsize=256)
 def _pack_rig_cached(rig: PivotedFollowerRig, mu: float | None) -> np.ndarray:
-    if not isinstance(rig, PivotedFollowerRig):
-        raise SimulationInputError(f"expected a PivotedFollowerRig, got {type(rig).__name__}")
     p = np.empty(K.N_RIG)
     p[K.PE_X], p[K.PE_Y], p[K.ECC] = rig.PE_x, rig.PE_y, rig.e
     p[K.RSUM], p[K.R_C], p[K.H_P] = rig.contact_radius, rig.r_c, rig.h_p
