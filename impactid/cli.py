@@ -17,7 +17,7 @@ from pathlib import Path
 from impactid import __version__
 from impactid.contact import HuntCrossley
 from impactid.errors import ImpactidError
-from impactid.rigs.pivoted import SEED001_TABLE1, PivotedFollowerRig, load_rig_toml
+from impactid.rigs import SEED001_TABLE1, PivotedFollowerRig, load_rig_toml
 
 EXIT_INPUT_ERROR = 2
 
@@ -143,6 +143,71 @@ def cmd_simulate(args) -> int:
     return 0
 
 
+def cmd_synth(args) -> int:
+    from data_synth import SensorModel, synth_flat_encoders, synth_pivoted
+    from impactid.contact import Restitution
+    from impactid.rigs import SEED000_TABLE5, FlatFollowerRig
+
+    if args.rig in (None, "pivoted-follower", "flat-follower"):
+        rig = SEED000_TABLE5 if args.rig == "flat-follower" else SEED001_TABLE1
+    else:
+        rig, _ = load_rig_toml(args.rig)
+    noise = {}
+    for item in args.noise_channel or []:
+        name, _, value = item.partition("=")
+        try:
+            noise[name] = float(value)
+        except ValueError:
+            raise ImpactidError(f"--noise-channel expects NAME=FRACTION, got {item!r}") from None
+    cam_speed = args.cam_speed if args.rpm is None else args.rpm / 60.0
+    if cam_speed is None:
+        raise ImpactidError("give the cam speed with --cam-speed HZ or --rpm RPM")
+    if isinstance(rig, FlatFollowerRig):
+        sensors = SensorModel(noise=noise or 0.0, seed=args.seed)
+        synthetic = synth_flat_encoders(rig, cam_speed, args.duration, sample_rate_hz=args.sample_rate or 20_000.0,
+                                        cam_ppr=args.cam_ppr or 5000, follower_ppr=args.follower_ppr,
+                                        cam_zero_offset=args.cam_zero_offset, sensors=sensors)
+    else:
+        if args.e_over_rc is not None:
+            rig = rig.with_eccentricity_ratio(args.e_over_rc)
+        law = (Restitution(gamma=args.gamma) if args.law == "restitution"
+               else HuntCrossley(beta=args.beta, n=args.n, clip=args.clip))
+        sensors = SensorModel(noise=noise or args.noise, adc_bits=args.adc_bits, accel_offset=args.accel_offset,
+                              accel_drift=args.accel_drift, decimation=args.decimate, cam_encoder_ppr=args.cam_ppr,
+                              seed=args.seed)
+        synthetic = synth_pivoted(rig, cam_speed, law, args.duration, settle_s=args.settle,
+                                  sample_rate_hz=args.sample_rate or 204_800.0, sensors=sensors, mu=args.mu)
+    path = synthetic.write(args.out)
+    rec = synthetic.recording
+    print(f"{path}: {rec.rig.model}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
+          f"({', '.join(rec.channels)})")
+    return 0
+
+
+def cmd_info(args) -> int:
+    from impactid.io import read_recording
+
+    rec = read_recording(args.recording, rig=args.rig)
+    info = {
+        "file": rec.source, "rig": rec.rig.model if rec.rig is not None else None,
+        "sample_rate_hz": rec.sample_rate_hz, "start_time_s": rec.start_time_s, "n_samples": rec.n_samples,
+        "duration_s": rec.duration, "operating": dict(rec.operating),
+        "channels": {name: {"units": rec.units[name], "min": float(x.min()), "max": float(x.max())}
+                     for name, x in rec.channels.items()},
+        "provenance": list(rec.provenance),
+    }
+    if args.json:
+        _print_json(info)
+    else:
+        print(f"{info['file']}: rig {info['rig']}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
+              f"({rec.duration:.6g} s from {rec.start_time_s:g} s)")
+        for key, value in rec.operating.items():
+            print(f"  {key} = {value:.6g}")
+        for name, c in info["channels"].items():
+            print(f"  {name} [{c['units']}]: {c['min']:.6g} .. {c['max']:.6g}")
+    return 0
+
+
 # ---- parser -----------------------------------------------------------------------------------
 
 
@@ -199,6 +264,39 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--show", type=int, default=8, help="rows of the contact table to print (last ones)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("synth", help="write a synthetic recording (S2/S3 of rig P, encoders of rig F)")
+    p.add_argument("--rig", default="pivoted-follower", metavar="MODEL|RIG.toml",
+                   help="'pivoted-follower' (seed 001 Table 1), 'flat-follower' (seed 000 Table 5) or a rig file")
+    p.add_argument("--e-over-rc", type=float, default=None, help="eccentricity ratio e/r_c (rig P)")
+    p.add_argument("--cam-speed", type=float, default=None, metavar="HZ", help="cam speed [Hz]")
+    p.add_argument("--rpm", type=float, default=None, help="cam speed [rpm] (instead of --cam-speed)")
+    p.add_argument("--law", choices=["hunt-crossley", "restitution"], default="hunt-crossley",
+                   help="contact law (S2) or restitution law (S3)")
+    _add_law_args(p)
+    p.add_argument("--gamma", type=float, default=0.8, help="restitution law xi = 1 - gamma v_a [s/m] (default 0.8)")
+    p.add_argument("--duration", type=float, default=2.0, help="recorded time [s] (default 2)")
+    p.add_argument("--settle", type=float, default=40.0, help="discarded settling time [s] (default 40)")
+    p.add_argument("--sample-rate", type=float, default=None,
+                   help="sample rate [Hz] (default 204800 for rig P, 20000 for rig F)")
+    p.add_argument("--noise", type=float, default=0.0, help="Gaussian noise, fraction of peak, analogue channels")
+    p.add_argument("--noise-channel", action="append", metavar="NAME=FRACTION", help="noise of one channel")
+    p.add_argument("--adc-bits", type=int, default=None, help="ADC resolution [bits] (default: none)")
+    p.add_argument("--accel-offset", type=float, default=0.0, help="accelerometer offset [m/s^2]")
+    p.add_argument("--accel-drift", type=float, default=0.0, help="accelerometer drift [m/s^2 per s]")
+    p.add_argument("--decimate", type=int, default=1, help="anti-alias filter and decimation factor (default 1)")
+    p.add_argument("--cam-ppr", type=int, default=None, help="cam encoder pulses/rev (rig F default 5000)")
+    p.add_argument("--follower-ppr", type=int, default=10_000, help="follower encoder pulses/rev (rig F)")
+    p.add_argument("--cam-zero-offset", type=float, default=None, help="cam encoder zero [rad] (rig F; default random)")
+    p.add_argument("--seed", type=int, default=0, help="random seed")
+    p.add_argument("--out", required=True, metavar="FILE.h5", help="output HDF5 file")
+    p.set_defaults(func=cmd_synth)
+
+    p = sub.add_parser("info", help="read and validate a recording; print what it holds")
+    p.add_argument("recording", metavar="REC", help="HDF5 or CSV recording")
+    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_info)
     return parser
 
 

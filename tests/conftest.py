@@ -21,3 +21,26 @@ def rig():
 @pytest.fixture(scope="session")
 def seed_law():
     return SEED_LAW
+
+
+@pytest.fixture(scope="session")
+def s2_synthetic():
+    """Noise-free S2 recording at the seed's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
+    from data_synth import synth_pivoted
+
+    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 1.0)
+
+
+@pytest.fixture(scope="session")
+def s2_file(s2_synthetic, tmp_path_factory):
+    """``s2_synthetic`` written to HDF5 (with ``/truth``)."""
+    return s2_synthetic.write(tmp_path_factory.mktemp("s2") / "s2.h5")
+
+
+@pytest.fixture(scope="session")
+def s3_synthetic():
+    """Noise-free S3 recording (restitution law, gamma = 0.8 s/m) at e/r_c 0.2, 16 Hz, 1 s."""
+    from data_synth import synth_pivoted
+    from impactid import Restitution
+
+    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)

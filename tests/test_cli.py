@@ -71,3 +71,45 @@ def test_version(capsys):
         main(["--version"])
     assert info.value.code == 0
     assert "impactid" in capsys.readouterr().out
+
+
+def test_synth_s2_then_info(tmp_path, capsys):
+    out = tmp_path / "s2.h5"
+    assert main(["synth", "--rig", "pivoted-follower", "--e-over-rc", "0.2", "--cam-speed", "16", "--beta", "24.7e9",
+                 "--n", "1.5", "--duration", "0.1", "--settle", "2", "--noise", "0.005", "--adc-bits", "16",
+                 "--out", str(out)]) == 0
+    assert main(["info", str(out), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out.split("\n", 1)[1])
+    assert data["n_samples"] == 20480 and data["operating"]["cam_speed_hz"] == 16.0
+    assert set(data["channels"]) == {"accel_tangential", "force_x", "force_y", "cam_angle"}
+    from impactid.io import read_truth
+
+    truth = read_truth(out)
+    assert truth["law"] == "hunt-crossley" and truth["applied"]["force_x"]["adc_bits"] == 16
+
+
+def test_synth_s3_and_rig_f(tmp_path, capsys):
+    from impactid.io import read_truth
+
+    assert main(["synth", "--law", "restitution", "--gamma", "0.8", "--cam-speed", "16", "--duration", "0.1",
+                 "--settle", "2", "--out", str(tmp_path / "s3.h5")]) == 0
+    assert read_truth(tmp_path / "s3.h5")["gamma"] == 0.8
+    assert main(["synth", "--rig", "flat-follower", "--rpm", "110", "--duration", "0.5",
+                 "--out", str(tmp_path / "f.h5")]) == 0
+    truth = read_truth(tmp_path / "f.h5")
+    assert truth["cam_ppr"] == 5000 and truth["follower_ppr"] == 10_000
+    assert main(["synth", "--rig", "flat-follower", "--rpm", "140", "--out", str(tmp_path / "g.h5")]) == 2
+    assert "detachment" in capsys.readouterr().err
+    assert not (tmp_path / "g.h5").exists()
+
+
+def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):
+    monkeypatch.setenv("IMPACTID_CACHE_DIR", str(tmp_path))
+    from impactid.examples import example_recording, example_recording_path
+
+    path = example_recording_path()
+    assert path.parent == tmp_path
+    mtime = path.stat().st_mtime_ns
+    rec = example_recording()
+    assert rec.n_samples == 204_800 and rec.cam_speed_hz == 16.0 and rec.rig.e_over_rc == pytest.approx(0.2)
+    assert example_recording_path().stat().st_mtime_ns == mtime  # cached, not regenerated

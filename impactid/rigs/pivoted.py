@@ -18,17 +18,15 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 from scipy import optimize
 
 from impactid.errors import RigParameterError
-from impactid.rigs._toml import format_toml, read_toml, write_text_atomic
+from impactid.rigs._toml import format_toml
 
 MODEL_NAME = "pivoted-follower"
 
@@ -412,48 +410,3 @@ SEED001_TABLE1 = PivotedFollowerRig(
     e=0.2 * 0.0175, k_s=3319.0, L_s_u=0.053, d_x=0.035, d_y=0.058, PE_x=0.089, PE_y=0.027,
     Y_c=210e9, Y_b=210e9, nu_c=0.3, nu_b=0.3, mu=0.2, g=9.81,
 )
-
-
-RIG_MODELS: dict[str, type] = {MODEL_NAME: PivotedFollowerRig}
-
-
-def rig_from_mapping(values: Mapping[str, Any], source: str = ""):
-    """Build the rig named by ``values['model']`` (a FORMAT.md rig model name)."""
-    where = f"{source}: " if source else ""
-    model = values.get("model")
-    if model is None:
-        raise RigParameterError(f"{where}rig has no 'model' (expected one of {', '.join(RIG_MODELS)})")
-    if model not in RIG_MODELS:
-        raise RigParameterError(f"{where}unknown rig model {model!r} (known: {', '.join(RIG_MODELS)})")
-    return RIG_MODELS[model].from_mapping(values, source=source)
-
-
-def load_rig_toml(path: str | os.PathLike[str]):
-    """Read the ``[rig]`` table of a TOML rig file (FORMAT.md).
-
-    Returns
-    -------
-    rig : the rig dataclass named by ``model``
-    operating : dict of the ``[operating]`` table (empty if absent), e.g. ``cam_speed_hz``
-
-    Raises
-    ------
-    RigParameterError
-        naming the file and the parameter when the file is missing, malformed, or a parameter is
-        missing, unknown, non-finite or non-physical.
-    """
-    data = read_toml(path)
-    if "rig" not in data or not isinstance(data["rig"], dict):
-        raise RigParameterError(f"{path}: no [rig] table")
-    operating = data.get("operating", {})
-    if not isinstance(operating, dict):
-        raise RigParameterError(f"{path}: [operating] must be a table")
-    for key, value in operating.items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise RigParameterError(f"{path}: operating parameter {key!r} must be a finite number, got {value!r}")
-    return rig_from_mapping(data["rig"], source=str(path)), dict(operating)
-
-
-def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, float] | None = None) -> Path:
-    """Write a rig (and optional operating point) as a TOML rig file, atomically."""
-    return write_text_atomic(path, rig.to_toml(operating))

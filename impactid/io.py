@@ -1,0 +1,732 @@
+"""Recordings: the :class:`Recording` container and its readers and writers (FORMAT.md).
+
+Readers are ``read_<format>(path) -> Recording``; :func:`read_recording` picks one by file type.
+Every problem with a file raises :class:`RecordingError` (an :class:`~impactid.errors.ImpactidError`)
+naming the file, the channel and the problem; suspicious but usable recordings give a
+:class:`RecordingWarning`. Reading never loads the synthetic ``/truth`` group: that is what
+:func:`read_truth` is for, and nothing in the estimation path calls it.
+
+Units are converted at this edge: a channel stored in a known non-SI unit (``g``, ``mm/s^2``,
+``kN``, ``deg``, ...) is converted to SI on reading, and the conversion is recorded in the
+recording's provenance. An unknown unit for a known channel is an error.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+import warnings
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+
+from impactid._scan import channel_scan, count_equal, extreme_stats
+from impactid.errors import ImpactidError, RigParameterError
+from impactid.rigs import load_rig_toml, rig_from_mapping
+from impactid.rigs.registry import RIG_MODELS
+
+FORMAT_NAME = "recording"
+FORMAT_VERSION = 1
+
+#: Channels of FORMAT.md and their SI units.
+CHANNEL_UNITS: Mapping[str, str] = MappingProxyType({
+    "accel_tangential": "m/s^2",
+    "force_x": "N",
+    "force_y": "N",
+    "cam_angle": "rad",
+    "follower_angle": "rad",
+})
+
+# Accepted spellings of units and the factor to SI, per SI unit.
+_UNIT_FACTORS: dict[str, dict[str, float]] = {
+    "m/s^2": {"m/s^2": 1.0, "m/s2": 1.0, "m s^-2": 1.0, "m/s**2": 1.0, "mm/s^2": 1e-3, "g": 9.80665},
+    "N": {"n": 1.0, "kn": 1e3, "mn": 1e-3},
+    "rad": {"rad": 1.0, "radian": 1.0, "radians": 1.0, "deg": math.pi / 180.0, "degree": math.pi / 180.0,
+            "degrees": math.pi / 180.0, "rev": 2.0 * math.pi},
+}
+
+#: Consecutive accelerometer samples at the channel's extreme value that (with a histogram spike
+#: there) mark a clipped, saturated recording.
+CLIP_RUN = 3
+#: A recording shorter than this many cam revolutions gets a warning.
+SHORT_REVOLUTIONS = 3.0
+
+
+class RecordingError(ImpactidError, ValueError):
+    """A recording file is missing, unreadable, malformed or physically inconsistent."""
+
+
+class RecordingWarning(UserWarning):
+    """A recording is usable but suspicious (clipped accelerometer, very short, ...)."""
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A measured (or synthetic) recording with its rig description.
+
+    Attributes
+    ----------
+    channels : read-only mapping of channel name to a read-only 1-D float array (SI units).
+    units : channel name to unit string (SI, after conversion at reading).
+    sample_rate_hz : sampling rate [Hz].
+    start_time_s : time of the first sample [s].
+    rig : the rig dataclass (:class:`~impactid.rigs.PivotedFollowerRig` or
+        :class:`~impactid.rigs.FlatFollowerRig`), or None when the file had none.
+    operating : operating point, e.g. ``cam_speed_hz`` [Hz], ``eccentricity_m`` [m].
+    source : the file the recording was read from ("" if built in memory).
+    provenance : what was done to the data, oldest first (one line per step).
+    """
+
+    channels: Mapping[str, np.ndarray]
+    sample_rate_hz: float
+    units: Mapping[str, str]
+    rig: Any = None
+    operating: Mapping[str, float] = field(default_factory=dict)
+    start_time_s: float = 0.0
+    source: str = ""
+    provenance: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        where = self.source or "recording"
+        rate = self.sample_rate_hz
+        if isinstance(rate, bool) or not isinstance(rate, (int, float, np.floating, np.integer)):
+            raise RecordingError(f"{where}: sample rate must be a number, got {rate!r}")
+        if not math.isfinite(float(rate)) or float(rate) <= 0.0:
+            raise RecordingError(f"{where}: sample rate must be positive and finite, got {rate!r} Hz")
+        object.__setattr__(self, "sample_rate_hz", float(rate))
+        if not math.isfinite(float(self.start_time_s)):
+            raise RecordingError(f"{where}: start_time_s must be finite, got {self.start_time_s!r}")
+        object.__setattr__(self, "start_time_s", float(self.start_time_s))
+        if not self.channels:
+            raise RecordingError(f"{where}: the recording has no channels")
+        channels: dict[str, np.ndarray] = {}
+        ranges: dict[str, tuple[float, float]] = {}
+        length = None
+        for name, data in self.channels.items():
+            array = np.asarray(data)
+            if array.ndim != 1:
+                raise RecordingError(f"{where}: channel {name!r} must be 1-D, got shape {array.shape}")
+            if not (np.issubdtype(array.dtype, np.floating) or np.issubdtype(array.dtype, np.integer)):
+                raise RecordingError(f"{where}: channel {name!r} is not numeric (dtype {array.dtype})")
+            if array.size == 0:
+                raise RecordingError(f"{where}: channel {name!r} is empty")
+            if length is None:
+                length = array.size
+            elif array.size != length:
+                raise RecordingError(
+                    f"{where}: channels have unequal lengths ({name!r} has {array.size} samples, "
+                    f"{next(iter(channels))!r} has {length})")
+            # read-only float arrays are shared; anything else is copied, so that a caller's array
+            # is never frozen or aliased (readers freeze the arrays they own to avoid the copy)
+            if array.dtype != np.float64 or array.flags.writeable:
+                array = _frozen(np.array(array, dtype=np.float64))
+            lo, hi, finite = channel_scan(array)  # one compiled pass: range and finiteness
+            if not finite:
+                bad = ~np.isfinite(array)
+                raise RecordingError(
+                    f"{where}: channel {name!r} has {int(bad.sum())} NaN or Inf sample(s), the first at index "
+                    f"{int(np.argmax(bad))}")
+            channels[name] = array
+            ranges[name] = (float(lo), float(hi))
+        missing_units = [n for n in channels if n not in self.units]
+        if missing_units:
+            raise RecordingError(f"{where}: no units given for channel(s) {', '.join(missing_units)}")
+        object.__setattr__(self, "channels", MappingProxyType(channels))
+        object.__setattr__(self, "_ranges", ranges)
+        object.__setattr__(self, "units", MappingProxyType({n: str(self.units[n]) for n in channels}))
+        operating = {}
+        for key, value in dict(self.operating).items():
+            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+                raise RecordingError(f"{where}: operating parameter {key!r} must be a number, got {value!r}")
+            if not math.isfinite(float(value)):
+                raise RecordingError(f"{where}: operating parameter {key!r} is not finite ({value!r})")
+            operating[key] = float(value)
+        if "cam_speed_hz" in operating and operating["cam_speed_hz"] <= 0.0:
+            raise RecordingError(f"{where}: operating cam_speed_hz must be positive, got {operating['cam_speed_hz']!r}")
+        object.__setattr__(self, "operating", MappingProxyType(operating))
+        object.__setattr__(self, "provenance", tuple(self.provenance))
+        if self.rig is not None and not isinstance(self.rig, tuple(RIG_MODELS.values())):
+            raise RecordingError(f"{where}: rig must be a rig dataclass, got {type(self.rig).__name__}")
+        ecc = operating.get("eccentricity_m")
+        rig_e = getattr(self.rig, "e", None)
+        if ecc is not None and rig_e is not None and not math.isclose(ecc, rig_e, rel_tol=1e-9, abs_tol=1e-12):
+            raise RecordingError(
+                f"{where}: operating eccentricity_m = {ecc!r} m disagrees with the rig's e = {rig_e!r} m")
+
+    # ---- basic properties ----------------------------------------------------------------------
+    @property
+    def n_samples(self) -> int:
+        """Number of samples per channel."""
+        return next(iter(self.channels.values())).size
+
+    @property
+    def duration(self) -> float:
+        """``n_samples / sample_rate_hz`` [s]."""
+        return self.n_samples / self.sample_rate_hz
+
+    @property
+    def time(self) -> np.ndarray:
+        """Sample times [s]: ``start_time_s + k / sample_rate_hz`` (computed exactly from k)."""
+        return self.start_time_s + np.arange(self.n_samples) / self.sample_rate_hz
+
+    @property
+    def cam_speed_hz(self) -> float | None:
+        """Cam speed ``Omega_c`` [Hz] from the operating point (None if unknown)."""
+        return self.operating.get("cam_speed_hz")
+
+    def channel_range(self, name: str) -> tuple[float, float]:
+        """``(min, max)`` of a channel (computed once, when the recording was built)."""
+        self.channel(name)
+        return self._ranges[name]
+
+    def __contains__(self, channel: str) -> bool:
+        return channel in self.channels
+
+    def __getitem__(self, channel: str) -> np.ndarray:
+        return self.channel(channel)
+
+    def channel(self, name: str) -> np.ndarray:
+        """The samples of one channel (read-only), with a clear error if it does not exist."""
+        if name not in self.channels:
+            raise RecordingError(
+                f"{self.source or 'recording'}: no channel {name!r} (has {', '.join(self.channels)})")
+        return self.channels[name]
+
+    def require(self, *names: str, method: str = "this method") -> None:
+        """Raise :class:`RecordingError` unless all channels ``names`` exist (naming the method)."""
+        missing = [n for n in names if n not in self.channels]
+        if missing:
+            raise RecordingError(
+                f"{self.source or 'recording'}: {method} needs channel(s) {', '.join(missing)}, "
+                f"which the recording does not have (it has {', '.join(self.channels)})")
+
+    def require_rig(self, model: str | None = None) -> Any:
+        """The rig, or a :class:`RecordingError` if there is none (or it is not of ``model``)."""
+        where = self.source or "recording"
+        if self.rig is None:
+            raise RecordingError(f"{where}: no rig description (no /rig group; pass a TOML rig file)")
+        if model is not None and self.rig.model != model:
+            raise RecordingError(f"{where}: needs a {model!r} rig, the recording's rig is {self.rig.model!r}")
+        return self.rig
+
+    def require_cam_speed(self) -> float:
+        """``cam_speed_hz`` or a :class:`RecordingError` if the operating point does not give it."""
+        if self.cam_speed_hz is None:
+            raise RecordingError(
+                f"{self.source or 'recording'}: operating point has no cam_speed_hz "
+                "(add it to /operating or to the [operating] table of a TOML rig file)")
+        return self.cam_speed_hz
+
+    # ---- new recordings from this one (never mutating) -----------------------------------------
+    def with_step(self, description: str, **changes: Any) -> Recording:
+        """A new recording with ``changes`` applied and ``description`` appended to the provenance."""
+        return replace(self, provenance=self.provenance + (description,), **changes)
+
+    def with_rig(self, rig: Any, operating: Mapping[str, float] | None = None, why: str = "rig replaced") -> Recording:
+        """A new recording with another rig (and operating values merged over the old ones)."""
+        merged = dict(self.operating)
+        merged.update(operating or {})
+        if getattr(rig, "e", None) is not None and "eccentricity_m" in merged and operating is not None \
+                and "eccentricity_m" not in operating:
+            merged["eccentricity_m"] = rig.e
+        return self.with_step(why, rig=rig, operating=merged)
+
+    def slice_time(self, start: float, stop: float) -> Recording:
+        """The samples with ``start <= t < stop`` [s], as a new recording."""
+        k0 = max(0, int(math.ceil((start - self.start_time_s) * self.sample_rate_hz - 1e-9)))
+        k1 = min(self.n_samples, int(math.ceil((stop - self.start_time_s) * self.sample_rate_hz - 1e-9)))
+        if k1 <= k0:
+            raise RecordingError(f"{self.source or 'recording'}: no samples in [{start}, {stop}) s")
+        return self.with_step(
+            f"slice_time({start!r}, {stop!r}): samples {k0}:{k1}",
+            channels={n: c[k0:k1] for n, c in self.channels.items()},
+            start_time_s=self.start_time_s + k0 / self.sample_rate_hz)
+
+    def check(self) -> list[str]:
+        """Warn about suspicious but usable data; returns the warning texts.
+
+        * a clipped or saturated accelerometer: runs of ``CLIP_RUN`` or more consecutive samples at
+          the channel's extreme value;
+        * a very short recording: fewer than ``SHORT_REVOLUTIONS`` cam revolutions (or 1000 samples
+          when the cam speed is unknown).
+        """
+        where = self.source or "recording"
+        messages = []
+        if "accel_tangential" in self.channels:
+            a = self.channels["accel_tangential"]
+            lo, hi = self.channel_range("accel_tangential")
+            for label, extreme in (("maximum", hi), ("minimum", lo)):
+                # a saturated ADC piles samples on its end code: a spike in the histogram at the
+                # extreme. A quantised smooth plateau also repeats its extreme value, but the next
+                # code inwards is about as populated, so it is not mistaken for clipping.
+                if extreme == 0.0 or count_equal(a, extreme) < CLIP_RUN:
+                    continue  # the common case, decided by one parallel pass
+                count, run, neighbour = extreme_stats(a, extreme, label == "maximum")
+                if run >= CLIP_RUN and extreme != 0.0 and count > 3 * neighbour:
+                    messages.append(
+                        f"{where}: channel 'accel_tangential' looks clipped: {count} samples at its "
+                        f"{label} {extreme:.6g} m/s^2 (longest run {run}); impacts there are unreliable")
+        if self.cam_speed_hz is not None:
+            revs = self.duration * self.cam_speed_hz
+            if revs < SHORT_REVOLUTIONS:
+                messages.append(f"{where}: very short recording: {self.duration:.4g} s is {revs:.3g} cam "
+                                f"revolution(s) (fewer than {SHORT_REVOLUTIONS:g})")
+        elif self.n_samples < 1000:
+            messages.append(f"{where}: very short recording ({self.n_samples} samples)")
+        for message in messages:
+            warnings.warn(message, RecordingWarning, stacklevel=2)
+        return messages
+
+
+def _longest_run(mask: np.ndarray) -> int:
+    if not mask.any():
+        return 0
+    padded = np.concatenate(([False], mask, [False])).astype(np.int8)
+    edges = np.flatnonzero(np.diff(padded))
+    return int((edges[1::2] - edges[0::2]).max())
+
+
+def _to_si(where: str, channel: str, unit: str, data: np.ndarray) -> tuple[np.ndarray, str, str | None]:
+    """Convert a channel to SI; returns (data, SI unit, provenance note or None)."""
+    si = CHANNEL_UNITS.get(channel)
+    if si is None:
+        return data, unit, None  # a channel impactid does not interpret: kept as is
+    table = _UNIT_FACTORS[si]
+    key = unit.strip()
+    factor = table.get(key, table.get(key.lower()))
+    if factor is None:
+        raise RecordingError(
+            f"{where}: channel {channel!r} has units {unit!r}; expected {si!r} "
+            f"(or one of {', '.join(sorted(table))})")
+    if factor == 1.0:
+        return data, si, None
+    return data * factor, si, f"channel {channel!r} converted from {unit} to {si} (x {factor!r})"
+
+
+# ---------------------------------------------------------------------------------------------
+# HDF5
+# ---------------------------------------------------------------------------------------------
+
+def _attr_str(value: Any) -> str:
+    if isinstance(value, bytes):
+        return value.decode("utf-8", errors="replace")
+    if isinstance(value, np.ndarray) and value.shape == ():
+        return _attr_str(value[()])
+    return str(value)
+
+
+def _attr_float(where: str, what: str, value: Any) -> float:
+    try:
+        array = np.asarray(value)
+        if array.size != 1:
+            raise TypeError
+        number = float(array.reshape(()))
+    except (TypeError, ValueError):
+        raise RecordingError(f"{where}: {what} must be a number, got {value!r}") from None
+    return number
+
+
+def _open_hdf5(path: Path):
+    import h5py
+
+    if not path.exists():
+        raise RecordingError(f"{path}: file not found")
+    if path.is_dir():
+        raise RecordingError(f"{path}: is a directory, not a recording")
+    try:
+        return h5py.File(path, "r")
+    except OSError as exc:
+        if not os.access(path, os.R_OK):
+            raise RecordingError(f"{path}: cannot read file (permission denied)") from None
+        raise RecordingError(f"{path}: not an HDF5 file or damaged ({exc})") from None
+
+
+def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
+    """Read an HDF5 recording (FORMAT.md, format version 1).
+
+    Parameters
+    ----------
+    path : the ``.h5`` file.
+    rig : optional rig that supplies or overrides the file's ``/rig``: a rig dataclass or the path
+        of a TOML rig file (whose ``[operating]`` values also override ``/operating``).
+
+    The ``/truth`` group is never read (see :func:`read_truth`).
+    """
+    path = Path(path)
+    where = str(path)
+    import h5py
+
+    try:
+        fh = _open_hdf5(path)
+        with fh:
+            root_kind = fh.attrs.get("impactid_format")
+            if root_kind is not None and _attr_str(root_kind) != FORMAT_NAME:
+                raise RecordingError(
+                    f"{where}: impactid_format is {_attr_str(root_kind)!r}, not a {FORMAT_NAME!r} file")
+            version = fh.attrs.get("format_version")
+            if version is not None and _attr_float(where, "format_version", version) > FORMAT_VERSION:
+                raise RecordingError(f"{where}: format_version {_attr_str(version)} is newer than this "
+                                     f"impactid understands ({FORMAT_VERSION})")
+            signals = fh.get("signals")
+            if signals is None or not isinstance(signals, h5py.Group):
+                raise RecordingError(f"{where}: no /signals group")
+            if "sample_rate_hz" not in signals.attrs:
+                raise RecordingError(f"{where}: /signals has no sample_rate_hz attribute")
+            rate = _attr_float(where, "sample_rate_hz", signals.attrs["sample_rate_hz"])
+            if not math.isfinite(rate) or rate <= 0.0:
+                raise RecordingError(f"{where}: sample_rate_hz must be positive and finite, got {rate!r}")
+            start = _attr_float(where, "start_time_s", signals.attrs.get("start_time_s", 0.0))
+            channels: dict[str, np.ndarray] = {}
+            units: dict[str, str] = {}
+            notes: list[str] = []
+            for name, item in signals.items():
+                if not isinstance(item, h5py.Dataset):
+                    raise RecordingError(f"{where}: /signals/{name} is not a dataset")
+                if "units" not in item.attrs:
+                    raise RecordingError(f"{where}: channel {name!r} has no units attribute")
+                if item.ndim != 1:
+                    raise RecordingError(f"{where}: channel {name!r} must be 1-D, got shape {item.shape}")
+                if item.dtype.kind not in "fiu":
+                    raise RecordingError(f"{where}: channel {name!r} is not numeric (dtype {item.dtype})")
+                data = item[()]
+                data, unit, note = _to_si(where, name, _attr_str(item.attrs["units"]), data)
+                channels[name] = _frozen(data) if data.dtype == np.float64 else data
+                units[name] = unit
+                if note:
+                    notes.append(note)
+            if not channels:
+                raise RecordingError(f"{where}: /signals has no channels")
+            file_rig = None
+            rig_group = fh.get("rig")
+            if rig_group is not None and rig is None:
+                file_rig = _rig_from_attrs(where, rig_group)
+            operating = {}
+            op_group = fh.get("operating")
+            if op_group is not None:
+                for key, value in op_group.attrs.items():
+                    operating[key] = _attr_float(where, f"operating {key}", value)
+            provenance_attr = fh.attrs.get("provenance")
+            earlier = tuple(json.loads(_attr_str(provenance_attr))) if provenance_attr is not None else ()
+    except RecordingError:
+        raise
+    except RigParameterError as exc:
+        raise RecordingError(str(exc)) from None
+    except (OSError, KeyError, ValueError, TypeError, RuntimeError) as exc:
+        raise RecordingError(f"{where}: damaged or malformed HDF5 recording ({type(exc).__name__}: {exc})") from None
+    provenance = earlier + (f"read_hdf5({where})",) + tuple(notes)
+    recording_rig = file_rig
+    if rig is not None:
+        recording_rig, toml_operating, rig_note = _resolve_rig(rig)
+        operating.update(toml_operating)
+        if getattr(recording_rig, "e", None) is not None and "eccentricity_m" in operating \
+                and "eccentricity_m" not in toml_operating:
+            operating["eccentricity_m"] = recording_rig.e
+        provenance += (rig_note,)
+    if recording_rig is None:
+        raise RecordingError(f"{where}: no /rig group and no rig file given (use --rig RIG.toml)")
+    return Recording(channels=channels, sample_rate_hz=rate, units=units, rig=recording_rig, operating=operating,
+                     start_time_s=start, source=where, provenance=provenance)
+
+
+def _rig_from_attrs(where: str, group) -> Any:
+    values: dict[str, Any] = {}
+    for key, value in group.attrs.items():
+        if key == "model":
+            values[key] = _attr_str(value)
+        else:
+            values[key] = _attr_float(where, f"rig parameter {key!r}", value)
+    try:
+        return rig_from_mapping(values, source=f"{where} /rig")
+    except RigParameterError as exc:
+        raise RecordingError(str(exc)) from None
+
+
+def _resolve_rig(rig: Any) -> tuple[Any, dict[str, float], str]:
+    if isinstance(rig, (str, os.PathLike)):
+        try:
+            loaded, operating = load_rig_toml(rig)
+        except RigParameterError as exc:
+            raise RecordingError(str(exc)) from None
+        return loaded, operating, f"rig from {rig}"
+    if isinstance(rig, tuple(RIG_MODELS.values())):
+        return rig, {}, f"rig supplied by the caller ({rig.model})"
+    raise RecordingError(f"rig must be a rig dataclass or a TOML rig file path, got {type(rig).__name__}")
+
+
+def read_truth(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """The ``/truth`` group of a synthetic recording, for validation only.
+
+    Returns a nested dict: attributes as Python scalars/strings, datasets as numpy arrays,
+    subgroups as dicts. Raises :class:`RecordingError` if the file has no ``/truth``.
+    """
+    import h5py
+
+    path = Path(path)
+    fh = _open_hdf5(path)
+    with fh:
+        group = fh.get("truth")
+        if group is None:
+            raise RecordingError(f"{path}: no /truth group (not a synthetic recording)")
+
+        def load(g) -> dict[str, Any]:
+            out: dict[str, Any] = {}
+            for k, v in g.attrs.items():
+                if isinstance(v, (bytes, str)):
+                    out[k] = _attr_str(v)
+                else:
+                    out[k] = v.item() if np.ndim(v) == 0 else np.asarray(v)
+            for k, item in g.items():
+                out[k] = load(item) if isinstance(item, h5py.Group) else item[()]
+            return out
+
+        return load(group)
+
+
+def _atomic_target(path: Path, protect: Iterable[str] = ()) -> tuple[int, str]:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for source in protect:
+        if source and path.exists() and Path(source).exists() and path.resolve() == Path(source).resolve():
+            raise RecordingError(f"{path}: refusing to overwrite the input recording")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual permissions
+    return fd, tmp
+
+
+def _write_group_tree(group, values: Mapping[str, Any]) -> None:
+    for key, value in values.items():
+        if isinstance(value, Mapping):
+            _write_group_tree(group.create_group(key), value)
+        elif isinstance(value, np.ndarray) and value.ndim > 0:
+            group.create_dataset(key, data=value)
+        elif isinstance(value, (list, tuple)) and value and not isinstance(value[0], str):
+            group.create_dataset(key, data=np.asarray(value))
+        elif value is None:
+            group.attrs[key] = "none"
+        elif isinstance(value, (list, tuple)):
+            group.attrs[key] = json.dumps(list(value))
+        else:
+            group.attrs[key] = value
+
+
+def write_hdf5(recording: Recording, path: str | os.PathLike[str], *, truth: Mapping[str, Any] | None = None,
+               compression: str | None = None) -> Path:
+    """Write a recording as HDF5 (FORMAT.md), atomically (temporary file in the same folder, then
+    rename). Refuses to overwrite the file the recording was read from.
+
+    Parameters
+    ----------
+    truth : optional nested mapping written to ``/truth`` (synthetic data): scalars and strings as
+        attributes, arrays as datasets, mappings as subgroups.
+    compression : h5py compression filter for the channels (e.g. ``"gzip"``); none by default so
+        that reading is as fast as possible.
+    """
+    import h5py
+
+    path = Path(path)
+    fd, tmp = _atomic_target(path, [recording.source])
+    os.close(fd)
+    try:
+        # libver v110: object headers and the superblock carry checksums, so a damaged file is
+        # reported by the HDF5 library instead of being parsed (old-format metadata can crash it)
+        with h5py.File(tmp, "w", libver=("v110", "latest")) as fh:
+            fh.attrs["impactid_format"] = FORMAT_NAME
+            fh.attrs["format_version"] = FORMAT_VERSION
+            fh.attrs["provenance"] = json.dumps(list(recording.provenance) + [f"write_hdf5({path})"])
+            signals = fh.create_group("signals")
+            signals.attrs["sample_rate_hz"] = recording.sample_rate_hz
+            signals.attrs["start_time_s"] = recording.start_time_s
+            for name, data in recording.channels.items():
+                ds = signals.create_dataset(name, data=data, compression=compression)
+                ds.attrs["units"] = recording.units[name]
+            if recording.rig is not None:
+                rig_group = fh.create_group("rig")
+                rig_group.attrs["model"] = recording.rig.model
+                for key, value in recording.rig.to_dict().items():
+                    rig_group.attrs[key] = float(value)
+            op = fh.create_group("operating")
+            for key, value in recording.operating.items():
+                op.attrs[key] = float(value)
+            if truth is not None:
+                _write_group_tree(fh.create_group("truth"), truth)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+# ---------------------------------------------------------------------------------------------
+# CSV + TOML
+# ---------------------------------------------------------------------------------------------
+
+#: Largest deviation of a CSV time stamp from the uniform grid, as a fraction of the sample
+#: interval, accepted as rounding of the printed times (a 204.8 kHz recording printed with 9
+#: significant digits deviates by up to about 0.2 %).
+CSV_TIME_TOLERANCE = 0.05
+
+
+def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
+    """Read a CSV recording (a ``time_s`` column and channel columns, SI units) plus its rig.
+
+    Parameters
+    ----------
+    rig : a rig dataclass or a TOML rig file (``[rig]``, ``[operating]``). If omitted, a TOML file
+        next to the CSV with the same stem (``run1.csv`` -> ``run1.toml``) is used.
+    """
+    import pandas as pd
+
+    path = Path(path)
+    where = str(path)
+    if not path.exists():
+        raise RecordingError(f"{where}: file not found")
+    if path.is_dir():
+        raise RecordingError(f"{where}: is a directory, not a recording")
+    try:
+        with warnings.catch_warnings():
+            # pandas only warns when a row has more fields than the header: make it an error
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            frame = pd.read_csv(path, comment="#", skipinitialspace=True, index_col=False, on_bad_lines="error")
+    except pd.errors.ParserWarning as exc:
+        raise RecordingError(f"{where}: malformed CSV (rows longer than the header: {exc})") from None
+    except UnicodeDecodeError:
+        raise RecordingError(f"{where}: not a text CSV file") from None
+    except PermissionError:
+        raise RecordingError(f"{where}: cannot read file (permission denied)") from None
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, OSError) as exc:
+        raise RecordingError(f"{where}: malformed CSV ({type(exc).__name__}: {exc})") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    if "time_s" not in frame.columns:
+        raise RecordingError(f"{where}: malformed CSV: no 'time_s' column (columns: {', '.join(frame.columns)})")
+    if len(frame.columns) != len(set(frame.columns)):
+        raise RecordingError(f"{where}: malformed CSV: duplicate column names")
+    if len(frame) < 2:
+        raise RecordingError(f"{where}: malformed CSV: fewer than two samples")
+    columns: dict[str, np.ndarray] = {}
+    for name in frame.columns:
+        column = frame[name]
+        if column.dtype.kind not in "fiu":
+            values = pd.to_numeric(column, errors="coerce").to_numpy(dtype=float)
+            text = column.astype(str).str.strip().str.lower()
+            bad = np.isnan(values) & column.notna().to_numpy() & ~text.isin(["nan", "inf", "-inf", "+inf"]).to_numpy()
+            if bad.any():
+                row = int(np.argmax(bad))
+                raise RecordingError(
+                    f"{where}: malformed CSV: column {name!r} row {row + 2} is not a number ({column.iloc[row]!r})")
+        columns[name] = column.to_numpy(dtype=float) if column.dtype.kind in "fiu" else values
+    time = columns.pop("time_s")
+    if not np.all(np.isfinite(time)):
+        raise RecordingError(f"{where}: column 'time_s' has NaN or Inf values")
+    if not columns:
+        raise RecordingError(f"{where}: malformed CSV: no channel columns besides 'time_s'")
+    n = time.size
+    if not np.all(np.diff(time) > 0.0):
+        raise RecordingError(f"{where}: time column 'time_s' is not increasing")
+    # sample interval by least squares over all samples: printed times are rounded, and the fit
+    # averages the rounding instead of trusting the first and last stamps
+    k = np.arange(n) - 0.5 * (n - 1)
+    dt = float(np.dot(k, time - time.mean()) / np.dot(k, k))
+    if not dt > 0.0:
+        raise RecordingError(f"{where}: time column 'time_s' is not increasing")
+    deviation = np.abs(time - time.mean() - k * dt)
+    worst = int(np.argmax(deviation))
+    if deviation[worst] > CSV_TIME_TOLERANCE * dt:
+        raise RecordingError(
+            f"{where}: time column 'time_s' is not uniform: sample {worst} at {time[worst]!r} s is "
+            f"{deviation[worst] / dt:.3g} sample intervals off the grid of {dt!r} s")
+    rate = 1.0 / dt
+    if rig is None:
+        sibling = path.with_suffix(".toml")
+        if not sibling.exists():
+            raise RecordingError(f"{where}: a CSV recording needs a rig file (--rig RIG.toml, or {sibling.name} "
+                                 "next to it)")
+        rig = sibling
+    recording_rig, operating, rig_note = _resolve_rig(rig)
+    channels, units, notes = {}, {}, []
+    for name, data in columns.items():
+        data, unit, note = _to_si(where, name, CHANNEL_UNITS.get(name, ""), data)
+        channels[name], units[name] = _frozen(data), unit
+        if note:
+            notes.append(note)
+    if recording_rig is not None and getattr(recording_rig, "e", None) is not None:
+        operating.setdefault("eccentricity_m", recording_rig.e)
+    return Recording(channels=channels, sample_rate_hz=rate, units=units, rig=recording_rig, operating=operating,
+                     start_time_s=float(time[0]), source=where,
+                     provenance=(f"read_csv({where})", rig_note, *notes))
+
+
+def write_csv(recording: Recording, path: str | os.PathLike[str], rig_path: str | os.PathLike[str] | None = None,
+              ) -> tuple[Path, Path]:
+    """Write a recording as CSV (``time_s`` + channels, 17 significant digits) and its TOML rig file.
+
+    The rig file defaults to the CSV path with suffix ``.toml``. Both are written atomically.
+    """
+    from impactid.rigs._toml import write_text_atomic
+
+    path = Path(path)
+    rig_path = Path(rig_path) if rig_path is not None else path.with_suffix(".toml")
+    if recording.rig is None:
+        raise RecordingError(f"{path}: cannot write a CSV recording without a rig")
+    names = list(recording.channels)
+    table = np.column_stack([recording.time] + [recording.channels[n] for n in names])
+    fd, tmp = _atomic_target(path, [recording.source])
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(",".join(["time_s"] + names) + "\n")
+            np.savetxt(fh, table, delimiter=",", fmt="%.17g")
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    write_text_atomic(rig_path, recording.rig.to_toml(dict(recording.operating)))
+    return path, rig_path
+
+
+# ---------------------------------------------------------------------------------------------
+# dispatch
+# ---------------------------------------------------------------------------------------------
+
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def read_recording(path: str | os.PathLike[str], rig: Any = None, *, check: bool = True) -> Recording:
+    """Read a recording, choosing the reader by file type (HDF5 signature or ``.csv`` suffix).
+
+    Parameters
+    ----------
+    rig : optional rig dataclass or TOML rig file that supplies or overrides the file's rig.
+    check : run :meth:`Recording.check` (warnings for clipped or very short recordings).
+    """
+    path = Path(path)
+    if not path.exists():
+        raise RecordingError(f"{path}: file not found")
+    if path.is_dir():
+        raise RecordingError(f"{path}: is a directory, not a recording")
+    try:
+        with path.open("rb") as fh:
+            head = fh.read(8)
+    except PermissionError:
+        raise RecordingError(f"{path}: cannot read file (permission denied)") from None
+    except OSError as exc:
+        raise RecordingError(f"{path}: cannot read file ({exc.strerror})") from None
+    if head == _HDF5_SIGNATURE or path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
+        recording = read_hdf5(path, rig=rig)
+    elif path.suffix.lower() in (".csv", ".txt"):
+        recording = read_csv(path, rig=rig)
+    else:
+        raise RecordingError(f"{path}: unknown recording type (expected HDF5 .h5 or .csv)")
+    if check:
+        recording.check()
+    return recording

@@ -1,0 +1,60 @@
+"""Registry of rig models and the TOML rig-file reader/writer (FORMAT.md)."""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from impactid.errors import RigParameterError
+from impactid.rigs._toml import read_toml, write_text_atomic
+from impactid.rigs.flat import FlatFollowerRig
+from impactid.rigs.pivoted import PivotedFollowerRig
+
+#: FORMAT.md rig ``model`` names and the dataclass of each.
+RIG_MODELS: dict[str, type] = {PivotedFollowerRig.model: PivotedFollowerRig,
+                               FlatFollowerRig.model: FlatFollowerRig}
+
+
+def rig_from_mapping(values: Mapping[str, Any], source: str = ""):
+    """Build the rig named by ``values['model']`` (a FORMAT.md rig model name)."""
+    where = f"{source}: " if source else ""
+    model = values.get("model")
+    if model is None:
+        raise RigParameterError(f"{where}rig has no 'model' (expected one of {', '.join(RIG_MODELS)})")
+    if model not in RIG_MODELS:
+        raise RigParameterError(f"{where}unknown rig model {model!r} (known: {', '.join(RIG_MODELS)})")
+    return RIG_MODELS[model].from_mapping(values, source=source)
+
+
+def load_rig_toml(path: str | os.PathLike[str]):
+    """Read the ``[rig]`` table of a TOML rig file (FORMAT.md).
+
+    Returns
+    -------
+    rig : the rig dataclass named by ``model``
+    operating : dict of the ``[operating]`` table (empty if absent), e.g. ``cam_speed_hz``
+
+    Raises
+    ------
+    RigParameterError
+        naming the file and the parameter when the file is missing, malformed, or a parameter is
+        missing, unknown, non-finite or non-physical.
+    """
+    data = read_toml(path)
+    if "rig" not in data or not isinstance(data["rig"], dict):
+        raise RigParameterError(f"{path}: no [rig] table")
+    operating = data.get("operating", {})
+    if not isinstance(operating, dict):
+        raise RigParameterError(f"{path}: [operating] must be a table")
+    for key, value in operating.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise RigParameterError(f"{path}: operating parameter {key!r} must be a finite number, got {value!r}")
+    return rig_from_mapping(data["rig"], source=str(path)), dict(operating)
+
+
+def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, float] | None = None) -> Path:
+    """Write a rig (and optional operating point) as a TOML rig file, atomically."""
+    return write_text_atomic(path, rig.to_toml(operating))
