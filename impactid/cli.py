@@ -184,10 +184,22 @@ def cmd_synth(args) -> int:
     return 0
 
 
+def _recording_path(args):
+    if args.example:
+        if args.recording:
+            raise ImpactidError("give either a recording or --example, not both")
+        from impactid.examples import example_recording_path
+
+        return example_recording_path()
+    if not args.recording:
+        raise ImpactidError("no recording given (pass a file, or --example for the built-in example)")
+    return args.recording
+
+
 def cmd_info(args) -> int:
     from impactid.io import read_recording
 
-    rec = read_recording(args.recording, rig=args.rig)
+    rec = read_recording(_recording_path(args), rig=args.rig)
     info = {
         "file": rec.source, "rig": rec.rig.model if rec.rig is not None else None,
         "sample_rate_hz": rec.sample_rate_hz, "start_time_s": rec.start_time_s, "n_samples": rec.n_samples,
@@ -205,6 +217,31 @@ def cmd_info(args) -> int:
             print(f"  {key} = {value:.6g}")
         for name, c in info["channels"].items():
             print(f"  {name} [{c['units']}]: {c['min']:.6g} .. {c['max']:.6g}")
+    return 0
+
+
+def cmd_events(args) -> int:
+    from impactid.events import find_events
+    from impactid.io import read_recording
+    from impactid.reconstruct import reconstruct
+
+    rec = read_recording(_recording_path(args), rig=args.rig)
+    events = find_events(rec, threshold=args.threshold, onset_threshold=args.onset_threshold)
+    result = reconstruct(rec, events, integration=args.integration, anchor=args.anchor)
+    table = result.table
+    if args.out:
+        from impactid.reports import write_csv_atomic
+
+        write_csv_atomic(table.reset_index(), args.out)
+    if args.json:
+        _print_json({"events_found": len(events), "events_used": len(table), "noise_sigma": events.noise_sigma,
+                     "warnings": list(result.warnings), "provenance": list(result.provenance),
+                     "table": table.reset_index().to_dict(orient="list")})
+    else:
+        print(f"{rec.source}: {len(events)} events found, {len(table)} reconstructed "
+              f"(integration {result.integration!r}, anchor {result.anchor!r})")
+        cols = ["t_onset", "contact_duration", "alpha_m", "approach_speed", "separation_speed", "xi", "peak_force"]
+        print(table[cols].head(args.show).to_string(float_format=lambda x: f"{x:.6g}"))
     return 0
 
 
@@ -293,10 +330,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_synth)
 
     p = sub.add_parser("info", help="read and validate a recording; print what it holds")
-    p.add_argument("recording", metavar="REC", help="HDF5 or CSV recording")
+    p.add_argument("recording", metavar="REC", nargs="?", help="HDF5 or CSV recording")
+    p.add_argument("--example", action="store_true", help="use the built-in example recording")
     p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_info)
+
+    p = sub.add_parser("events", help="find impacts and reconstruct each one (alpha, v_a, xi, contact force)")
+    p.add_argument("recording", metavar="REC", nargs="?", help="HDF5 or CSV recording")
+    p.add_argument("--example", action="store_true", help="use the built-in example recording")
+    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
+    p.add_argument("--integration", default="rk", choices=["rk", "trapezoid", "simpson", "spectral"],
+                   help="integration method (default rk, as in the paper)")
+    p.add_argument("--anchor", default="return-time", choices=["return-time", "cam-geometry"],
+                   help="integration-constant anchor (default return-time, as in the paper)")
+    p.add_argument("--threshold", type=float, default=None, help="pulse detection level [m/s^2] (default: from noise)")
+    p.add_argument("--onset-threshold", type=float, default=None, help="contact onset level [m/s^2]")
+    p.add_argument("--out", metavar="EVENTS.csv", help="write the per-event table as CSV")
+    p.add_argument("--show", type=int, default=10, help="rows to print")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_events)
     return parser
 
 

@@ -1,0 +1,365 @@
+"""Per-impact kinematics and contact quantities (sections 5.1 and 8.2 of seed 001).
+
+For every usable event of an :class:`~impactid.events.EventTable` (one cam revolution from a
+contact onset to the next):
+
+1. the angular acceleration ``a_t / l_a`` is detrended and integrated twice
+   (:func:`impactid.signal.detrend_integrate`, method by name);
+2. the constant of the second integration is anchored, by name (:data:`ANCHORS`):
+
+   ``return-time``
+       the paper's function Xi (S-19): the free-flight angle from which the follower, starting
+       with the measured rate, covers the measured displacement in the measured flight time.
+       The flight runs from 8 samples after separation to 8 samples before the next onset
+       (both in free flight), so neither end needs a sub-sample contact time; the paper's form
+       (return to the same angle after ``t_e``, taking ``t_a ~ 0``) is the special case of zero
+       displacement. Newton on the compiled free flight with its exact sensitivity. Assumes
+       period-1 motion only through the event window being one revolution.
+   ``cam-geometry``
+       the gap is zero at the contact onset: ``alpha(t0) = contact_angle(Theta(t0))`` with
+       ``Theta`` from the ``cam_angle`` channel (a least-squares line through the event's
+       encoder samples at the nominal cam speed, with half a count added back when the channel
+       is quantised, since an encoder counter truncates).
+
+3. ``Theta(0)``: from the encoder with ``cam-geometry``; otherwise from ``psi_i(alpha(0),
+   Theta) = 0`` on the closing branch (the root where the gap rate is negative), and
+   ``Theta(t) = Theta(0) + 2 pi Omega_c t`` (S-20);
+4. indentation ``-psi_i``, contact force from the pivot forces (S-21) when they exist,
+   ``alpha_m`` (S-22, the sampled maximum refined by a parabola), the approach speed ``v_a``
+   (the gap rate at the sub-sample onset, i.e. (S-28) with the step ``tau`` equal to the onset's
+   distance from the first contact sample; the rate is continuous there in compliant contact),
+   the separation speed (the gap rate where the reconstructed gap reopens, interpolated
+   linearly between samples; the paper's variant, the gap rate at the maximum of ``alpha_dot``,
+   is reported too) and ``xi = v_s / v_a``.
+
+The result holds the per-event table, the contact-phase histories (with 8 samples of margin on
+each side) and, on request, the full histories of any event (recomputed, so that 850 events of a
+60 s recording do not hold gigabytes). The input recording is never modified.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy import optimize
+
+from impactid.errors import ImpactidError
+from impactid.events import EventTable, EventWarning, find_events
+from impactid.io import Recording, RecordingError
+from impactid.rigs.pivoted import PivotedFollowerRig, spring_force
+from impactid.signal import detrend_integrate, get_integrator
+from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
+from impactid.simulate.runs import pack_rig
+
+#: Samples between a free-flight end point of the return-time anchor and a contact.
+ANCHOR_MARGIN = 8
+#: Samples of margin kept around the contact phase in the stored histories.
+HISTORY_MARGIN = 8
+
+
+def _anchor_return_time(ctx: dict) -> np.ndarray:
+    """Constants C (alpha = angle + C) of all events by the return-time condition."""
+    rig, rate_hz = ctx["rig"], ctx["sample_rate_hz"]
+    starts, ends, angles, rates = ctx["free_start"], ctx["free_end"], ctx["angles"], ctx["rates"]
+    n = len(angles)
+    start_rate = np.array([rates[i][starts[i]] for i in range(n)])
+    displacement = np.array([angles[i][ends[i]] - angles[i][starts[i]] for i in range(n)])
+    duration = (ends - starts) / rate_hz
+    guess = np.full(n, rig.static_equilibrium(0.0))
+    out = np.empty((n, 3))
+    return_time_anchors(np.zeros(n), start_rate, duration, displacement, guess, pack_rig(rig), FREE_FLIGHT_STEPS,
+                        1e-14, out)
+    ctx["anchor_iterations"] = out[:, 2]
+    ctx["anchor_slope"] = out[:, 1]
+    return np.array([out[i, 0] - angles[i][starts[i]] for i in range(n)])
+
+
+def _anchor_cam_geometry(ctx: dict) -> np.ndarray:
+    rec: Recording = ctx["recording"]
+    rec.require("cam_angle", method="the 'cam-geometry' anchor")
+    rig = ctx["rig"]
+    theta0 = ctx["theta_onset_encoder"]
+    alpha_onset = np.asarray(rig.contact_angle(theta0))
+    # angle at the sub-sample onset from the first sample and the rate there (a fraction of a sample back)
+    back = ctx["onset_offset"] / ctx["sample_rate_hz"]  # [s]
+    angle_onset = np.array([a[0] for a in ctx["angles"]]) - back * np.array([r[0] for r in ctx["rates"]])
+    ctx["anchor_iterations"] = np.zeros(len(theta0))
+    ctx["anchor_slope"] = np.full(len(theta0), np.nan)
+    return alpha_onset - angle_onset
+
+
+#: Anchoring methods by name.
+ANCHORS: dict[str, Callable[[dict], np.ndarray]] = {
+    "return-time": _anchor_return_time,
+    "cam-geometry": _anchor_cam_geometry,
+}
+
+
+def _encoder_theta(rec: Recording, k0: np.ndarray, k1: np.ndarray, t_onset_rel: np.ndarray, omega: float) -> np.ndarray:
+    """Cam angle at each onset from the encoder channel (least-squares offset at nominal speed)."""
+    cam = rec["cam_angle"]
+    steps = np.diff(cam[: min(cam.size, 20_000)])
+    positive = steps[steps > 0]
+    # an encoder channel holds its count between edges (zero steps) and moves in whole counts
+    multiples = positive / positive.min() if positive.size else positive
+    quantised = bool(positive.size and np.all(np.abs(multiples - np.round(multiples)) < 1e-6)
+                     and (np.any(steps == 0) or np.unique(np.round(multiples)).size > 1))
+    half_count = 0.5 * positive.min() if quantised else 0.0
+    dt = 1.0 / rec.sample_rate_hz
+    out = np.empty(k0.size)
+    for i, (a, b) in enumerate(zip(k0, k1)):
+        tau = (np.arange(a, b) - a) * dt  # time from the first contact sample
+        offset = np.mean(cam[a:b] - omega * tau) + half_count
+        out[i] = offset + omega * t_onset_rel[i]
+    return out
+
+
+def _theta_from_gap(rig: PivotedFollowerRig, alpha0: np.ndarray, rate0: np.ndarray, omega: float) -> np.ndarray:
+    """Cam angle where ``psi_i(alpha0, Theta) = 0`` with the gap closing (S-5 solved for Theta)."""
+    grid = np.linspace(0.0, 2.0 * math.pi, 721)
+    out = np.full(alpha0.size, np.nan)
+    for i, (a, ad) in enumerate(zip(alpha0, rate0)):
+        g = rig.gap(a, grid)
+        roots = []
+        for j in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:])):
+            roots.append(optimize.brentq(lambda th, a=a: float(rig.gap(a, th)), grid[j], grid[j + 1], xtol=1e-15))
+        closing = [th for th in roots if rig.gap_rate(a, ad, th, omega) < 0.0]
+        if closing:
+            out[i] = closing[0]
+        elif roots:  # grazing: take the root nearest the closing side
+            out[i] = min(roots, key=lambda th: rig.gap_rate(a, ad, th, omega))
+    return out
+
+
+@dataclass(frozen=True)
+class EventKinematics:
+    """Histories of one event on its samples (``t`` from the sub-sample onset [s]).
+
+    ``alpha`` [rad], ``alpha_dot`` [rad/s], ``alpha_ddot`` [rad/s^2] (detrended), ``theta`` [rad],
+    ``gap`` [m] (``psi_i``; negative = indentation), ``gap_rate`` [m/s], ``contact_force`` [N]
+    (S-21; None without force channels).
+    """
+
+    event: int
+    t: np.ndarray
+    alpha: np.ndarray
+    alpha_dot: np.ndarray
+    alpha_ddot: np.ndarray
+    theta: np.ndarray
+    gap: np.ndarray
+    gap_rate: np.ndarray
+    contact_force: np.ndarray | None
+
+    @property
+    def indentation(self) -> np.ndarray:
+        """``max(-psi_i, 0)`` [m]."""
+        return np.maximum(-self.gap, 0.0)
+
+
+@dataclass(frozen=True)
+class Reconstruction:
+    """Result of :func:`reconstruct`: per-event table, contact histories, provenance.
+
+    ``table`` columns (one row per processed event): ``t_onset`` [s], ``t_separation`` [s],
+    ``t_next`` [s], ``contact_duration`` [s], ``alpha_onset`` [rad], ``alpha_dot_onset`` [rad/s],
+    ``theta_onset`` [rad], ``alpha_m`` [rad], ``t_alpha_m`` [s from onset], ``approach_speed``
+    ``v_a`` [m/s], ``separation_speed`` [m/s], ``separation_speed_at_max_rate`` [m/s], ``xi``,
+    ``peak_indentation`` [m], ``peak_force`` [N] (NaN without force channels), ``anchor_constant``
+    [rad], ``anchor_iterations``, and the event flags.
+    """
+
+    table: pd.DataFrame
+    contact: dict[int, EventKinematics]
+    integration: str
+    anchor: str
+    rig: PivotedFollowerRig
+    cam_speed_hz: float
+    events: EventTable
+    warnings: tuple[str, ...] = ()
+    provenance: tuple[str, ...] = field(default=())
+    _recording: Recording | None = field(default=None, repr=False)
+
+    def __len__(self) -> int:
+        return len(self.table)
+
+    def event_kinematics(self, event: int) -> EventKinematics:
+        """Full histories of one event (recomputed from the recording)."""
+        if event not in self.table.index:
+            raise KeyError(f"event {event} was not reconstructed (events: {list(self.table.index)[:10]} ...)")
+        return _event_histories(self._recording, self.events.table.loc[event], self.table.loc[event], self.rig,
+                                self.integration, self.cam_speed_hz, full=True)
+
+
+def _window(rec: Recording, row) -> tuple[int, int]:
+    return int(row["onset_index"]), int(row["next_index"])
+
+
+def _event_histories(rec, ev_row, row, rig, integration, cam_speed_hz, full: bool = True) -> EventKinematics:
+    """Histories of a whole event window, recomputed from the recording."""
+    a, b = _window(rec, ev_row)
+    dt = 1.0 / rec.sample_rate_hz
+    add, rate, angle = detrend_integrate(rec["accel_tangential"][a:b] / rig.l_a, dt, integration)
+    return _contact_history(angle, rate, add, rec, a, 0, b - a, float(row["onset_offset"]),
+                            float(row["anchor_constant"]), float(row["theta_onset"]), rig,
+                            2.0 * math.pi * cam_speed_hz, dt, int(ev_row.name))
+
+
+def reconstruct(recording: Recording, events: EventTable | None = None, *, integration="rk",
+                anchor: str = "return-time", rig: PivotedFollowerRig | None = None) -> Reconstruction:
+    """Per-impact kinematics, contact force, approach and separation speeds of every usable event.
+
+    Parameters
+    ----------
+    recording : a rig P recording with ``accel_tangential`` (forces and ``cam_angle`` optional)
+        and ``cam_speed_hz``.
+    events : from :func:`~impactid.events.find_events` (found here with defaults if None).
+    integration : integration method name (:data:`impactid.signal.INTEGRATORS`) or callable.
+    anchor : ``"return-time"`` (the paper's) or ``"cam-geometry"`` (needs ``cam_angle``).
+    rig : overrides the recording's rig.
+
+    Raises
+    ------
+    RecordingError : a needed channel, the rig or the cam speed is missing.
+    ValueError : unknown integration or anchor name (listing the valid ones).
+    ImpactidError : no usable event.
+    """
+    get_integrator(integration)  # validate the name before any work
+    if anchor not in ANCHORS:
+        raise ValueError(f"unknown anchor {anchor!r}; valid: {', '.join(ANCHORS)}")
+    rig = rig if rig is not None else recording.require_rig("pivoted-follower")
+    if not isinstance(rig, PivotedFollowerRig):
+        raise RecordingError(f"{recording.source}: per-impact reconstruction needs a pivoted-follower rig")
+    recording.require("accel_tangential", method="per-impact reconstruction")
+    if anchor == "cam-geometry":
+        recording.require("cam_angle", method="the 'cam-geometry' anchor")
+    cam_speed_hz = recording.require_cam_speed()
+    if events is None:
+        events = find_events(recording)
+    usable = events.usable
+    if usable.empty:
+        raise ImpactidError(f"{recording.source or 'recording'}: no usable impact events "
+                            f"({len(events)} found, none complete and clean)")
+    rate_hz = recording.sample_rate_hz
+    dt = 1.0 / rate_hz
+    omega = 2.0 * math.pi * cam_speed_hz
+    accel = recording["accel_tangential"]
+    k0 = usable["onset_index"].to_numpy()
+    k1 = usable["next_index"].to_numpy()
+    ka = usable["separation_index"].to_numpy()
+    # sub-sample onset: how far (in samples) the onset lies before the first contact sample
+    onset_offset = (usable["onset_index"].to_numpy() - (usable["t_onset"].to_numpy() - recording.start_time_s)
+                    * rate_hz)
+    angles, rates, accs = [], [], []
+    for a, b in zip(k0, k1):
+        add, rate, angle = detrend_integrate(accel[a:b] / rig.l_a, dt, integration)
+        angles.append(angle)
+        rates.append(rate)
+        accs.append(add)
+    ctx = dict(recording=recording, rig=rig, sample_rate_hz=rate_hz, angles=angles, rates=rates,
+               free_start=(ka - k0) + ANCHOR_MARGIN, free_end=(k1 - k0) - 1 - ANCHOR_MARGIN,
+               onset_offset=onset_offset)
+    if anchor == "cam-geometry":
+        ctx["theta_onset_encoder"] = _encoder_theta(recording, k0, k1, -onset_offset * dt, omega)
+    constants = ANCHORS[anchor](ctx)
+    # state at the sub-sample onset (back from the first contact sample by onset_offset samples)
+    alpha_on = np.array([ang[0] for ang in angles]) + constants - onset_offset * dt * np.array([r[0] for r in rates])
+    rate_on = np.array([r[0] for r in rates]) - onset_offset * dt * np.array([x[0] for x in accs])
+    if anchor == "cam-geometry":
+        theta_on = ctx["theta_onset_encoder"]
+    else:
+        theta_on = _theta_from_gap(rig, alpha_on, rate_on, omega)
+    rows = []
+    contact: dict[int, EventKinematics] = {}
+    messages = list(events.warnings)
+    for i, event in enumerate(usable.index):
+        ev_row = usable.loc[event]
+        n_contact = int(ka[i] - k0[i])
+        lo = 0
+        hi = min(n_contact + HISTORY_MARGIN, int(k1[i] - k0[i]))
+        hist = _contact_history(angles[i], rates[i], accs[i], recording, k0[i], lo, hi, onset_offset[i], constants[i],
+                                theta_on[i], rig, omega, dt, event)
+        contact[event] = hist
+        alpha_full = angles[i] + constants[i]
+        j = int(np.argmax(alpha_full))
+        alpha_m, t_m = _parabolic_max(alpha_full, j)
+        v_a = -float(rig.gap_rate(alpha_on[i], rate_on[i], theta_on[i], omega))
+        v_s = _reopening_rate(hist)
+        jmax = int(np.argmax(hist.alpha_dot[:n_contact + 1])) if n_contact >= 1 else 0
+        v_s_paper = float(hist.gap_rate[jmax])
+        rows.append({
+            "t_onset": ev_row["t_onset"], "t_separation": ev_row["t_separation"], "t_next": ev_row["t_next"],
+            "contact_duration": ev_row["t_separation"] - ev_row["t_onset"],
+            "alpha_onset": alpha_on[i], "alpha_dot_onset": rate_on[i], "theta_onset": theta_on[i],
+            "alpha_m": alpha_m, "t_alpha_m": (t_m + onset_offset[i]) * dt,
+            "approach_speed": v_a, "separation_speed": v_s, "separation_speed_at_max_rate": v_s_paper,
+            "xi": v_s / v_a if v_a > 0 else math.nan,
+            "peak_indentation": float(np.max(-hist.gap)),
+            "peak_force": float(np.max(hist.contact_force)) if hist.contact_force is not None else math.nan,
+            "anchor_constant": constants[i], "anchor_iterations": ctx["anchor_iterations"][i],
+            "onset_offset": onset_offset[i],
+            "chattering": bool(ev_row["chattering"]), "not_period1": bool(ev_row["not_period1"]),
+        })
+    table = pd.DataFrame(rows, index=pd.Index(list(usable.index), name="event"))
+    undetermined = table.index[~np.isfinite(table["xi"])].tolist()
+    if undetermined:
+        messages.append(
+            f"{recording.source or 'recording'}: the reconstructed gap does not reopen after the contact at events "
+            f"{undetermined[:12]}{' ...' if len(undetermined) > 12 else ''}: separation speed and xi are undetermined "
+            "there (the angle error exceeds the indentation; noisy or non-period-1 data)")
+    failed = table.index[table["anchor_iterations"] < 0].tolist()
+    if failed:
+        messages.append(f"{recording.source or 'recording'}: the {anchor} anchor did not converge at events {failed}")
+    int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
+    for message in messages[len(events.warnings):]:
+        warnings.warn(message, EventWarning, stacklevel=2)
+    return Reconstruction(
+        table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
+        events=events, warnings=tuple(messages),
+        provenance=events.provenance + (f"reconstruct(integration={int_name!r}, anchor={anchor!r}): "
+                                        f"{len(table)} events",),
+        _recording=recording)
+
+
+def _contact_history(angle, rate, add, rec, a, lo, hi, offset, constant, theta0, rig, omega, dt, event):
+    """Histories on samples ``lo:hi`` of the event window starting at recording sample ``a``."""
+    t = (np.arange(lo, hi) + offset) * dt
+    alpha = angle[lo:hi] + constant
+    theta = theta0 + omega * t
+    gap = rig.gap(alpha, theta)
+    gap_rate = rig.gap_rate(alpha, rate[lo:hi], theta, omega)
+    force = None
+    if "force_x" in rec and "force_y" in rec:
+        nx = rec["force_x"][a + lo:a + hi]
+        ny = rec["force_y"][a + lo:a + hi]
+        fs = spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)
+        force = rig.m_b * rig.l_g * add[lo:hi] + nx * np.sin(alpha) + (ny + fs - rig.m_b * rig.g) * np.cos(alpha)
+    return EventKinematics(event=int(event), t=t, alpha=alpha, alpha_dot=rate[lo:hi], alpha_ddot=add[lo:hi],
+                           theta=theta, gap=gap, gap_rate=gap_rate, contact_force=force)
+
+
+def _parabolic_max(x: np.ndarray, j: int) -> tuple[float, float]:
+    """Maximum of a sampled peak refined by the parabola through three samples: (value, index)."""
+    if 0 < j < x.size - 1:
+        y0, y1, y2 = x[j - 1], x[j], x[j + 1]
+        denom = y0 - 2.0 * y1 + y2
+        if denom < 0.0:
+            s = 0.5 * (y0 - y2) / denom
+            return float(y1 - 0.25 * (y0 - y2) * s), j + s
+    return float(x[j]), float(j)
+
+
+def _reopening_rate(hist: EventKinematics) -> float:
+    """Gap rate where the gap turns positive again after the deepest indentation (interpolated)."""
+    gap = hist.gap
+    deepest = int(np.argmin(gap))
+    after = np.flatnonzero((gap[deepest:-1] <= 0.0) & (gap[deepest + 1:] > 0.0))
+    if after.size == 0:
+        return math.nan
+    j = deepest + int(after[0])
+    w = -gap[j] / (gap[j + 1] - gap[j])
+    return float((1.0 - w) * hist.gap_rate[j] + w * hist.gap_rate[j + 1])
