@@ -11,16 +11,14 @@ As for rig P, the physics lives in pure functions (numpy ufuncs only) and
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
 from impactid.errors import RigParameterError
-from impactid.rigs._toml import format_toml
+from impactid.rigs._params import RigParameters
 
 MODEL_NAME = "flat-follower"
 
@@ -94,7 +92,7 @@ _UNITS = {"R": "m", "e": "m", "x0": "m", "y0": "m", "d": "m", "J": "kg m^2", "K"
 
 
 @dataclass(frozen=True)
-class FlatFollowerRig:
+class FlatFollowerRig(RigParameters):
     """Parameters of rig F (SI units; names as in FORMAT.md).
 
     Attributes
@@ -122,14 +120,7 @@ class FlatFollowerRig:
     spring_length: float
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise RigParameterError(f"rig parameter {f.name!r} must be a number, got {type(value).__name__}")
-            value = float(value)
-            object.__setattr__(self, f.name, value)
-            if not math.isfinite(value):
-                raise RigParameterError(f"rig parameter {f.name!r} is not finite ({value!r})")
+        self._check_numbers()
         for name in ("R", "d", "J", "K", "x0", "spring_length"):
             if getattr(self, name) <= 0.0:
                 raise RigParameterError(
@@ -140,30 +131,6 @@ class FlatFollowerRig:
             raise RigParameterError(
                 "rig parameters place the cam within d + R of the follower pivot: "
                 f"|(x0, y0)| - e = {math.hypot(self.x0, self.y0) - self.e!r} m <= d + R = {self.d + self.R!r} m")
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any], source: str = "") -> FlatFollowerRig:
-        """Build a rig from a mapping of parameter names to values, naming missing/unknown keys."""
-        where = f"{source}: " if source else ""
-        names = [f.name for f in fields(cls)]
-        missing = [n for n in names if n not in values]
-        if missing:
-            raise RigParameterError(f"{where}rig '{MODEL_NAME}' is missing parameter(s) {', '.join(missing)}")
-        unknown = sorted(set(values) - set(names) - {"model"})
-        if unknown:
-            raise RigParameterError(f"{where}unknown rig parameter(s) {', '.join(unknown)} for '{MODEL_NAME}'")
-        try:
-            return cls(**{n: values[n] for n in names})
-        except RigParameterError as exc:
-            raise RigParameterError(f"{where}{exc}") from None
-
-    def to_dict(self) -> dict[str, float]:
-        """Parameters as a plain dict (FORMAT.md names, SI units)."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    def replace(self, **changes: float) -> FlatFollowerRig:
-        """A copy with some parameters changed (validated again)."""
-        return dataclasses.replace(self, **changes)
 
     # ---- geometry and statics ----------------------------------------------------------------
     def gap(self, theta_f, theta_c):
@@ -215,12 +182,6 @@ class FlatFollowerRig:
             return 0.0
         return math.sqrt(best) / (2.0 * math.pi)
 
-    def to_toml(self, operating: Mapping[str, float] | None = None) -> str:
-        """TOML text with ``[rig]`` (model + parameters) and optional ``[operating]`` tables."""
-        tables: dict[str, Mapping[str, Any]] = {"rig": {"model": MODEL_NAME, **self.to_dict()}}
-        if operating:
-            tables["operating"] = dict(operating)
-        return format_toml(tables, header="impactid rig file (SI units; FORMAT.md parameter names)")
 
 
 #: Table 5 of seed 000 (MODEL.md section 2).

@@ -16,17 +16,15 @@ The module has two layers:
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, fields
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 from scipy import optimize
 
 from impactid.errors import RigParameterError
-from impactid.rigs._toml import format_toml
+from impactid.rigs._params import RigParameters
 
 MODEL_NAME = "pivoted-follower"
 
@@ -148,7 +146,7 @@ _UNITS = {
 
 
 @dataclass(frozen=True)
-class PivotedFollowerRig:
+class PivotedFollowerRig(RigParameters):
     """Parameters of rig P (SI units; names as in FORMAT.md).
 
     Attributes
@@ -197,16 +195,7 @@ class PivotedFollowerRig:
 
     # ---- construction and validation -------------------------------------------------------
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-                raise RigParameterError(
-                    f"rig parameter {f.name!r} must be a number, got {type(value).__name__}"
-                )
-            value = float(value)
-            object.__setattr__(self, f.name, value)
-            if not math.isfinite(value):
-                raise RigParameterError(f"rig parameter {f.name!r} is not finite ({value!r})")
+        self._check_numbers()
         positive = ("m_b", "I_b", "l_g", "l_a", "w_b", "r_d", "r_c", "k_s", "L_s_u", "d_x",
                     "PE_x", "Y_c", "Y_b", "g")
         for name in positive:
@@ -237,30 +226,6 @@ class PivotedFollowerRig:
                 "rig parameters place the cam axis E closer to the pivot than h_p + r_c + e: "
                 f"|PE| = {math.hypot(self.PE_x, self.PE_y)!r} m <= {self.contact_distance!r} m"
             )
-
-    @classmethod
-    def from_mapping(cls, values: Mapping[str, Any], source: str = "") -> PivotedFollowerRig:
-        """Build a rig from a mapping of parameter names to values, naming missing/unknown keys."""
-        where = f"{source}: " if source else ""
-        names = [f.name for f in fields(cls)]
-        missing = [n for n in names if n not in values]
-        if missing:
-            raise RigParameterError(f"{where}rig '{MODEL_NAME}' is missing parameter(s) {', '.join(missing)}")
-        unknown = sorted(set(values) - set(names) - {"model"})
-        if unknown:
-            raise RigParameterError(f"{where}unknown rig parameter(s) {', '.join(unknown)} for '{MODEL_NAME}'")
-        try:
-            return cls(**{n: values[n] for n in names})
-        except RigParameterError as exc:
-            raise RigParameterError(f"{where}{exc}") from None
-
-    def to_dict(self) -> dict[str, float]:
-        """Parameters as a plain dict (FORMAT.md names, SI units)."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    def replace(self, **changes: float) -> PivotedFollowerRig:
-        """A copy with some parameters changed (validated again)."""
-        return dataclasses.replace(self, **changes)
 
     def with_eccentricity_ratio(self, e_over_rc: float) -> PivotedFollowerRig:
         """A copy with ``e = e_over_rc * r_c``."""
@@ -396,12 +361,6 @@ class PivotedFollowerRig:
         return optimize.brentq(torque, lo, alpha_c, xtol=1e-16, rtol=4 * np.finfo(float).eps)
 
     # ---- TOML ---------------------------------------------------------------------------------
-    def to_toml(self, operating: Mapping[str, float] | None = None) -> str:
-        """TOML text with ``[rig]`` (model + parameters) and optional ``[operating]`` tables."""
-        tables: dict[str, Mapping[str, Any]] = {"rig": {"model": MODEL_NAME, **self.to_dict()}}
-        if operating:
-            tables["operating"] = dict(operating)
-        return format_toml(tables, header="impactid rig file (SI units; FORMAT.md parameter names)")
 
 
 #: Table 1 of seed 001 with its labels repaired (MODEL.md 1.2); ``e`` for e/r_c = 0.2.
