@@ -100,14 +100,14 @@ def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return edges[0::2], edges[1::2]  # start (inclusive), end (exclusive)
 
 
-def _baseline(x: np.ndarray, lo: int, hi: int, at: np.ndarray) -> np.ndarray | None:
-    """Quadratic least-squares fit to ``x[lo:hi]``, evaluated at indices ``at``."""
+def _baseline(x: np.ndarray, lo: int, hi: int):
+    """Quadratic least-squares fit to ``x[lo:hi]``: a function of sample indices, or None if the
+    window does not fit in the recording."""
     if lo < 0 or hi > x.size or hi - lo < 8:
         return None
-    k = np.arange(lo, hi)
     centre = 0.5 * (lo + hi)
-    coeffs = np.polyfit(k - centre, x[lo:hi], 2)
-    return np.polyval(coeffs, at - centre)
+    coeffs = np.polyfit(np.arange(lo, hi) - centre, x[lo:hi], 2)
+    return lambda at: np.polyval(coeffs, np.asarray(at) - centre)
 
 
 def _subsample_start(r: np.ndarray, k_first: int, direction: int) -> float:
@@ -177,31 +177,32 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         # onset: baseline before the core
         b_lo, b_hi = cs - BASELINE_GAP - BASELINE_LENGTH, cs - BASELINE_GAP
         search = np.arange(b_hi, cs + 1)
-        base = _baseline(x, b_lo, b_hi, search)
-        if base is None:
+        before = _baseline(x, b_lo, b_hi)
+        if before is None:
             flags["truncated"] = True
             rows.append(dict(onset_index=cs, t_onset=np.nan, separation_index=ce, t_separation=np.nan,
                              peak=float(x[peak_index] - level), contact_samples=ce - cs, **flags))
             continue
+        base = before(search)
         dev = x[search] - base
-        peak = float(x[peak_index] - (base[-1]))
+        peak = float(x[peak_index] - base[-1])
         othr = float(onset_threshold) if onset_threshold is not None else max(5.0 * sigma, 1e-6 * abs(peak))
         below = np.flatnonzero(dev <= othr)
         k0 = int(search[below[-1]] + 1) if below.size else int(search[0])
-        rise = x[k0:k0 + 3] - _baseline(x, b_lo, b_hi, np.arange(k0, k0 + 3))
+        rise = x[k0:k0 + 3] - before(np.arange(k0, k0 + 3))
         t_on = _subsample_start(rise, k0, +1)
         # separation: baseline after the core
         a_lo, a_hi = ce + BASELINE_GAP, ce + BASELINE_GAP + BASELINE_LENGTH
         search_a = np.arange(ce - 1, a_lo)
-        base_a = _baseline(x, a_lo, a_hi, search_a)
-        if base_a is None:
+        after = _baseline(x, a_lo, a_hi)
+        if after is None:
             flags["truncated"] = True
             ka, t_sep = ce, float(ce)
         else:
-            dev_a = np.abs(x[search_a] - base_a)
+            dev_a = np.abs(x[search_a] - after(search_a))
             above = np.flatnonzero(dev_a > othr)
             ka = int(search_a[above[-1]] + 1) if above.size else ce
-            fall = x[ka - 3:ka][::-1] - _baseline(x, a_lo, a_hi, np.arange(ka - 1, ka - 4, -1))
+            fall = x[ka - 3:ka][::-1] - after(np.arange(ka - 1, ka - 4, -1))
             t_sep = _subsample_start(fall, ka - 1, -1)
             if np.any(x[ka:a_hi] - level > thr):
                 flags["overlapping"] = True

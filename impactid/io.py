@@ -233,15 +233,6 @@ class Recording:
         """A new recording with ``changes`` applied and ``description`` appended to the provenance."""
         return replace(self, provenance=self.provenance + (description,), **changes)
 
-    def with_rig(self, rig: Any, operating: Mapping[str, float] | None = None, why: str = "rig replaced") -> Recording:
-        """A new recording with another rig (and operating values merged over the old ones)."""
-        merged = dict(self.operating)
-        merged.update(operating or {})
-        if getattr(rig, "e", None) is not None and "eccentricity_m" in merged and operating is not None \
-                and "eccentricity_m" not in operating:
-            merged["eccentricity_m"] = rig.e
-        return self.with_step(why, rig=rig, operating=merged)
-
     def slice_time(self, start: float, stop: float) -> Recording:
         """The samples with ``start <= t < stop`` [s], as a new recording."""
         k0 = max(0, int(math.ceil((start - self.start_time_s) * self.sample_rate_hz - 1e-9)))
@@ -289,14 +280,6 @@ class Recording:
         return messages
 
 
-def _longest_run(mask: np.ndarray) -> int:
-    if not mask.any():
-        return 0
-    padded = np.concatenate(([False], mask, [False])).astype(np.int8)
-    edges = np.flatnonzero(np.diff(padded))
-    return int((edges[1::2] - edges[0::2]).max())
-
-
 def _to_si(where: str, channel: str, unit: str, data: np.ndarray) -> tuple[np.ndarray, str, str | None]:
     """Convert a channel to SI; returns (data, SI unit, provenance note or None)."""
     si = CHANNEL_UNITS.get(channel)
@@ -337,13 +320,18 @@ def _attr_float(where: str, what: str, value: Any) -> float:
     return number
 
 
-def _open_hdf5(path: Path):
-    import h5py
-
+def _check_path(path: Path) -> None:
+    """A clear error for a path that does not exist or is a directory."""
     if not path.exists():
         raise RecordingError(f"{path}: file not found")
     if path.is_dir():
         raise RecordingError(f"{path}: is a directory, not a recording")
+
+
+def _open_hdf5(path: Path):
+    import h5py
+
+    _check_path(path)
     try:
         return h5py.File(path, "r")
     except OSError as exc:
@@ -590,10 +578,7 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
 
     path = Path(path)
     where = str(path)
-    if not path.exists():
-        raise RecordingError(f"{where}: file not found")
-    if path.is_dir():
-        raise RecordingError(f"{where}: is a directory, not a recording")
+    _check_path(path)
     try:
         with warnings.catch_warnings():
             # pandas only warns when a row has more fields than the header: make it an error
@@ -710,10 +695,7 @@ def read_recording(path: str | os.PathLike[str], rig: Any = None, *, check: bool
     check : run :meth:`Recording.check` (warnings for clipped or very short recordings).
     """
     path = Path(path)
-    if not path.exists():
-        raise RecordingError(f"{path}: file not found")
-    if path.is_dir():
-        raise RecordingError(f"{path}: is a directory, not a recording")
+    _check_path(path)
     try:
         with path.open("rb") as fh:
             head = fh.read(8)

@@ -72,7 +72,7 @@ def _anchor_return_time(ctx: dict) -> np.ndarray:
     duration = (ends - starts) / rate_hz
     guess = np.full(n, rig.static_equilibrium(0.0))
     out = np.empty((n, 3))
-    return_time_anchors(np.zeros(n), start_rate, duration, displacement, guess, pack_rig(rig), FREE_FLIGHT_STEPS,
+    return_time_anchors(start_rate, duration, displacement, guess, pack_rig(rig), FREE_FLIGHT_STEPS,
                         1e-14, out)
     ctx["anchor_iterations"] = out[:, 2]
     ctx["anchor_slope"] = out[:, 1]
@@ -192,16 +192,12 @@ class Reconstruction:
         if event not in self.table.index:
             raise KeyError(f"event {event} was not reconstructed (events: {list(self.table.index)[:10]} ...)")
         return _event_histories(self._recording, self.events.table.loc[event], self.table.loc[event], self.rig,
-                                self.integration, self.cam_speed_hz, full=True)
+                                self.integration, self.cam_speed_hz)
 
 
-def _window(rec: Recording, row) -> tuple[int, int]:
-    return int(row["onset_index"]), int(row["next_index"])
-
-
-def _event_histories(rec, ev_row, row, rig, integration, cam_speed_hz, full: bool = True) -> EventKinematics:
+def _event_histories(rec, ev_row, row, rig, integration, cam_speed_hz) -> EventKinematics:
     """Histories of a whole event window, recomputed from the recording."""
-    a, b = _window(rec, ev_row)
+    a, b = int(ev_row["onset_index"]), int(ev_row["next_index"])
     dt = 1.0 / rec.sample_rate_hz
     add, rate, angle = detrend_integrate(rec["accel_tangential"][a:b] / rig.l_a, dt, integration)
     return _contact_history(angle, rate, add, rec, a, 0, b - a, float(row["onset_offset"]),

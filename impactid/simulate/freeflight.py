@@ -32,62 +32,36 @@ def _free_accel_slope(a, p):
 
 
 @njit(cache=True)
+def _derivatives(a, v, sa, sv, p):
+    """Right-hand side of the free flight and of its variational equation."""
+    return v, _free_accel(a, p), sv, _free_accel_slope(a, p) * sa
+
+
+@njit(cache=True)
 def free_flight(alpha0, rate0, duration, p, steps):  # pragma: no cover - compiled
     """Free flight from ``(alpha0, rate0)`` for ``duration`` [s]: returns
     ``(alpha, rate, d alpha / d alpha0, d rate / d alpha0)`` at the end (RK4, ``steps`` steps)."""
     h = duration / steps
-    a = alpha0
-    v = rate0
-    sa = 1.0  # sensitivities to alpha0
-    sv = 0.0
+    a, v, sa, sv = alpha0, rate0, 1.0, 0.0  # state and its sensitivities to alpha0
     for _ in range(steps):
-        k1a = v
-        k1v = _free_accel(a, p)
-        j1 = _free_accel_slope(a, p)
-        k1sa = sv
-        k1sv = j1 * sa
-        a2 = a + 0.5 * h * k1a
-        v2 = v + 0.5 * h * k1v
-        sa2 = sa + 0.5 * h * k1sa
-        sv2 = sv + 0.5 * h * k1sv
-        k2a = v2
-        k2v = _free_accel(a2, p)
-        j2 = _free_accel_slope(a2, p)
-        k2sa = sv2
-        k2sv = j2 * sa2
-        a3 = a + 0.5 * h * k2a
-        v3 = v + 0.5 * h * k2v
-        sa3 = sa + 0.5 * h * k2sa
-        sv3 = sv + 0.5 * h * k2sv
-        k3a = v3
-        k3v = _free_accel(a3, p)
-        j3 = _free_accel_slope(a3, p)
-        k3sa = sv3
-        k3sv = j3 * sa3
-        a4 = a + h * k3a
-        v4 = v + h * k3v
-        sa4 = sa + h * k3sa
-        sv4 = sv + h * k3sv
-        k4a = v4
-        k4v = _free_accel(a4, p)
-        j4 = _free_accel_slope(a4, p)
-        k4sa = sv4
-        k4sv = j4 * sa4
-        a += h / 6.0 * (k1a + 2.0 * k2a + 2.0 * k3a + k4a)
-        v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
-        sa += h / 6.0 * (k1sa + 2.0 * k2sa + 2.0 * k3sa + k4sa)
-        sv += h / 6.0 * (k1sv + 2.0 * k2sv + 2.0 * k3sv + k4sv)
+        k1 = _derivatives(a, v, sa, sv, p)
+        k2 = _derivatives(a + 0.5 * h * k1[0], v + 0.5 * h * k1[1], sa + 0.5 * h * k1[2], sv + 0.5 * h * k1[3], p)
+        k3 = _derivatives(a + 0.5 * h * k2[0], v + 0.5 * h * k2[1], sa + 0.5 * h * k2[2], sv + 0.5 * h * k2[3], p)
+        k4 = _derivatives(a + h * k3[0], v + h * k3[1], sa + h * k3[2], sv + h * k3[3], p)
+        a += h / 6.0 * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0])
+        v += h / 6.0 * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1])
+        sa += h / 6.0 * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2])
+        sv += h / 6.0 * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3])
     return a, v, sa, sv
 
 
 @njit(cache=True)
-def return_time_anchors(start_angle, start_rate, duration, displacement, guess, p, steps, tol,
-                        out):  # pragma: no cover - compiled
+def return_time_anchors(start_rate, duration, displacement, guess, p, steps, tol, out):  # pragma: no cover - compiled
     """For each event, the start angle ``alpha_s`` of a free flight that, from rate
     ``start_rate``, moves by ``displacement`` in ``duration``: Newton on
     ``G(alpha_s) = alpha(duration; alpha_s) - alpha_s - displacement``.
 
-    ``start_angle`` is unused except for shape; ``guess`` holds the initial iterates. Fills
+    ``guess`` holds the initial iterates. Fills
     ``out[i] = (alpha_s, G'(alpha_s), iterations)``; ``iterations`` is -1 if Newton failed.
     """
     for i in range(guess.shape[0]):

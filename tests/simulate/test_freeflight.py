@@ -36,7 +36,7 @@ def test_return_time_anchor_recovers_the_start_angle():
     alpha_true, rate0, duration = 0.0791, 5.2, 0.0600
     end = reference(alpha_true, rate0, duration)[0]
     out = np.empty((1, 3))
-    return_time_anchors(np.zeros(1), np.array([rate0]), np.array([duration]), np.array([end - alpha_true]),
+    return_time_anchors(np.array([rate0]), np.array([duration]), np.array([end - alpha_true]),
                         np.array([0.12]), P, FREE_FLIGHT_STEPS, 1e-14, out)
     assert out[0, 2] > 0  # converged
     assert abs(out[0, 0] - alpha_true) < 1e-10
