@@ -18,7 +18,9 @@ against a local free-flight baseline:
 5. **next onset** ``t_e``: the onset of the following event.
 
 Quality flags per event: ``truncated`` (no room for a baseline before the pulse, or no next
-onset: not usable), ``too_short`` (fewer than 3 samples of contact), ``overlapping`` (the next
+onset: not usable), ``too_short`` (fewer than 3 samples of contact: an impulse, i.e. an
+instantaneous impact; its time is the centroid of the pulse and the reconstruction treats it as
+a velocity jump), ``overlapping`` (the next
 pulse starts within the post-contact baseline window), ``clipped`` (the pulse reaches the
 channel's extreme value for 3 or more samples), ``chattering`` (more than one contact within one
 cam revolution) and ``not_period1`` (spacing or pulse size differs from the neighbours: the
@@ -45,6 +47,9 @@ BASELINE_LENGTH = 64
 #: peak acceleration against the neighbouring events.
 PERIOD_TOLERANCE = 0.01
 PEAK_TOLERANCE = 0.03
+#: Onset threshold, relative to the peak, above which the onset is fitted over the noisy rise
+#: (:func:`_fit_onset`) rather than solved from three samples.
+NOISY_ONSET = 1e-4
 
 
 class EventWarning(UserWarning):
@@ -143,6 +148,36 @@ def _subsample_start(r: np.ndarray, k_first: int, direction: int) -> float:
     return k_first - 0.5 * direction
 
 
+def _fit_onset(x: np.ndarray, baseline, k0: int, peak: float, sigma: float, guess: float) -> float:
+    """Onset in sample units by least squares of ``c (k - t0)^p`` to the noisy rise.
+
+    Used when noise lifts the onset threshold: the three-sample solution then starts from a late
+    first contact sample and cannot reach back more than one sample. The fit takes the samples
+    from 6 before ``k0`` to the first one above 30 % of the peak, with ``t0`` in ``[k0 - 6, k0 + 1]``
+    and ``p`` in [1, 3]. Returns ``guess`` when there are too few samples or the fit fails.
+    """
+    lo = max(k0 - 6, 0)
+    span = np.arange(lo, min(k0 + 40, x.size))
+    dev = x[span] - baseline(span)
+    high = np.flatnonzero(dev > 0.3 * peak)
+    if high.size == 0 or high[0] < 4:
+        return guess
+    span, dev = span[: high[0] + 1], dev[: high[0] + 1]
+
+    def model(q):
+        c, t0, p = q
+        return c * np.power(np.maximum(span - t0, 0.0), p) - dev
+
+    t_guess = min(max(guess, k0 - 5.9), k0 + 0.9)
+    c_guess = max(dev[-1], sigma) / max(span[-1] - t_guess, 1.0) ** 1.5
+    try:
+        fit = optimize.least_squares(model, [c_guess, t_guess, 1.5], x_scale=[c_guess, 1.0, 0.5],
+                                     bounds=([0.0, k0 - 6.0, 1.0], [np.inf, k0 + 1.0, 3.0]))
+    except ValueError:
+        return guess
+    return float(fit.x[1]) if fit.success else guess
+
+
 def find_events(recording: Recording, *, threshold: float | None = None, onset_threshold: float | None = None,
                 channel: str = "accel_tangential", warn: bool = True) -> EventTable:
     """Find the impact events of a recording (see the module docstring for the method).
@@ -191,6 +226,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         k0 = int(search[below[-1]] + 1) if below.size else int(search[0])
         rise = x[k0:k0 + 3] - before(np.arange(k0, k0 + 3))
         t_on = _subsample_start(rise, k0, +1)
+        if othr > NOISY_ONSET * abs(peak):
+            t_on = _fit_onset(x, before, k0, peak, sigma, t_on)
         # separation: baseline after the core
         a_lo, a_hi = ce + BASELINE_GAP, ce + BASELINE_GAP + BASELINE_LENGTH
         search_a = np.arange(ce - 1, a_lo)
@@ -207,6 +244,13 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
             if np.any(x[ka:a_hi] - level > thr):
                 flags["overlapping"] = True
         flags["too_short"] = ka - k0 < 3
+        if flags["too_short"] and ka > k0:
+            # an impulse (instantaneous impact, e.g. the restitution model S3, MODEL.md 1.9): its
+            # area sits in the samples around the impact time with linear-interpolation weights,
+            # so the impact time is the centroid of the deviation
+            dev_i = x[k0:ka] - before(np.arange(k0, ka))
+            if np.all(dev_i > 0):
+                t_on = t_sep = float(np.sum(np.arange(k0, ka) * dev_i) / np.sum(dev_i))
         at_extreme = (x[k0:ka] == hi_x) | (x[k0:ka] == lo_x)
         flags["clipped"] = bool(at_extreme.sum() >= 3)
         rows.append(dict(onset_index=k0, t_onset=recording.start_time_s + t_on / rate, separation_index=ka,
@@ -221,14 +265,13 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     table["spacing"] = table["t_next"] - table["t_onset"]
     table.loc[table.index[-1:], "truncated"] = True  # the last event has no next onset
     messages = _period_check(table, recording.cam_speed_hz)
-    table["usable"] = ~(table["truncated"] | table["too_short"] | table["overlapping"] | table["clipped"])
+    table["usable"] = ~(table["truncated"] | table["overlapping"] | table["clipped"])
     table.index.name = "event"
     where = recording.source or "recording"
     if len(table) == 0:
         messages.append(f"{where}: no impacts found on {channel!r} (threshold {thr:.4g} m/s^2 above the median)")
     else:
-        for flag, text in (("clipped", "clipped pulses"), ("overlapping", "overlapping contacts"),
-                           ("too_short", "contacts shorter than 3 samples")):
+        for flag, text in (("clipped", "clipped pulses"), ("overlapping", "overlapping contacts")):
             bad = table.index[table[flag]].tolist()
             if bad:
                 messages.append(f"{where}: {text} at events {_list(bad)}; they are not used")

@@ -1,0 +1,204 @@
+"""Residuals between measured impact events and their S1 simulations (MODEL.md 1.6).
+
+Every reconstructed event (:mod:`impactid.reconstruct`) is replayed by the compiled simulator
+from its measured onset state ``alpha(0), alpha_dot(0), Theta(0)`` through the contact and the
+free flight to the measured next onset ``t_e``, for each trial law ``(beta, n)`` (S1). The
+residuals per event are
+
+``lambda1``
+    ``(alpha_m(S1) - alpha_m) / alpha_m``: the relative error of the maximum follower angle
+    after the impact. Needs only the accelerometer. Returned **signed**; the paper's L1 is its
+    absolute value.
+``lambda2``
+    ``sqrt(int (F - F_S1)^2 dt) / sqrt(int F^2 dt)``: the relative L2 misfit of the contact
+    force history. Non-negative by construction.
+``lambda3``
+    ``(A - A_S1) / A`` with ``A`` the hysteresis loop area ``oint F d(delta)`` of the contact
+    force against the indentation. Returned signed; the paper's L3 is its absolute value.
+
+Integration rules (stated because they set the residual floor): ``lambda2`` and ``lambda3`` are
+evaluated on the recording's own sample instants of the contact history (from the first contact
+sample to 8 samples after the measured separation, so a simulated contact that outlasts the
+measured one is still compared), with the simulated force and indentation taken at exactly those
+instants (dense output of the simulator). ``lambda2`` uses the trapezoid rule in time; the loop
+area of ``lambda3`` is the trapezoid rule of ``F`` in ``delta`` along the sampled path,
+``sum 0.5 (F_k + F_k+1)(delta_k+1 - delta_k)``, the same rule for measurement and simulation.
+``lambda2`` and ``lambda3`` need the pivot force channels (the measured contact force is S-21).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from impactid.errors import ImpactidError
+from impactid.io import RecordingError
+from impactid.reconstruct import Reconstruction
+from impactid.rigs.pivoted import PivotedFollowerRig
+from impactid.simulate.runs import DEFAULT_TOLERANCES, BatchResult, Tolerances, simulate_events
+
+#: Residual names, and the short aliases accepted on input.
+RESIDUALS = ("lambda1", "lambda2", "lambda3")
+_ALIASES = {"l1": "lambda1", "l2": "lambda2", "l3": "lambda3", "lambda1": "lambda1", "lambda2": "lambda2",
+            "lambda3": "lambda3"}
+
+
+def residual_name(name: str) -> str:
+    """Canonical residual name (``lambda1``/``lambda2``/``lambda3``; ``L1``.. accepted)."""
+    key = str(name).strip().lower()
+    if key not in _ALIASES:
+        raise ValueError(f"unknown residual {name!r}; valid: {', '.join(RESIDUALS)} (or L1, L2, L3)")
+    return _ALIASES[key]
+
+
+def loop_area(force: np.ndarray, indentation: np.ndarray) -> float:
+    """Hysteresis loop area ``oint F d(delta)`` [J] of a sampled contact (trapezoid rule in ``delta``).
+
+    Positive when the force on approach exceeds the force on restitution (energy dissipated).
+    """
+    force = np.asarray(force, dtype=float)
+    delta = np.asarray(indentation, dtype=float)
+    return float(np.sum(0.5 * (force[1:] + force[:-1]) * np.diff(delta)))
+
+
+def force_misfit(t: np.ndarray, measured: np.ndarray, simulated: np.ndarray) -> float:
+    """``sqrt(int (F - F_S1)^2 dt) / sqrt(int F^2 dt)`` by the trapezoid rule on the samples ``t``."""
+    num = np.trapezoid((np.asarray(measured) - np.asarray(simulated)) ** 2, t)
+    den = np.trapezoid(np.asarray(measured) ** 2, t)
+    return math.sqrt(num / den) if den > 0.0 else math.nan
+
+
+@dataclass(frozen=True)
+class EventSet:
+    """The measured events of one recording, ready to be replayed by S1.
+
+    Attributes
+    ----------
+    source : name of the recording (for messages).
+    rig, cam_speed_hz : the rig and its cam speed [Hz].
+    events : event numbers (rows of the reconstruction table).
+    states : (n, 3) onset states ``alpha [rad], alpha_dot [rad/s], Theta [rad]``.
+    t_end : (n,) time from onset to the next onset ``t_e`` [s].
+    alpha_m : (n,) measured maximum follower angle [rad].
+    approach_speed : (n,) measured ``v_a`` [m/s].
+    peak_indentation : (n,) measured peak indentation [m].
+    t : per-event sample instants of the contact history [s from onset].
+    force : per-event measured contact force on ``t`` [N] (None without force channels).
+    indentation : per-event measured indentation on ``t`` [m].
+    dropped : events of the reconstruction left out (non-finite onset state), with the reason.
+    """
+
+    source: str
+    rig: PivotedFollowerRig
+    cam_speed_hz: float
+    events: np.ndarray
+    states: np.ndarray
+    t_end: np.ndarray
+    alpha_m: np.ndarray
+    approach_speed: np.ndarray
+    peak_indentation: np.ndarray
+    t: tuple[np.ndarray, ...]
+    force: tuple[np.ndarray, ...] | None
+    indentation: tuple[np.ndarray, ...]
+    dropped: tuple[str, ...] = ()
+    alpha: tuple[np.ndarray, ...] = ()
+    theta: tuple[np.ndarray, ...] = ()
+    phase_stderr: float = math.nan
+
+    def __len__(self) -> int:
+        return int(self.events.size)
+
+    @classmethod
+    def from_reconstruction(cls, recon: Reconstruction, source: str | None = None) -> EventSet:
+        """Collect the events of a :class:`~impactid.reconstruct.Reconstruction` with finite onset states."""
+        tab = recon.table
+        source = source or (recon._recording.source if recon._recording is not None else None) or "recording"
+        states = tab[["alpha_onset", "alpha_dot_onset", "theta_onset"]].to_numpy(dtype=float)
+        t_end = (tab["t_next"] - tab["t_onset"]).to_numpy(dtype=float)
+        alpha_m = tab["alpha_m"].to_numpy(dtype=float)
+        ok = np.all(np.isfinite(states), axis=1) & np.isfinite(t_end) & (t_end > 0) & np.isfinite(alpha_m)
+        dropped = ()
+        if not np.all(ok):
+            bad = tab.index[~ok].tolist()
+            dropped = (f"{source}: events {bad[:12]}{' ...' if len(bad) > 12 else ''} left out: their onset "
+                       "state (angle, rate or cam angle at the gap zero) could not be reconstructed",)
+        index = tab.index[ok]
+        hist = [recon.contact[int(e)] for e in index]
+        force = None
+        if hist and all(h.contact_force is not None for h in hist):
+            force = tuple(np.asarray(h.contact_force, dtype=float) for h in hist)
+        return cls(source=source, rig=recon.rig, cam_speed_hz=float(recon.cam_speed_hz),
+                   events=np.asarray(index, dtype=int), states=np.ascontiguousarray(states[ok]),
+                   t_end=np.ascontiguousarray(t_end[ok]), alpha_m=alpha_m[ok],
+                   approach_speed=tab["approach_speed"].to_numpy(dtype=float)[ok],
+                   peak_indentation=tab["peak_indentation"].to_numpy(dtype=float)[ok],
+                   t=tuple(np.asarray(h.t, dtype=float) for h in hist), force=force,
+                   indentation=tuple(h.indentation for h in hist), dropped=dropped,
+                   alpha=tuple(np.asarray(h.alpha, dtype=float) for h in hist),
+                   theta=tuple(np.asarray(h.theta, dtype=float) for h in hist),
+                   phase_stderr=float(getattr(recon, "cam_phase_stderr", math.nan)))
+
+    def shift_phase(self, dphi: float) -> EventSet:
+        """The same events with the recording's cam phase moved by ``dphi`` [rad] (cam-phase anchor).
+
+        Every onset stays on the gap zero: ``Theta`` moves by ``dphi``, the onset angle to the contact
+        angle there, and each event's angle history (so ``alpha_m``) by the same amount; the
+        indentation is recomputed. Used to carry the phase's uncertainty into the estimates.
+        """
+        from dataclasses import replace
+
+        theta0 = self.states[:, 2] + dphi
+        alpha0 = np.asarray(self.rig.contact_angle(theta0), dtype=float)
+        shift = alpha0 - self.states[:, 0]
+        states = np.ascontiguousarray(np.column_stack([alpha0, self.states[:, 1], theta0]))
+        alpha = tuple(a + d for a, d in zip(self.alpha, shift))
+        theta = tuple(th + dphi for th in self.theta)
+        indentation = tuple(np.maximum(-np.asarray(self.rig.gap(a, th)), 0.0) for a, th in zip(alpha, theta))
+        return replace(self, states=states, alpha_m=self.alpha_m + shift, alpha=alpha, theta=theta,
+                       indentation=indentation)
+
+    def require(self, residual: str) -> None:
+        """Raise a :class:`RecordingError` if ``residual`` needs data this set does not have."""
+        residual = residual_name(residual)
+        if residual != "lambda1" and self.force is None:
+            raise RecordingError(f"{self.source}: residual {residual} needs the contact force, i.e. the pivot force "
+                                 "channels 'force_x' and 'force_y', which this recording does not have; "
+                                 "use lambda1 (accelerometer only)")
+        if len(self) == 0:
+            raise ImpactidError(f"{self.source}: no event with a reconstructed onset state to simulate")
+
+    def simulate(self, trials: np.ndarray, *, histories: bool = False,
+                 tolerances: Tolerances = DEFAULT_TOLERANCES) -> BatchResult:
+        """Batch S1 of every event for every trial ``(beta, n)`` (histories on the contact samples)."""
+        return simulate_events(self.rig, self.cam_speed_hz, self.states, self.t_end, np.atleast_2d(trials),
+                               grids=list(self.t) if histories else None, tolerances=tolerances)
+
+    def residuals(self, trials: np.ndarray, residual: str = "lambda1", *,
+                  tolerances: Tolerances = DEFAULT_TOLERANCES) -> np.ndarray:
+        """Per-event residuals, shape (n_trials, n_events); signed for lambda1 and lambda3 (see module doc).
+
+        Events whose measured loop area or force norm is not positive get NaN.
+        """
+        residual = residual_name(residual)
+        self.require(residual)
+        trials = np.atleast_2d(np.asarray(trials, dtype=float))
+        batch = self.simulate(trials, histories=residual != "lambda1", tolerances=tolerances)
+        if residual == "lambda1":
+            return (batch.alpha_m - self.alpha_m) / self.alpha_m
+        out = np.empty((trials.shape[0], len(self)))
+        off = batch.grid_offsets
+        for i in range(len(self)):
+            t, f = self.t[i], self.force[i]
+            sim_f = batch.contact_force[:, off[i]:off[i + 1]]
+            if residual == "lambda2":
+                den = np.trapezoid(f ** 2, t)
+                num = np.trapezoid((f[None, :] - sim_f) ** 2, t, axis=1)
+                out[:, i] = np.sqrt(num / den) if den > 0 else math.nan
+            else:
+                area = loop_area(f, self.indentation[i])
+                sim_delta = np.maximum(-batch.gap[:, off[i]:off[i + 1]], 0.0)
+                sim_area = np.sum(0.5 * (sim_f[:, 1:] + sim_f[:, :-1]) * np.diff(sim_delta, axis=1), axis=1)
+                out[:, i] = (area - sim_area) / area if area > 0 else math.nan
+        return out
