@@ -245,6 +245,96 @@ def cmd_events(args) -> int:
     return 0
 
 
+def _progress_bar(enabled: bool):
+    """A one-line progress display on stderr (only when enabled, e.g. stderr is a terminal)."""
+    if not enabled:
+        return None
+
+    def show(stage: str, fraction: float) -> None:
+        width = 30
+        filled = int(round(width * max(0.0, min(fraction, 1.0))))
+        end = "\n" if fraction >= 1.0 else ""
+        print(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}% {stage:<12}", end=end,
+              file=sys.stderr, flush=True)
+
+    return show
+
+
+def _grid_counts(text: str) -> tuple[int, int]:
+    try:
+        parts = [int(x) for x in text.replace("x", ",").split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NB[,NN] grid counts, got {text!r}") from None
+    if len(parts) == 1:
+        parts.append(21)
+    if len(parts) != 2 or min(parts) < 3:
+        raise argparse.ArgumentTypeError(f"grid counts must be NB[,NN] with each >= 3, got {text!r}")
+    return parts[0], parts[1]
+
+
+def cmd_estimate(args) -> int:
+    import warnings as _warnings
+
+    from impactid.estimates import C_BOUNDS, EstimationWarning, estimate
+
+    if args.example:
+        from impactid.examples import example_recording_path
+
+        paths = [example_recording_path()] + list(args.recordings)
+    elif args.recordings:
+        paths = list(args.recordings)
+    else:
+        raise ImpactidError("give one or more recordings, or --example")
+    for p in paths if args.out else ():
+        if Path(args.out).resolve() == Path(p).resolve():
+            raise ImpactidError(f"{args.out}: refusing to overwrite an input recording")
+    rig = None
+    if args.rig:
+        rig, _ = load_rig_toml(args.rig)
+    progress = _progress_bar(args.progress if args.progress is not None else sys.stderr.isatty())
+    with _warnings.catch_warnings():
+        _warnings.simplefilter("ignore", EstimationWarning)  # collected in the result and printed below
+        result = estimate(paths, residual=args.residual, fix_n=args.fix_n,
+                          method="grid" if args.grid else "optimise", grid=args.grid or (41, 21), rig=rig,
+                          integration=args.integration, anchor=args.anchor, c_bounds=C_BOUNDS,
+                          n_bounds=tuple(args.n_range), progress=progress)
+    data = result.to_dict()
+    data["recordings_read"] = [str(p) for p in paths]
+    if args.plots:
+        from impactid.reports import estimate_figures
+
+        data["plots"] = [str(p) for p in estimate_figures(result, args.plots)]
+    if args.out:
+        from impactid.rigs._toml import write_text_atomic
+
+        write_text_atomic(args.out, json.dumps(data, indent=2, default=_json_default, allow_nan=False) + "\n")
+    if args.json:
+        _print_json(data)
+        return 0
+    d, r = result.damping, result.restitution
+    unc = data["uncertainty"]
+    print(f"impactid estimate: {len(paths)} recording(s), {data['impacts_used']} impacts, residual {d.residual}, "
+          f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)")
+    print(f"  beta  = {d.beta:.5g} N s m^-{d.n + 1:.3g}   interval [{unc['beta_interval'][0]:.5g}, "
+          f"{unc['beta_interval'][1]:.5g}]")
+    if d.fixed_n:
+        print(f"  n     = {d.n:.4g} (fixed)")
+    else:
+        tag = "" if d.separable else "   NOT SEPARABLE from beta (see warnings)"
+        print(f"  n     = {d.n:.4g}   interval [{unc['n_interval'][0]:.4g}, {unc['n_interval'][1]:.4g}]{tag}")
+    print(f"  objective (mean {d.residual}) = {d.objective:.4g}")
+    print(f"  gamma = {r.gamma:.5g} +- {r.gamma_stderr:.2g} s/m  (xi = 1 - gamma v_a; HC equivalent beta "
+          f"{r.beta_equivalent:.4g} N s m^-2.5)")
+    print(f"  xi_mean = {r.xi_mean:.5g}, va_mean = {r.va_mean:.5g} m/s, constant r = {r.r_constant:.5g}")
+    for message in result.warnings:
+        print(f"  warning: {message}")
+    if args.out:
+        print(f"  result written to {args.out}")
+    if args.plots:
+        print(f"  figures written to {args.plots}")
+    return 0
+
+
 # ---- parser -----------------------------------------------------------------------------------
 
 
@@ -342,7 +432,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
     p.add_argument("--integration", default="rk", choices=["rk", "trapezoid", "simpson", "spectral"],
                    help="integration method (default rk, as in the paper)")
-    p.add_argument("--anchor", default="return-time", choices=["return-time", "cam-geometry"],
+    p.add_argument("--anchor", default="return-time", choices=["return-time", "cam-geometry", "cam-phase"],
                    help="integration-constant anchor (default return-time, as in the paper)")
     p.add_argument("--threshold", type=float, default=None, help="pulse detection level [m/s^2] (default: from noise)")
     p.add_argument("--onset-threshold", type=float, default=None, help="contact onset level [m/s^2]")
@@ -350,6 +440,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--show", type=int, default=10, help="rows to print")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_events)
+
+    p = sub.add_parser("estimate", help="estimate Hunt-Crossley beta, n and the restitution law from recordings")
+    p.add_argument("recordings", metavar="REC", nargs="*", help="HDF5 or CSV recordings (several: joint fit)")
+    p.add_argument("--example", action="store_true", help="use the built-in example recording")
+    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recordings' rig")
+    p.add_argument("--residual", default="lambda1", choices=["lambda1", "lambda2", "lambda3"],
+                   help="residual minimised (default lambda1: accelerometer only)")
+    p.add_argument("--fix-n", type=float, default=None, metavar="N", help="fix the exponent n (0: viscous)")
+    p.add_argument("--grid", type=_grid_counts, default=None, metavar="NB[,NN]",
+                   help="paper-style grid search with NB values of beta (log) and NN of n instead of the optimiser")
+    p.add_argument("--n-range", type=float, nargs=2, default=[0.5, 2.5], metavar=("LO", "HI"),
+                   help="search bounds of n (default 0.5 2.5)")
+    p.add_argument("--integration", default="rk", choices=["rk", "trapezoid", "simpson", "spectral"],
+                   help="integration method (default rk)")
+    p.add_argument("--anchor", default="cam-phase", choices=["cam-phase", "return-time", "cam-geometry"],
+                   help="integration-constant anchor (default cam-phase)")
+    p.add_argument("--out", metavar="RESULT.json", help="write the result as JSON (atomically)")
+    p.add_argument("--plots", metavar="DIR", help="write figures (hysteresis, restitution, landscape, residuals)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
+    p.set_defaults(func=cmd_estimate)
     return parser
 
 

@@ -399,11 +399,16 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         lc2, n2 = _local_refit(sub, fix_n, n_hat, centre_of, (lc_lo, lc_hi), (n_lo, n_hi))
         obj.n_simulations += sub.n_simulations
         phase_beta_sd = math.hypot(phase_beta_sd, float(obj.beta(lc2, n2)) - float(obj.beta(logc_hat, n_hat)))
+        # (a relative sd of beta is used below: beta shifts multiplicatively along the valley)
         phase_n_sd = math.hypot(phase_n_sd, n2 - n_hat)
     progress("uncertainty", 0.99)
-    beta_iv = _widen(beta_iv, beta_hat, 1.96 * phase_beta_sd)
+    # beta widened in log space (it is positive and was searched on a log scale); n clipped to its bounds
+    log_iv = _widen((math.log(beta_iv[0]), math.log(beta_iv[1])), math.log(beta_hat),
+                    1.96 * math.log1p(phase_beta_sd / beta_hat))
+    beta_iv = (math.exp(log_iv[0]), math.exp(log_iv[1]))
     if fix_n is None:
         n_iv = _widen(n_iv, n_hat, 1.96 * phase_n_sd)
+        n_iv = (max(n_iv[0], n_lo), min(n_iv[1], n_hi))
     if edge:
         notes.append(f"the {residual} objective stays within {indifference:.3g} of its minimum beyond "
                      f"+-{half:.2g} decades of beta about the valley: beta is poorly determined by these data")

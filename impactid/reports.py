@@ -89,3 +89,82 @@ def period1_band(frame: pd.DataFrame) -> pd.DataFrame:
         rows.append({"e_over_rc": ratio, "period1_min_hz": float(np.min(p1)) if p1.size else np.nan,
                      "period1_max_hz": float(np.max(p1)) if p1.size else np.nan, "period1_points": int(p1.size)})
     return pd.DataFrame(rows)
+
+
+# ---------------------------------------------------------------------------------------------
+# estimation figures (impactid estimate --plots)
+# ---------------------------------------------------------------------------------------------
+
+
+def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
+    """Write the figures of an :class:`impactid.estimates.Estimate` to ``out_dir`` (PNG), atomically.
+
+    ``hysteresis.png``: contact force against indentation of the median-speed impact, measured
+    (S-21, when the recording has pivot forces) and simulated at the estimate (Fig. 7 of seed 001);
+    ``restitution.png``: ``xi`` against ``v_a`` with the fitted laws (Fig. 10);
+    ``landscape.png``: mean residual over (n, beta) with the valley and the estimate;
+    ``residuals.png``: per-impact residual at the estimate.
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from impactid.estimates import objective_landscape
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    d, r = result.damping, result.restitution
+    written = []
+    # hysteresis loop of the median-speed event of the first recording
+    es = result.event_sets[0]
+    i = int(np.argsort(es.approach_speed)[len(es) // 2])
+    one = es.__class__(**{**es.__dict__, "events": es.events[i:i + 1], "states": es.states[i:i + 1],
+                          "t_end": es.t_end[i:i + 1], "alpha_m": es.alpha_m[i:i + 1],
+                          "approach_speed": es.approach_speed[i:i + 1],
+                          "peak_indentation": es.peak_indentation[i:i + 1], "t": es.t[i:i + 1],
+                          "force": es.force[i:i + 1] if es.force is not None else None,
+                          "indentation": es.indentation[i:i + 1]})
+    batch = one.simulate(np.array([[d.beta, d.n]]), histories=True)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    if es.force is not None:
+        ax.plot(1e6 * es.indentation[i], es.force[i], "o-", ms=3, label="measured (S-21)")
+    ax.plot(1e6 * np.maximum(-batch.gap[0], 0.0), batch.contact_force[0], "-", label="S1 at the estimate")
+    ax.set(xlabel="indentation [um]", ylabel="contact force [N]",
+           title=f"{es.source}: event {int(es.events[i])}, beta={d.beta:.4g}, n={d.n:.3g}")
+    ax.legend()
+    written.append(save_figure_atomic(fig, out / "hysteresis.png", dpi=120))
+    plt.close(fig)
+    # restitution
+    frame = r.per_impact[r.per_impact["used"]]
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    ax.plot(frame["approach_speed"], frame["xi"], "o", ms=4, label="impacts")
+    v = np.linspace(0.0, max(float(frame["approach_speed"].max()) * 1.2, 1e-3), 50)
+    ax.plot(v, 1.0 - r.gamma * v, "-", label=f"xi = 1 - gamma v_a, gamma = {r.gamma:.4g} s/m")
+    ax.axhline(r.r_constant, ls="--", color="0.5", label=f"constant r = {r.r_constant:.4g}")
+    ax.set(xlabel="approach speed v_a [m/s]", ylabel="xi", ylim=(0, 1.05), title="restitution (Fig. 10 of seed 001)")
+    ax.legend()
+    written.append(save_figure_atomic(fig, out / "restitution.png", dpi=120))
+    plt.close(fig)
+    # landscape with the valley
+    land = d.landscape or objective_landscape(list(result.event_sets), d.residual, delta_ref=d.delta_ref)
+    fig, ax = plt.subplots(figsize=(6.5, 4.8))
+    nn = np.repeat(land.n[:, None], land.log10_c.size, axis=1)
+    mesh = ax.pcolormesh(nn, np.log10(land.beta), np.log10(land.objective), shading="auto", cmap="viridis")
+    fig.colorbar(mesh, ax=ax, label=f"log10 mean {d.residual}")
+    ax.plot(d.valley["n"], np.log10(d.valley["beta"]), "w-", lw=1.5, label="valley beta(n)")
+    ax.plot([d.n], [np.log10(d.beta)], "r*", ms=12, label="estimate")
+    ax.set(xlabel="n", ylabel="log10 beta [N s m^-(n+1)]", title="objective landscape")
+    ax.legend(loc="lower right")
+    written.append(save_figure_atomic(fig, out / "landscape.png", dpi=120))
+    plt.close(fig)
+    # per-impact residuals
+    fig, ax = plt.subplots(figsize=(6.5, 4))
+    for source, part in d.per_event.groupby("source", sort=False):
+        ax.plot(part["event"], part["residual"], "o", ms=4, label=str(source))
+    ax.axhline(0.0, color="0.4", lw=0.8)
+    ax.set(xlabel="event", ylabel=f"{d.residual} (signed)", title=f"per-impact residuals, mean |.| = {d.objective:.3g}")
+    ax.legend(fontsize=8)
+    written.append(save_figure_atomic(fig, out / "residuals.png", dpi=120))
+    plt.close(fig)
+    return written

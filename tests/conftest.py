@@ -44,3 +44,20 @@ def s3_synthetic():
     from impactid import Restitution
 
     return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)
+
+
+@pytest.fixture(scope="session")
+def s2_second_point():
+    """Noise-free S2 recording at the other fast-settling period-1 point (e/r_c 0.25, 15 Hz), 1 s."""
+    from data_synth import synth_pivoted
+
+    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.25), 15.0, SEED_LAW, 1.0)
+
+
+@pytest.fixture(scope="session")
+def s2_noisy():
+    """S2 at e/r_c 0.2, 16 Hz, 4 s, with 0.5 % noise on every channel (seed 3)."""
+    from data_synth import SensorModel, synth_pivoted
+
+    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 4.0,
+                         sensors=SensorModel(noise=0.005, seed=3))

@@ -113,3 +113,30 @@ def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):
     rec = example_recording()
     assert rec.n_samples == 204_800 and rec.cam_speed_hz == 16.0 and rec.rig.e_over_rc == pytest.approx(0.2)
     assert example_recording_path().stat().st_mtime_ns == mtime  # cached, not regenerated
+
+
+def test_estimate_example_fixed_n_writes_the_format_keys(tmp_path, capsys):
+    out = tmp_path / "result.json"
+    assert main(["estimate", "--example", "--fix-n", "1.5", "--out", str(out), "--plots", str(tmp_path / "fig")]) == 0
+    data = json.loads(out.read_text())
+    for key in ("beta", "n", "gamma", "xi_mean", "va_mean", "impacts_used", "residual", "objective"):
+        assert key in data
+    assert data["n"] == 1.5 and data["residual"] == "lambda1" and data["impacts_used"] >= 10
+    assert data["uncertainty"]["beta_interval"][0] <= data["beta"] <= data["uncertainty"]["beta_interval"][1]
+    assert {p.name for p in (tmp_path / "fig").iterdir()} == {"hysteresis.png", "restitution.png", "landscape.png",
+                                                             "residuals.png"}
+    assert "beta" in capsys.readouterr().out
+
+
+def test_estimate_bad_input_exits_2(tmp_path, capsys):
+    assert main(["estimate"]) == 2
+    assert "give one or more recordings" in capsys.readouterr().err
+    assert main(["estimate", str(tmp_path / "missing.h5")]) == 2
+    assert "missing.h5" in capsys.readouterr().err
+
+
+def test_estimate_refuses_to_overwrite_its_input(s2_file, capsys):
+    before = s2_file.read_bytes()
+    assert main(["estimate", str(s2_file), "--fix-n", "1.5", "--out", str(s2_file)]) == 2
+    assert "refusing to overwrite" in capsys.readouterr().err
+    assert s2_file.read_bytes() == before

@@ -1,0 +1,136 @@
+"""Estimation of beta, n and gamma on synthetic recordings with known parameters (issue 5).
+
+Targets of the issue: noise-free with n fixed, beta within 1 %; gamma (S3) within 2 %; joint over
+two operating points beta within 5 % and n within 0.02; a single-recording joint fit recovers
+them or warns; with 0.5 % noise and n fixed, beta within 5 %. Every interval the tool reports must
+contain the true value here.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from impactid.estimates import EstimationWarning, estimate, fit_contact_damping, fit_restitution
+from impactid.io import RecordingError
+from impactid.reconstruct import reconstruct
+from impactid.residuals import EventSet, loop_area, residual_name
+
+BETA, N = 24.7e9, 1.5
+
+
+@pytest.fixture(scope="module")
+def s2_events(s2_synthetic):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return EventSet.from_reconstruction(reconstruct(s2_synthetic.recording, anchor="cam-phase"))
+
+
+def test_residual_names():
+    assert residual_name("L1") == "lambda1" and residual_name("lambda3") == "lambda3"
+    with pytest.raises(ValueError, match="valid: lambda1, lambda2, lambda3"):
+        residual_name("lambda4")
+
+
+def test_loop_area_of_a_spring_dashpot_half_cycle():
+    # delta = A sin(w t) over half a period, F = k delta + c ddelta/dt: oint F ddelta = c A^2 w pi / 2
+    k, c, amp, w = 3.0e6, 250.0, 2e-5, 2 * math.pi * 1500.0
+    t = np.linspace(0.0, math.pi / w, 20001)
+    delta = amp * np.sin(w * t)
+    force = k * delta + c * amp * w * np.cos(w * t)
+    assert loop_area(force, delta) == pytest.approx(c * amp ** 2 * w * math.pi / 2, rel=1e-6)
+
+
+def test_lambda1_is_minimal_at_truth_and_rises_steeply(s2_events):
+    """Table 3: L1 at +-1 % beta and +-1 % n, normalised by its value at the truth."""
+    trials = np.array([[BETA, N], [BETA * 1.01, N], [BETA * 0.99, N], [BETA, N * 1.01], [BETA, N * 0.99]])
+    mean = np.abs(s2_events.residuals(trials, "lambda1")).mean(axis=1)
+    ratio = mean / mean[0]
+    assert mean[0] < 1e-4
+    assert np.all(ratio[1:3] > 20)  # measured ~57
+    assert np.all(ratio[3:] > 300)  # measured ~930: n is the sharper direction, as in the paper
+
+
+def test_lambda2_lambda3_need_the_force_channels(s2_synthetic):
+    rec = s2_synthetic.recording
+    bare = rec.with_step("drop forces", channels={"accel_tangential": rec["accel_tangential"]})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        es = EventSet.from_reconstruction(reconstruct(bare))
+    with pytest.raises(RecordingError, match="force_x"):
+        es.residuals(np.array([[BETA, N]]), "lambda2")
+
+
+def test_fixed_n_noise_free_beta_within_1_percent(s2_events):
+    est = fit_contact_damping(s2_events, fix_n=N)
+    assert abs(est.beta / BETA - 1) < 0.01  # measured 2e-4
+    assert est.beta_interval[0] <= BETA <= est.beta_interval[1]
+    assert est.n == N and est.separable is None
+
+
+def test_grid_method_agrees_with_the_optimiser_to_its_resolution(s2_events):
+    grid = fit_contact_damping(s2_events, fix_n=N, method="grid", grid=(601, 3))
+    step = 6.0 / 600  # decades of c per grid step over the default bounds
+    assert abs(math.log10(grid.beta / BETA)) <= step
+
+
+def test_single_recording_joint_fit_warns_that_beta_n_are_not_separable(s2_events):
+    with pytest.warns(EstimationWarning, match="not separable"):
+        est = fit_contact_damping(s2_events)
+    assert est.separable is False
+    assert est.n_interval[0] <= N <= est.n_interval[1]
+    assert est.n_interval[1] - est.n_interval[0] > 0.25
+
+
+def test_joint_fit_over_two_operating_points(s2_synthetic, s2_second_point):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = estimate([s2_synthetic.recording, s2_second_point.recording])
+    d = result.damping
+    assert d.separable is True
+    assert abs(d.beta / BETA - 1) < 0.05  # measured -2.7 %
+    assert abs(d.n - N) < 0.02  # measured 0.0025
+    assert d.n_interval[0] <= N <= d.n_interval[1]
+    assert d.beta_interval[0] <= BETA <= d.beta_interval[1]
+
+
+def test_noisy_fixed_n_beta_within_5_percent_and_interval_covers_truth(s2_noisy):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = estimate(s2_noisy.recording, fix_n=N)
+    d = result.damping
+    assert abs(d.beta / BETA - 1) < 0.05
+    assert d.beta_interval[0] <= BETA <= d.beta_interval[1]
+    assert d.phase_beta_sd > 0  # the cam phase's error is carried into the interval
+
+
+def test_gamma_from_s3_within_2_percent_and_warns_on_alike_speeds(s3_synthetic):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        recon = reconstruct(s3_synthetic.recording)
+    with pytest.warns(EstimationWarning, match="cannot determine the slope"):
+        fit = fit_restitution(recon.table, recon.rig.k_H)
+    assert abs(fit.gamma / 0.8 - 1) < 0.02  # measured 5e-5
+    assert fit.beta_equivalent == pytest.approx(1.5 * fit.gamma * recon.rig.k_H)
+
+
+def test_restitution_fit_recovers_a_spread_linear_law():
+    rng = np.random.default_rng(1)
+    v = np.linspace(0.1, 0.6, 40)
+    xi = 1 - 0.75 * v + rng.normal(0, 0.003, v.size)
+    table = pd.DataFrame({"approach_speed": np.append(v, 0.3), "xi": np.append(xi, np.nan)})
+    with pytest.warns(EstimationWarning, match="1 impacts without"):
+        fit = fit_restitution(table, 8e9)
+    assert fit.gamma == pytest.approx(0.75, abs=3 * fit.gamma_stderr)
+    assert fit.intercept == pytest.approx(1.0, abs=3 * fit.intercept_stderr)
+    assert fit.impacts_used == 40
+
+
+def test_restitution_warns_outside_the_law_range():
+    table = pd.DataFrame({"approach_speed": [0.5, 1.0, 1.5, 2.0], "xi": [0.6, 0.2, -0.2, -0.6]})
+    with pytest.warns(EstimationWarning, match="outside the law's range"):
+        fit_restitution(table, 8e9)
