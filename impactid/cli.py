@@ -344,6 +344,25 @@ def _add_rig_args(p: argparse.ArgumentParser, with_ratio: bool = True) -> None:
         p.add_argument("--e-over-rc", type=float, default=None, help="eccentricity ratio e/r_c (default: rig's)")
 
 
+def _add_recording_args(p: argparse.ArgumentParser, several: bool = False) -> None:
+    if several:
+        p.add_argument("recordings", metavar="REC", nargs="*", help="HDF5 or CSV recordings (several: joint fit)")
+    else:
+        p.add_argument("recording", metavar="REC", nargs="?", help="HDF5 or CSV recording")
+    p.add_argument("--example", action="store_true", help="use the built-in example recording")
+    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
+
+
+def _add_kinematics_args(p: argparse.ArgumentParser, anchor: str) -> None:
+    from impactid.reconstruct import ANCHORS
+    from impactid.signal import INTEGRATORS
+
+    p.add_argument("--integration", default="rk", choices=list(INTEGRATORS),
+                   help="integration method (default rk, as in the paper)")
+    p.add_argument("--anchor", default=anchor, choices=list(ANCHORS),
+                   help=f"integration-constant anchor (default {anchor}; return-time is the paper's)")
+
+
 def _add_law_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--beta", type=float, default=24.7e9, help="damping coefficient [N s m^-(n+1)] (default 24.7e9)")
     p.add_argument("--n", type=float, default=1.5, help="damping index (default 1.5)")
@@ -420,20 +439,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_synth)
 
     p = sub.add_parser("info", help="read and validate a recording; print what it holds")
-    p.add_argument("recording", metavar="REC", nargs="?", help="HDF5 or CSV recording")
-    p.add_argument("--example", action="store_true", help="use the built-in example recording")
-    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
+    _add_recording_args(p)
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_info)
 
     p = sub.add_parser("events", help="find impacts and reconstruct each one (alpha, v_a, xi, contact force)")
-    p.add_argument("recording", metavar="REC", nargs="?", help="HDF5 or CSV recording")
-    p.add_argument("--example", action="store_true", help="use the built-in example recording")
-    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recording's rig")
-    p.add_argument("--integration", default="rk", choices=["rk", "trapezoid", "simpson", "spectral"],
-                   help="integration method (default rk, as in the paper)")
-    p.add_argument("--anchor", default="return-time", choices=["return-time", "cam-geometry", "cam-phase"],
-                   help="integration-constant anchor (default return-time, as in the paper)")
+    _add_recording_args(p)
+    _add_kinematics_args(p, anchor="return-time")
     p.add_argument("--threshold", type=float, default=None, help="pulse detection level [m/s^2] (default: from noise)")
     p.add_argument("--onset-threshold", type=float, default=None, help="contact onset level [m/s^2]")
     p.add_argument("--out", metavar="EVENTS.csv", help="write the per-event table as CSV")
@@ -442,9 +454,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_events)
 
     p = sub.add_parser("estimate", help="estimate Hunt-Crossley beta, n and the restitution law from recordings")
-    p.add_argument("recordings", metavar="REC", nargs="*", help="HDF5 or CSV recordings (several: joint fit)")
-    p.add_argument("--example", action="store_true", help="use the built-in example recording")
-    p.add_argument("--rig", metavar="RIG.toml", help="rig file that supplies or overrides the recordings' rig")
+    _add_recording_args(p, several=True)
     p.add_argument("--residual", default="lambda1", choices=["lambda1", "lambda2", "lambda3"],
                    help="residual minimised (default lambda1: accelerometer only)")
     p.add_argument("--fix-n", type=float, default=None, metavar="N", help="fix the exponent n (0: viscous)")
@@ -452,10 +462,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="paper-style grid search with NB values of beta (log) and NN of n instead of the optimiser")
     p.add_argument("--n-range", type=float, nargs=2, default=[0.5, 2.5], metavar=("LO", "HI"),
                    help="search bounds of n (default 0.5 2.5)")
-    p.add_argument("--integration", default="rk", choices=["rk", "trapezoid", "simpson", "spectral"],
-                   help="integration method (default rk)")
-    p.add_argument("--anchor", default="cam-phase", choices=["cam-phase", "return-time", "cam-geometry"],
-                   help="integration-constant anchor (default cam-phase)")
+    _add_kinematics_args(p, anchor="cam-phase")
     p.add_argument("--out", metavar="RESULT.json", help="write the result as JSON (atomically)")
     p.add_argument("--plots", metavar="DIR", help="write figures (hysteresis, restitution, landscape, residuals)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
