@@ -131,16 +131,13 @@ class _Objective:
         return float(self.mean(self.per_event(logc, n))[0])
 
 
-def _best_on_scan(values: np.ndarray) -> int:
-    return int(np.argmin(values))
-
-
-def _minimise_logc(obj: _Objective, n: float, lo: float, hi: float, scan: np.ndarray | None = None) -> tuple[float, float]:
+def _minimise_logc(obj: _Objective, n: float, lo: float, hi: float,
+                   scan: np.ndarray | None = None) -> tuple[float, float]:
     """Bounded Brent search of log10 c at fixed n, bracketed by a scan. Returns (log10 c, J)."""
     grid = np.linspace(lo, hi, _SCAN_POINTS)
     if scan is None:
         scan = obj.mean(obj.per_event(grid, n))
-    k = _best_on_scan(scan)
+    k = int(np.argmin(scan))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, grid.size - 1)]
     res = optimize.minimize_scalar(lambda x: obj(x, n), bounds=(a, b), method="bounded",
                                    options={"xatol": _LOGC_XTOL})
@@ -344,18 +341,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         valley_spline = interpolate.CubicSpline(n_rows, valley_c)
         a, b = n_rows[max(k - 1, 0)], n_rows[min(k + 1, n_rows.size - 1)]
 
-        def profile(n: float) -> float:
-            centre = float(valley_spline(n))
-            lo, hi = max(centre - 0.05, lc_lo), min(centre + 0.05, lc_hi)
-            res = optimize.minimize_scalar(lambda x: obj(x, n), bounds=(lo, hi), method="bounded",
-                                           options={"xatol": _LOGC_XTOL})
-            profile.last[n] = float(res.x)
-            return float(res.fun)
-
-        profile.last = {}
-        res = optimize.minimize_scalar(profile, bounds=(a, b), method="bounded", options={"xatol": _N_XTOL})
-        n_hat, j_hat = float(res.x), float(res.fun)
-        logc_hat = profile.last[res.x] if res.x in profile.last else float(valley_spline(n_hat))
+        logc_hat, n_hat, j_hat = _profile_fit(obj, valley_spline, (lc_lo, lc_hi), 0.05, n_range=(a, b))
         if valley_j[k] < j_hat:
             n_hat, logc_hat, j_hat = float(n_rows[k]), float(valley_c[k]), float(valley_j[k])
     progress("uncertainty", 0.65)
@@ -396,7 +382,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         shifted = list(sets)
         shifted[k] = es.shift_phase(es.phase_stderr)
         sub = _Objective(shifted, residual, delta_ref)
-        lc2, n2 = _local_refit(sub, fix_n, n_hat, centre_of, (lc_lo, lc_hi), (n_lo, n_hi))
+        n_range = None if fix_n is not None else (max(n_hat - 0.15, n_lo), min(n_hat + 0.15, n_hi))
+        lc2, n2, _ = _profile_fit(sub, centre_of, (lc_lo, lc_hi), 0.1, n_range=n_range, fix_n=fix_n)
         obj.n_simulations += sub.n_simulations
         phase_beta_sd = math.hypot(phase_beta_sd, float(obj.beta(lc2, n2)) - float(obj.beta(logc_hat, n_hat)))
         # (a relative sd of beta is used below: beta shifts multiplicatively along the valley)
@@ -452,7 +439,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=j_hat, method=method,
         beta_interval=beta_iv, n_interval=n_iv, beta_bootstrap_interval=(float(b_boot[0]), float(b_boot[1])),
         n_bootstrap_interval=(float(n_boot[0]), float(n_boot[1])), indifference=indifference, separable=separable,
-        phase_beta_sd=phase_beta_sd, phase_n_sd=phase_n_sd, valley=valley, per_event=per_event, delta_ref=delta_ref, bootstrap=boot, landscape=land,
+        phase_beta_sd=phase_beta_sd, phase_n_sd=phase_n_sd, valley=valley, per_event=per_event,
+        delta_ref=delta_ref, bootstrap=boot, landscape=land,
         n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes))
 
 
@@ -462,26 +450,27 @@ def _widen(interval, centre, extra):
     return (centre - math.hypot(centre - lo, extra), centre + math.hypot(hi - centre, extra))
 
 
-def _local_refit(obj: _Objective, fix_n, n_hat, centre_of, lc_bounds, n_bounds) -> tuple[float, float]:
-    """Re-minimise near a previous estimate (used for the phase propagation): (log10 c, n)."""
-    def inner(n):
+def _profile_fit(obj: _Objective, centre_of, lc_bounds, c_half: float, *, n_range=None,
+                 fix_n: float | None = None) -> tuple[float, float, float]:
+    """Nested bounded Brent: ``log10 c`` within ``c_half`` decades of ``centre_of(n)`` (the valley),
+    inside a search of ``n`` over ``n_range`` (a profile along the valley; ``fix_n`` instead of
+    ``n_range`` for the inner search alone). Returns ``(log10 c, n, J)``."""
+    found: dict[float, tuple[float, float]] = {}
+
+    def inner(n: float) -> float:
         c0 = float(centre_of(n))
-        lo, hi = max(c0 - 0.1, lc_bounds[0]), min(c0 + 0.1, lc_bounds[1])
-        res = optimize.minimize_scalar(lambda x: obj(x, n), bounds=(lo, hi), method="bounded",
-                                       options={"xatol": _LOGC_XTOL})
-        inner.last[n] = float(res.x)
+        res = optimize.minimize_scalar(lambda x: obj(x, n), method="bounded", options={"xatol": _LOGC_XTOL},
+                                       bounds=(max(c0 - c_half, lc_bounds[0]), min(c0 + c_half, lc_bounds[1])))
+        found[n] = (float(res.x), float(res.fun))
         return float(res.fun)
 
-    inner.last = {}
-    if fix_n is not None:
-        inner(float(fix_n))
-        return inner.last[float(fix_n)], float(fix_n)
-    lo, hi = max(n_hat - 0.15, n_bounds[0]), min(n_hat + 0.15, n_bounds[1])
-    res = optimize.minimize_scalar(inner, bounds=(lo, hi), method="bounded", options={"xatol": _N_XTOL})
-    n2 = float(res.x)
-    if n2 not in inner.last:
-        inner(n2)
-    return inner.last[n2], n2
+    if n_range is None:
+        n = float(fix_n)
+    else:
+        n = float(optimize.minimize_scalar(inner, bounds=n_range, method="bounded", options={"xatol": _N_XTOL}).x)
+    if n not in found:
+        inner(n)
+    return found[n][0], n, found[n][1]
 
 
 def _lattice(obj: _Objective, n_rows, centre, u) -> np.ndarray:

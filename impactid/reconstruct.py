@@ -105,8 +105,9 @@ def _anchor_cam_phase(ctx: dict) -> np.ndarray:
     with one ``Theta_ref`` for all events. Each event's return-time anchor gives an estimate of it
     (from ``psi_i = 0`` at its onset angle); their circular median (robust to a few non-period-1
     events) starts a soft-L1 least-squares fit of the phase to the onset angles
-    (``contact_angle(Theta_ref + Omega t_i) = alpha_i``), which is the recording's phase. The onset angle is then the contact angle at the event's cam
-    angle, with no double-integration error in it; the onset rate stays the integrated one.
+    (``contact_angle(Theta_ref + Omega t_i) = alpha_i``), which is the recording's phase. The
+    onset angle is then the contact angle at the event's cam angle, with no double-integration
+    error in it; the onset rate stays the integrated one.
     """
     constants = _anchor_return_time(ctx)
     rig, omega, t_rel = ctx["rig"], ctx["omega"], ctx["t_onset_rel"]

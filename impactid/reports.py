@@ -119,12 +119,7 @@ def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
     # hysteresis loop of the median-speed event of the first recording
     es = result.event_sets[0]
     i = int(np.argsort(es.approach_speed)[len(es) // 2])
-    one = es.__class__(**{**es.__dict__, "events": es.events[i:i + 1], "states": es.states[i:i + 1],
-                          "t_end": es.t_end[i:i + 1], "alpha_m": es.alpha_m[i:i + 1],
-                          "approach_speed": es.approach_speed[i:i + 1],
-                          "peak_indentation": es.peak_indentation[i:i + 1], "t": es.t[i:i + 1],
-                          "force": es.force[i:i + 1] if es.force is not None else None,
-                          "indentation": es.indentation[i:i + 1]})
+    one = es.subset(i)
     batch = one.simulate(np.array([[d.beta, d.n]]), histories=True)
     fig, ax = plt.subplots(figsize=(6, 4.5))
     if es.force is not None:

@@ -140,6 +140,18 @@ class EventSet:
                    theta=tuple(np.asarray(h.theta, dtype=float) for h in hist),
                    phase_stderr=float(getattr(recon, "cam_phase_stderr", math.nan)))
 
+    def subset(self, index) -> EventSet:
+        """The events at positions ``index`` (an int, slice or index array) of this set."""
+        from dataclasses import replace
+
+        idx = np.atleast_1d(np.arange(len(self))[index])
+        pick = lambda seq: tuple(seq[i] for i in idx) if seq else seq  # noqa: E731
+        return replace(self, events=self.events[idx], states=np.ascontiguousarray(self.states[idx]),
+                       t_end=np.ascontiguousarray(self.t_end[idx]), alpha_m=self.alpha_m[idx],
+                       approach_speed=self.approach_speed[idx], peak_indentation=self.peak_indentation[idx],
+                       t=pick(self.t), force=pick(self.force) if self.force is not None else None,
+                       indentation=pick(self.indentation), alpha=pick(self.alpha), theta=pick(self.theta))
+
     def shift_phase(self, dphi: float) -> EventSet:
         """The same events with the recording's cam phase moved by ``dphi`` [rad] (cam-phase anchor).
 
