@@ -35,6 +35,34 @@ def flat_gap(theta_f, theta_c, R, e, x0, y0, d):
     return X * np.sin(theta_f) - Y * np.cos(theta_f) - d - R
 
 
+def contact_angle_derivatives(theta_c, R, e, x0, y0, d):
+    """``(theta_hat, d theta_hat/d theta_c, d2 theta_hat/d theta_c2)`` of (A-17) [rad, -, rad^-1].
+
+    Uses numpy ufuncs only, so it also compiles with numba for scalars (the rig F simulator).
+    With ``X, Y`` the cam centre, ``q = X^2 + Y^2``, ``s = (d + R) / sqrt(q)`` and
+    ``phi = atan2(Y, X)``: ``theta_hat = arcsin(s) + phi``; ``q' = 2 e (y0 cos - x0 sin)``,
+    ``q'' = -2 e (x0 cos + y0 sin)``, ``phi' = N / q`` with ``N = e (x0 cos + y0 sin + e)``.
+    """
+    c = d + R
+    ct, st = np.cos(theta_c), np.sin(theta_c)
+    X = e * ct + x0
+    Y = e * st + y0
+    q = X * X + Y * Y
+    s = c / np.sqrt(q)
+    value = np.arcsin(s) + np.arctan2(Y, X)
+    dq = 2.0 * e * (y0 * ct - x0 * st)
+    ddq = -2.0 * e * (x0 * ct + y0 * st)
+    N = e * (x0 * ct + y0 * st + e)
+    dphi = N / q
+    ds = -0.5 * s * dq / q
+    root = np.sqrt(1.0 - s * s)
+    first = ds / root + dphi
+    ddphi = dq * (0.5 * q - N) / (q * q)
+    dds = -0.5 * (ds * dq / q + s * (ddq * q - dq * dq) / (q * q))
+    second = dds / root + s * ds * ds / root**3 + ddphi
+    return value, first, second
+
+
 def contact_follower_angle(theta_c, R, e, x0, y0, d, derivatives: int = 0):
     """Follower angle in contact ``theta_hat(theta_c)`` [rad] (A-17) and its analytic derivatives.
 
@@ -45,30 +73,29 @@ def contact_follower_angle(theta_c, R, e, x0, y0, d, derivatives: int = 0):
         up to the order asked [rad, rad/rad, rad/rad^2].
     """
     theta_c = np.asarray(theta_c, dtype=float)
-    c = d + R
+    if derivatives == 0:
+        X = e * np.cos(theta_c) + x0
+        Y = e * np.sin(theta_c) + y0
+        return np.arcsin((d + R) / np.sqrt(X * X + Y * Y)) + np.arctan2(Y, X)
+    value, first, second = contact_angle_derivatives(theta_c, R, e, x0, y0, d)
+    return (value, first) if derivatives == 1 else (value, first, second)
+
+
+def flat_gap_rate(theta_f, rate_f, theta_c, omega, e, x0, y0):
+    """Rate of the gap ``dh/dt`` [m/s] at follower rate ``rate_f`` [rad/s] and cam speed ``omega``
+    [rad/s]: ``X' sin th - Y' cos th + (X cos th + Y sin th) th'`` (A-19 with the cam centre)."""
     ct, st = np.cos(theta_c), np.sin(theta_c)
     X = e * ct + x0
     Y = e * st + y0
-    q = X * X + Y * Y
-    s = c / np.sqrt(q)
-    value = np.arcsin(s) + np.arctan2(Y, X)
-    if derivatives == 0:
-        return value
-    # q' = 2 e (y0 cos - x0 sin), q'' = -2 e (x0 cos + y0 sin); phi = atan2(Y, X), phi' = N / q
-    # with N = e (x0 cos + y0 sin + e); s = c q^-1/2
-    dq = 2.0 * e * (y0 * ct - x0 * st)
-    ddq = -2.0 * e * (x0 * ct + y0 * st)
-    N = e * (x0 * ct + y0 * st + e)
-    dphi = N / q
-    ds = -0.5 * s * dq / q
-    root = np.sqrt(1.0 - s * s)
-    first = ds / root + dphi
-    if derivatives == 1:
-        return value, first
-    ddphi = dq * (0.5 * q - N) / (q * q)
-    dds = -0.5 * (ds * dq / q + s * (ddq * q - dq * dq) / (q * q))
-    second = dds / root + s * ds * ds / root**3 + ddphi
-    return value, first, second
+    cf, sf = np.cos(theta_f), np.sin(theta_f)
+    return -e * omega * st * sf - e * omega * ct * cf + (X * cf + Y * sf) * rate_f
+
+
+def flat_lever(theta_f, theta_c, e, x0, y0):
+    """``dh/dtheta_f = X cos th + Y sin th`` [m]: the follower's lever arm at the contact (A-24)."""
+    X = e * np.cos(theta_c) + x0
+    Y = e * np.sin(theta_c) + y0
+    return X * np.cos(theta_f) + Y * np.sin(theta_f)
 
 
 def flat_spring_torque(theta_f, K, x_A, d, spring_length):

@@ -1,0 +1,556 @@
+"""Impacts of rig F seen by its encoders, and the coefficient of restitution against cam speed.
+
+Seed 000 (section 5.1) takes ``r`` as a linear function of the cam speed, each value estimated
+from impacting runs between 130 and 155 rpm. This module measures it from encoder recordings
+(``cam_angle``, ``follower_angle``) in two ways and fits ``r = a + b omega``.
+
+Relative motion
+    ``d(t) = theta_f(t) - theta_hat(theta_c(t) + offset)`` with ``theta_hat`` a cam profile: a
+    fitted :class:`~impactid.camprofile.GaussianSumProfile` (``impactid cam-fit``) or the rig's
+    analytic contact angle (A-17). The follower can never be inside the cam, so ``d >= 0`` and
+    ``d = 0`` while it rides the cam; ``offset`` (the cam-encoder zero relative to the profile's
+    convention) is the value that puts the riding samples on ``d = 0`` (:func:`align_profile`).
+    At contact ``h_dot = (dh/dtheta_f) d_dot`` exactly (because ``h(theta_hat(theta_c), theta_c) = 0``),
+    so the restitution law ``h_dot+ = -r h_dot-`` reads ``d_dot+ = -r d_dot-``: the geometry of the
+    rig is not needed, only the profile.
+
+Impact-law method (:func:`first_impacts`)
+    Each cam revolution of impacting motion has one long flight (the follower leaves the cam,
+    flies, lands); the landing is the *first impact*, followed by a first bounce and a chattering
+    sequence. The samples before and after the first impact are fitted jointly with
+    ``d = v- tau + A tau^2 / 2 + c- tau^3`` (``tau < 0``) and ``d = v+ tau + A tau^2 / 2 + c+ tau^3``
+    (``0 < tau`` < the bounce's end), ``tau = t - t_1``, by nonlinear least squares over
+    ``(t_1, v-, v+, A, c-, c+)``: the impact is on the profile (``d(t_1) = 0``) and the relative
+    acceleration ``A`` is continuous through it (the follower's angle is). Fitting whole flights
+    (hundreds of samples) instead of differencing quantised counts gives the rates to a fraction
+    of a percent; ``r = -v+ / v-``. The first bounce's height is the maximum of the fitted bounce.
+
+First-bounce method (:func:`restitution_at_speed` with ``method="first-bounce"``)
+    The seed's own method: ``r`` is the value for which the model's steady motion at that cam
+    speed has the observed first-bounce height. It needs the rig's model (A-10, A-17) and is as
+    good as that model; the impact-law method needs only the profile.
+
+Encoder quantisation: counts are floors of the angle, so half a count is added before use (the
+quantisation error then has zero mean).
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import optimize
+
+from impactid.errors import ImpactidError
+from impactid.io import Recording
+from impactid.rigs.flat import FlatFollowerRig
+
+#: Joint-fit window on each side of a first impact [s]: long enough for hundreds of samples, short
+#: enough that a cubic describes the smooth free flight (and the cam's motion) to far below a count.
+FIT_WINDOW_S = 0.025
+#: The first bounce's end is searched for up to this many fit windows after the impact.
+BOUNCE_SEARCH = 4
+#: Samples next to the impact left out of the fit (the sample straddling it mixes both sides).
+IMPACT_GUARD_SAMPLES = 1.5
+#: A flight rises more than this many follower counts above the cam.
+FLIGHT_THRESHOLD_COUNTS = 3.0
+#: Moving-average length that smooths the quantisation sawtooth before flights are located [s]
+#: (detection only: the fits use the raw samples).
+SMOOTHING_S = 0.002
+
+
+class EncoderImpactError(ImpactidError, ValueError):
+    """An encoder recording cannot give impacts (missing channel, no flight, no riding, ...)."""
+
+
+class EncoderImpactWarning(UserWarning):
+    """An impact measurement is doubtful (few impacts, scattered estimates, method outside its range)."""
+
+
+def encoder_step(angle: np.ndarray) -> float:
+    """Count size of a quantised angle channel [rad], 0 when the channel is not quantised.
+
+    The smallest positive difference between consecutive samples is a count when every difference
+    is a whole multiple of it (to 1e-6 of a count).
+    """
+    d = np.abs(np.diff(np.asarray(angle, dtype=float)))
+    d = d[d > 0.0]
+    if d.size == 0:
+        return 0.0
+    step = float(d.min())
+    ratio = d / step
+    return step if np.all(np.abs(ratio - np.round(ratio)) < 1e-6) else 0.0
+
+
+def _channel(recording: Recording, name: str) -> np.ndarray:
+    if name not in recording.channels:
+        raise EncoderImpactError(f"{recording.source or 'recording'}: channel {name!r} is missing "
+                                 "(rig F impacts need 'cam_angle' and 'follower_angle')")
+    x = np.asarray(recording.channels[name], dtype=float)
+    return x + 0.5 * encoder_step(x)
+
+
+def _analytic_profile(recording: Recording):
+    if not isinstance(recording.rig, FlatFollowerRig):
+        raise EncoderImpactError(f"{recording.source or 'recording'}: no cam profile given and the rig is not a "
+                                 "flat-follower rig with an analytic profile; pass a fitted profile (impactid cam-fit)")
+    return recording.rig.contact_angle
+
+
+def align_profile(theta_c: np.ndarray, theta_f: np.ndarray, profile, tolerance: float,
+                  coarse: int = 720, subsample: int = 4000) -> float:
+    """Cam-angle offset [rad] that puts the riding samples on the profile.
+
+    A coarse scan over ``coarse`` offsets maximises the number of samples within ``tolerance`` of
+    the profile (riding samples; flight samples lie above it); the best offset is refined by least
+    squares on the riding samples. Raises :class:`EncoderImpactError` when fewer than 5 % of the
+    samples ride the cam at the best offset.
+    """
+    stride = max(1, theta_c.size // subsample)
+    tc, tf = theta_c[::stride], theta_f[::stride]
+    offsets = np.linspace(0.0, 2.0 * math.pi, coarse, endpoint=False)
+    scores = [np.count_nonzero(np.abs(tf - profile(tc + off)) < tolerance) for off in offsets]
+    best = float(offsets[int(np.argmax(scores))])
+    if max(scores) < 0.05 * tc.size:
+        raise EncoderImpactError("the follower never rides the cam profile (fewer than 5 % of samples within "
+                                 f"{tolerance:.3g} rad of it at any cam offset): wrong profile or no contact phases")
+    # refine by least squares on the riding samples, re-selected with a tighter band each time:
+    # flight samples lie above the profile only, so a loose band would bias the offset
+    for band in (2.0, 1.0, 0.5, 0.5):
+        riding = np.abs(theta_f - profile(theta_c + best)) < band * tolerance
+        tc_r, tf_r = theta_c[riding], theta_f[riding]
+        res = optimize.least_squares(lambda x, tc_r=tc_r, tf_r=tf_r: tf_r - profile(tc_r + x[0]), [best])
+        best = float(res.x[0])
+    return float(np.mod(best, 2.0 * math.pi))
+
+
+@dataclass(frozen=True)
+class RelativeMotion:
+    """Follower angle relative to the cam profile.
+
+    Attributes
+    ----------
+    t : sample times [s]; theta_c, theta_f : cam and follower angles [rad] (half a count added)
+    relative : ``theta_f - theta_hat(theta_c + offset)`` [rad] (>= 0 up to quantisation)
+    offset : cam-angle offset between the recording and the profile [rad]
+    follower_step, cam_step : encoder counts [rad] (0 when not quantised)
+    cam_speed_hz : mean cam speed [Hz] (slope of the cam angle)
+    source : the recording's source
+    """
+
+    t: np.ndarray
+    theta_c: np.ndarray
+    theta_f: np.ndarray
+    relative: np.ndarray
+    offset: float
+    follower_step: float
+    cam_step: float
+    cam_speed_hz: float
+    source: str
+    profile: object = field(repr=False)
+
+
+def relative_motion(recording: Recording, profile=None, offset: float | None = None) -> RelativeMotion:
+    """Relative motion ``theta_f - theta_hat(theta_c + offset)`` of a rig F encoder recording.
+
+    ``profile`` is any callable ``theta_hat(theta_c, derivatives=0|1|2)`` (a fitted
+    :class:`~impactid.camprofile.GaussianSumProfile`); default the rig's analytic A-17.
+    ``offset`` [rad] defaults to the fitted alignment (:func:`align_profile`).
+    """
+    raw_c = np.asarray(recording.channels.get("cam_angle", np.empty(0)), dtype=float)
+    theta_c = _channel(recording, "cam_angle")
+    theta_f = _channel(recording, "follower_angle")
+    profile = _analytic_profile(recording) if profile is None else profile
+    t = recording.start_time_s + np.arange(theta_c.size) / recording.sample_rate_hz
+    slope = float(np.polyfit(t - t[0], theta_c, 1)[0])
+    if not slope > 0.0:
+        raise EncoderImpactError(f"{recording.source or 'recording'}: channel 'cam_angle' does not increase "
+                                 f"(mean cam speed {slope / (2 * math.pi):.4g} Hz)")
+    f_step = encoder_step(recording.channels["follower_angle"])
+    tolerance = max(1.5 * f_step, 2e-4)
+    if offset is None:
+        offset = align_profile(theta_c, theta_f, profile, tolerance)
+    return RelativeMotion(t=t, theta_c=theta_c, theta_f=theta_f, relative=theta_f - profile(theta_c + offset),
+                          offset=float(offset), follower_step=f_step, cam_step=encoder_step(raw_c),
+                          cam_speed_hz=slope / (2.0 * math.pi), source=recording.source or "", profile=profile)
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(np.int8), [0]))))
+    return list(zip(edges[::2], edges[1::2], strict=True))
+
+
+def _follower_model(x, tau_pre, tau_post):
+    """Free flight of the follower either side of the impact: shared angle at the impact (on the
+    profile), acceleration and jerk; rates ``w-`` before and ``w+`` after."""
+    theta1, wm, wp, acc, jerk = x
+    a, b = tau_pre, tau_post
+    return (theta1 + wm * a + 0.5 * acc * a * a + jerk * a**3,
+            theta1 + wp * b + 0.5 * acc * b * b + jerk * b**3)
+
+
+class _ImpactFit:
+    """Joint least-squares fit of the follower's free flight before and after one first impact.
+
+    Unknowns: the impact time ``t_1``, the follower rates ``w-`` and ``w+`` [rad/s], its
+    acceleration and jerk (continuous through the impact: the follower's angle is, and its jerk
+    ``-M_s'(theta) theta_dot / J`` jumps by far less than the fit can see). The angle at ``t_1``
+    is not free: the impact is on the profile, ``theta_f(t_1) = theta_hat(theta_c(t_1))``. The
+    relative rates follow with the profile's analytic derivative, ``d_dot = w - omega theta_hat'``.
+    """
+
+    def __init__(self, t, theta_f, cam_line, profile):
+        self.t, self.theta_f, self.cam_line, self.profile = t, theta_f, cam_line, profile
+
+    def cam(self, time):
+        return self.cam_line[0] + self.cam_line[1] * time
+
+    def residual(self, x, sel_pre, sel_post):
+        t1 = x[0]
+        theta1 = float(self.profile(self.cam(t1)))
+        pre, post = _follower_model((theta1, *x[1:]), self.t[sel_pre] - t1, self.t[sel_post] - t1)
+        return np.concatenate((self.theta_f[sel_pre] - pre, self.theta_f[sel_post] - post))
+
+    def bounce(self, x, span):
+        """``(end, height)`` of the first bounce: where the fitted flight after the impact meets the
+        profile again (first crossing on a 2000-point grid, refined by brentq) and its highest point
+        above the profile [s, rad]."""
+        t1 = x[0]
+        theta1 = float(self.profile(self.cam(t1)))
+
+        def gap(tau):
+            _, post = _follower_model((theta1, *x[1:]), np.empty(0), np.atleast_1d(tau))
+            return post - self.profile(self.cam(t1 + np.atleast_1d(tau)))
+
+        grid = np.linspace(0.0, span, 2001)[1:]
+        g = gap(grid)
+        neg = np.flatnonzero(g < 0.0)
+        if neg.size == 0 or neg[0] == 0:
+            return math.inf, float(g.max()) if g.size else math.nan
+        k = int(neg[0])
+        end = optimize.brentq(lambda s: float(gap(s)[0]), grid[k - 1], grid[k], xtol=1e-12)
+        return end, float(g[:k].max())
+
+
+def first_impacts(motion: RelativeMotion, window_s: float = FIT_WINDOW_S,
+                  threshold_counts: float = FLIGHT_THRESHOLD_COUNTS):
+    """The first impact of every flight: impact time, relative rates, ``r``, first-bounce height.
+
+    Returns a pandas DataFrame with one row per flight that ends in a measurable impact:
+    ``t_impact`` [s], ``cam_angle`` [rad], ``flight_height`` [rad] (highest point of the flight),
+    ``rate_before``, ``rate_after`` [rad/s] (relative, ``d_dot``), ``restitution`` [-],
+    ``bounce_height`` [rad], ``bounce_duration`` [s], ``rms_residual`` [rad], ``n_before``,
+    ``n_after`` (samples fitted).
+    """
+    import pandas as pd
+    from scipy import ndimage, signal
+
+    t, d = motion.t, motion.relative
+    fs = 1.0 / float(np.median(np.diff(t)))
+    count = motion.follower_step if motion.follower_step > 0.0 else 1e-4
+    guard = IMPACT_GUARD_SAMPLES / fs
+    # The flights: one highest peak of the (quantisation-smoothed) relative angle per half
+    # revolution at least; the landing guess is where the smoothed descent reaches one count.
+    smooth = ndimage.uniform_filter1d(d, max(1, int(round(SMOOTHING_S * fs))), mode="nearest")
+    peaks, _ = signal.find_peaks(smooth, height=threshold_counts * count,
+                                 distance=max(1, int(0.5 * fs / motion.cam_speed_hz)))
+    rows = []
+    for peak in peaks:
+        below = np.flatnonzero(smooth[peak:] < count)
+        if below.size == 0 or peak < 10:
+            continue  # flight cut by the recording's ends
+        i0, i1 = int(peak), int(peak + below[0])
+        if i1 >= t.size - 2:
+            continue
+        pre = slice(max(i0, int(i1 - window_s * fs)), i1)
+        if pre.stop - pre.start < 10:
+            continue
+        # first guesses: a parabola through the flight's last samples, extrapolated to the profile
+        local = slice(max(0, i1 - int(window_s * fs)), min(t.size, i1 + int(window_s * fs)))
+        # cam angle in the profile's convention, a local straight line (constant cam speed)
+        cam_line = np.polyfit(t[local] - t[i1], motion.theta_c[local] + motion.offset, 1)[::-1]
+        fit = _ImpactFit(t - t[i1], motion.theta_f, cam_line, motion.profile)
+        c2, c1, c0 = np.polyfit(fit.t[pre], motion.theta_f[pre], 2)
+        probe = np.linspace(-0.002, 0.01, 1201)
+        above = np.polyval([c2, c1, c0], probe) - motion.profile(fit.cam(probe))
+        cross = np.flatnonzero((above[:-1] > 0.0) & (above[1:] <= 0.0))
+        if cross.size == 0:
+            continue
+        t1 = float(probe[cross[0]])
+        omega = cam_line[1]
+        wm = 2.0 * c2 * t1 + c1
+        cam_rate = omega * float(motion.profile(fit.cam(t1), derivatives=1)[1])
+        x = np.array([t1, wm, cam_rate - 0.6 * (wm - cam_rate), 2.0 * c2, 0.0])
+        # the bounce is looked for up to BOUNCE_SEARCH windows on; at most one window is fitted
+        span_post = fit.bounce(x, BOUNCE_SEARCH * window_s)[0]
+        ok = False
+        for _ in range(6):
+            sel_pre = (fit.t > x[0] - window_s) & (fit.t < x[0] - guard) & (fit.t >= fit.t[i0])
+            sel_post = (fit.t > x[0] + guard) & (fit.t < x[0] + min(span_post - guard, window_s))
+            if np.count_nonzero(sel_pre) < 10 or np.count_nonzero(sel_post) < 6:
+                ok = False
+                break
+            res = optimize.least_squares(fit.residual, x, args=(sel_pre, sel_post), method="lm", x_scale="jac")
+            x = res.x
+            end, height = fit.bounce(x, BOUNCE_SEARCH * window_s)
+            ok = math.isfinite(end) and res.success
+            if not ok:
+                break
+            converged = abs(end - span_post) < guard
+            span_post = end
+            if converged:
+                break
+        if not ok:
+            continue
+        t1 = float(x[0])
+        if span_post > window_s:
+            # a bounce longer than the fit window: its height from a cubic fitted to the whole bounce
+            whole = (fit.t > t1 + guard) & (fit.t < t1 + span_post - guard)
+            coef = np.polyfit(fit.t[whole] - t1, motion.theta_f[whole], 3)
+            apex = np.linspace(0.0, span_post, 2001)
+            height = float(np.max(np.polyval(coef, apex) - motion.profile(fit.cam(t1 + apex))))
+        cam_rate = omega * float(motion.profile(fit.cam(t1), derivatives=1)[1])
+        rate_before, rate_after = float(x[1]) - cam_rate, float(x[2]) - cam_rate
+        if not rate_before < 0.0 < rate_after:
+            continue
+        rows.append({
+            "t_impact": t1 + t[i1],
+            "cam_angle": float(fit.cam(t1) - motion.offset),
+            "flight_height": float(d[i0:i1].max()),
+            "rate_before": rate_before,
+            "rate_after": rate_after,
+            "restitution": -rate_after / rate_before,
+            "bounce_height": height,
+            "bounce_duration": span_post,
+            "rms_residual": float(np.sqrt(np.mean(res.fun**2))),
+            "n_before": int(np.count_nonzero(sel_pre)),
+            "n_after": int(np.count_nonzero(sel_post)),
+        })
+    return pd.DataFrame(rows, columns=["t_impact", "cam_angle", "flight_height", "rate_before", "rate_after",
+                                       "restitution", "bounce_height", "bounce_duration", "rms_residual",
+                                       "n_before", "n_after"])
+
+
+def refine_offset(motion: RelativeMotion, impacts) -> float:
+    """Cam offset [rad] refitted on samples that certainly ride the cam.
+
+    :func:`align_profile` cannot tell riding samples from the tail of a chattering sequence whose
+    bounces are lower than a count; those lie above the profile only and bias the offset (by about
+    0.6 mrad of cam angle at 130 rpm). With the first impacts measured, each flight, its first
+    bounce and the chattering that follows are excluded: the sequence of bounces after a bounce of
+    duration ``T_b`` with restitution ``r`` lasts about ``T_b / (1 - r)`` (constant relative
+    acceleration), and 1.5 times that is cut. The offset is then least squares on the rest.
+    """
+    t = motion.t
+    keep = np.ones(t.size, dtype=bool)
+    period = 1.0 / motion.cam_speed_hz
+    for row in impacts.itertuples():
+        r = min(max(float(row.restitution), 0.0), 0.95)
+        end = row.t_impact + 1.5 * row.bounce_duration / (1.0 - r)
+        start = row.t_impact - 0.5 * period  # the flight (at most half a revolution before landing)
+        keep &= ~((t > start) & (t < end))
+    tolerance = max(0.75 * motion.follower_step, 1e-4)
+    riding = keep & (np.abs(motion.relative) < tolerance)
+    if np.count_nonzero(riding) < 100:
+        return motion.offset
+    profile = motion.profile
+    res = optimize.least_squares(lambda x: motion.theta_f[riding] - profile(motion.theta_c[riding] + x[0]),
+                                 [motion.offset])
+    return float(np.mod(res.x[0], 2.0 * math.pi))
+
+
+# ---------------------------------------------------------------------------------------------
+# r at one cam speed, and the law over speeds
+# ---------------------------------------------------------------------------------------------
+
+METHODS = ("impact-law", "first-bounce")
+
+
+@dataclass(frozen=True)
+class RestitutionAtSpeed:
+    """Coefficient of restitution measured at one cam speed.
+
+    Attributes
+    ----------
+    cam_speed_hz : mean cam speed [Hz]
+    restitution, stderr : estimate and its standard error [-]
+    method : "impact-law" or "first-bounce"
+    n_impacts : first impacts used
+    bounce_height : median first-bounce height [rad]
+    impacts : per-impact table (:func:`first_impacts`)
+    source : recording
+    warnings : doubts about this value
+    """
+
+    cam_speed_hz: float
+    restitution: float
+    stderr: float
+    method: str
+    n_impacts: int
+    bounce_height: float
+    impacts: object = field(repr=False)
+    source: str = ""
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def cam_speed_rpm(self) -> float:
+        return self.cam_speed_hz * 60.0
+
+    def to_dict(self) -> dict:
+        return {"source": self.source, "cam_speed_hz": self.cam_speed_hz, "cam_speed_rpm": self.cam_speed_rpm,
+                "method": self.method, "restitution": self.restitution, "stderr": self.stderr,
+                "n_impacts": self.n_impacts, "bounce_height_rad": self.bounce_height, "warnings": list(self.warnings)}
+
+
+def simulated_first_bounce(rig: FlatFollowerRig, cam_speed_hz: float, restitution: float,
+                           settle_revolutions: int = 30, points_per_revolution: int = 20000) -> float:
+    """First-bounce height [rad] of the model's motion at a cam speed (after settling).
+
+    As in the data: the highest flight of the last revolution ends in the first impact; the height
+    of ``theta_f - theta_hat(theta_c)`` between that impact and the next one is the first bounce,
+    found on a grid of ``points_per_revolution`` (apex error below 1e-9 rad). NaN when the flight
+    does not end in two impacts within the simulated time.
+    """
+    from impactid.simulate.flat import simulate_flat
+
+    period = 1.0 / cam_speed_hz
+    t_end = (settle_revolutions + 2) * period
+    times = np.linspace(settle_revolutions * period, t_end, 2 * points_per_revolution + 1)
+    run = simulate_flat(rig, cam_speed_hz, t_end, restitution=restitution, times=times)
+    rel = run.theta_f - rig.contact_angle(run.cam_angle)
+    first_rev = run.t < (settle_revolutions + 1) * period
+    t_peak = run.t[first_rev][int(np.argmax(rel[first_rev]))]
+    impacts = run.events.loc[(run.events["kind"] == "impact") & (run.events["t"] > t_peak), "t"].to_numpy()
+    if impacts.size < 2:
+        return math.nan
+    inside = (run.t > impacts[0]) & (run.t < impacts[1])
+    return float(rel[inside].max()) if np.any(inside) else math.nan
+
+
+def restitution_at_speed(recording: Recording, profile=None, method: str = "impact-law",
+                         rig: FlatFollowerRig | None = None, offset: float | None = None) -> RestitutionAtSpeed:
+    """Coefficient of restitution of one impacting encoder recording (constant cam speed).
+
+    Parameters
+    ----------
+    profile : cam profile callable (default the rig's analytic A-17).
+    method : "impact-law" (mean of ``-v+/v-`` over the first impacts) or "first-bounce" (the
+        model's ``r`` that reproduces the median first-bounce height; needs the rig).
+    rig : rig F parameters for "first-bounce" (default the recording's rig).
+
+    Raises
+    ------
+    ValueError : unknown method. EncoderImpactError : no measurable impact.
+    """
+    if method not in METHODS:
+        raise ValueError(f"unknown restitution method {method!r}; valid: {', '.join(METHODS)}")
+    motion = relative_motion(recording, profile, offset)
+    table = first_impacts(motion)
+    if offset is None and not table.empty:
+        motion = relative_motion(recording, profile, refine_offset(motion, table))
+        table = first_impacts(motion)
+    where = recording.source or "recording"
+    if table.empty:
+        raise EncoderImpactError(f"{where}: no measurable first impact in 'follower_angle' (the follower never "
+                                 f"rises {FLIGHT_THRESHOLD_COUNTS:g} counts above the cam, or every flight is cut)")
+    notes = []
+    if len(table) < 5:
+        notes.append(f"only {len(table)} first impacts")
+    bounce = float(np.median(table["bounce_height"]))
+    if method == "impact-law":
+        values = table["restitution"].to_numpy()
+        r = float(np.mean(values))
+        se = float(np.std(values, ddof=1) / math.sqrt(values.size)) if values.size > 1 else math.nan
+    else:
+        rig = recording.rig if rig is None else rig
+        if not isinstance(rig, FlatFollowerRig):
+            raise EncoderImpactError(f"{where}: the first-bounce method needs a flat-follower rig description")
+        speed = motion.cam_speed_hz
+
+        def mismatch(r):
+            return simulated_first_bounce(rig, speed, r) - bounce
+
+        # scan r for the first bracket (the model may stop being period-1 at high r: NaN there)
+        grid = np.linspace(0.05, 0.95, 19)
+        values = np.array([mismatch(r) for r in grid])
+        sign_change = np.flatnonzero(np.isfinite(values[:-1]) & np.isfinite(values[1:])
+                                     & (values[:-1] * values[1:] < 0.0))
+        if sign_change.size == 0:
+            notes.append("the model's first-bounce height does not bracket the measured one for r in [0.05, 0.95]")
+            r, se = math.nan, math.nan
+        else:
+            k = int(sign_change[0])
+            lo, hi = float(grid[k]), float(grid[k + 1])
+            r = float(optimize.brentq(mismatch, lo, hi, xtol=1e-6))
+            # standard error from the scatter of the bounce heights through the local slope
+            r_up, r_down = min(r + 0.01, hi), max(r - 0.01, lo)
+            slope = (mismatch(r_up) - mismatch(r_down)) / (r_up - r_down)
+            heights = table["bounce_height"].to_numpy()
+            se_h = 1.2533 * np.std(heights, ddof=1) / math.sqrt(heights.size) if heights.size > 1 else math.nan
+            se = float(abs(se_h / slope)) if slope != 0.0 else math.nan
+    for note in notes:
+        warnings.warn(f"{where}: {note}", EncoderImpactWarning, stacklevel=2)
+    return RestitutionAtSpeed(cam_speed_hz=motion.cam_speed_hz, restitution=r, stderr=se, method=method,
+                              n_impacts=len(table), bounce_height=bounce, impacts=table,
+                              source=recording.source or "", warnings=tuple(notes))
+
+
+@dataclass(frozen=True)
+class SpeedLawFit:
+    """Least-squares fit ``r = a + b omega`` over cam speeds.
+
+    Attributes
+    ----------
+    law : the fitted :class:`~impactid.simulate.flat.SpeedRestitution` (``b`` per rad/s)
+    stderr_a, stderr_b : standard errors [-, s/rad]
+    points : the per-speed measurements used
+    residual_rms : RMS of ``r_i - (a + b omega_i)`` [-]
+    """
+
+    law: object
+    stderr_a: float
+    stderr_b: float
+    points: tuple[RestitutionAtSpeed, ...]
+    residual_rms: float
+
+    def to_dict(self) -> dict:
+        rpm = 2.0 * math.pi / 60.0
+        return {"law": {**self.law.to_dict(), "stderr_a": self.stderr_a, "stderr_b_per_rad_s": self.stderr_b,
+                        "stderr_b_per_rpm": self.stderr_b * rpm},
+                "residual_rms": self.residual_rms, "points": [p.to_dict() for p in self.points]}
+
+
+def fit_speed_law(points) -> SpeedLawFit:
+    """Least squares of ``r = a + b omega`` (omega the cam speed [rad/s]).
+
+    Ordinary least squares; the standard errors of ``a, b`` come from the residual scatter (from
+    the points' own standard errors with two speeds). One speed only: ``r`` is a constant (warned).
+    """
+    from impactid.simulate.flat import SpeedRestitution
+
+    pts = tuple(p for p in points if math.isfinite(p.restitution))
+    if not pts:
+        raise EncoderImpactError("no finite restitution estimate to fit")
+    omega = np.array([2.0 * math.pi * p.cam_speed_hz for p in pts])
+    r = np.array([p.restitution for p in pts])
+    se = np.array([p.stderr for p in pts])
+    if len(pts) == 1 or np.ptp(omega) < 1e-9:
+        warnings.warn("one cam speed only: r is fitted as a constant", EncoderImpactWarning, stacklevel=2)
+        a = float(np.mean(r))
+        sa = float(np.mean(se)) if np.all(np.isfinite(se)) else math.nan
+        return SpeedLawFit(SpeedRestitution(a=a), sa, math.nan, pts, float(np.std(r)))
+    # Ordinary least squares, covariance from the residual scatter: the per-speed standard errors
+    # reflect only the scatter between revolutions, not systematic errors (profile, quantisation),
+    # and weighting by them would hand the fit to the most repeatable speed.
+    design = np.column_stack((np.ones_like(omega), omega))
+    coef, *_ = np.linalg.lstsq(design, r, rcond=None)
+    resid = r - design @ coef
+    inverse = np.linalg.inv(design.T @ design)
+    if len(pts) > 2:
+        cov = inverse * float(np.sum(resid**2) / (len(pts) - 2))
+    else:  # two speeds: the line is exact; propagate their own standard errors
+        cov = inverse @ design.T @ np.diag(np.nan_to_num(se, nan=0.0) ** 2) @ design @ inverse
+    return SpeedLawFit(SpeedRestitution(a=float(coef[0]), b=float(coef[1])), float(math.sqrt(cov[0, 0])),
+                       float(math.sqrt(cov[1, 1])), pts, float(np.sqrt(np.mean(resid**2))))
