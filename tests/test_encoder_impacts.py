@@ -1,0 +1,92 @@
+"""Restitution against cam speed from rig F encoder recordings (issue 6, item 5).
+
+Synthetic recordings (cam 5000, follower 10 000 pulses per revolution, 20 kHz, unknown cam zero)
+are made with a known linear law; the target is r(omega) within 2 %.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from data_synth.flat import synth_flat_encoders
+from data_synth.flat_impacts import synth_flat_impacting
+from impactid.encoder_impacts import (
+    EncoderImpactError,
+    fit_speed_law,
+    relative_motion,
+    restitution_at_speed,
+)
+from impactid.rigs.flat import SEED000_TABLE5 as RIG
+from impactid.simulate.flat import SpeedRestitution
+
+LAW = SpeedRestitution.from_rpm(0.65 + 130 * 0.004, -0.004)  # r = 0.65 at 130 rpm, 0.57 at 150 rpm
+SPEEDS_RPM = (130.0, 140.0, 150.0)
+
+
+@pytest.fixture(scope="session")
+def impacting_recordings():
+    return {rpm: synth_flat_impacting(RIG, rpm / 60.0, 4.0, restitution=LAW,
+                                      cam_zero_offset=0.7 + rpm / 100.0) for rpm in SPEEDS_RPM}
+
+
+@pytest.fixture(scope="session")
+def impact_law_points(impacting_recordings):
+    return {rpm: restitution_at_speed(s.recording) for rpm, s in impacting_recordings.items()}
+
+
+def test_cam_offset_recovered(impacting_recordings):
+    s = impacting_recordings[130.0]
+    motion = relative_motion(s.recording)
+    # the coarse alignment only; the refined one (after the impacts) is better still
+    err = (motion.offset - s.truth["cam_zero_offset"] + math.pi) % (2 * math.pi) - math.pi
+    assert abs(err) < 2.0 * 2.0 * math.pi / 5000  # within two cam counts
+
+
+@pytest.mark.parametrize("rpm", SPEEDS_RPM)
+def test_impact_law_within_2_percent(impact_law_points, impacting_recordings, rpm):
+    point = impact_law_points[rpm]
+    truth = impacting_recordings[rpm].truth["restitution"]
+    assert point.n_impacts >= 8  # one first impact per revolution (about 8.7 revolutions in 4 s at 130 rpm)
+    assert point.restitution == pytest.approx(truth, rel=0.02)
+    assert point.cam_speed_hz == pytest.approx(rpm / 60.0, rel=1e-6)
+
+
+def test_impact_times_match_truth(impact_law_points, impacting_recordings):
+    point = impact_law_points[140.0]
+    true_times = impacting_recordings[140.0].truth["impact_times"]
+    nearest = np.array([np.min(np.abs(true_times - t)) for t in point.impacts["t_impact"]])
+    assert np.all(nearest < 1e-4)  # two samples at 20 kHz
+
+
+@pytest.mark.parametrize("rpm", (130.0, 150.0))
+def test_first_bounce_within_2_percent(impacting_recordings, rpm):
+    s = impacting_recordings[rpm]
+    point = restitution_at_speed(s.recording, method="first-bounce")
+    assert point.restitution == pytest.approx(s.truth["restitution"], rel=0.02)
+
+
+def test_linear_law_recovered(impact_law_points):
+    fit = fit_speed_law(impact_law_points.values())
+    for rpm in np.linspace(130.0, 150.0, 5):
+        assert fit.law(rpm / 60.0) == pytest.approx(LAW(rpm / 60.0), rel=0.02)
+    assert fit.law.b < 0.0 and math.isfinite(fit.stderr_b)
+    assert "law" in fit.to_dict() and len(fit.to_dict()["points"]) == len(SPEEDS_RPM)
+
+
+def test_permanent_contact_has_no_impacts():
+    s = synth_flat_encoders(RIG, 110.0 / 60.0, 2.0, cam_zero_offset=1.0)
+    with pytest.raises(EncoderImpactError, match="no measurable first impact"):
+        restitution_at_speed(s.recording)
+
+
+def test_unknown_method_and_missing_channel(impacting_recordings):
+    rec = impacting_recordings[140.0].recording
+    with pytest.raises(ValueError, match="impact-law, first-bounce"):
+        restitution_at_speed(rec, method="bouncing-ball")
+    bare = type(rec)(channels={"cam_angle": rec.channels["cam_angle"]}, sample_rate_hz=rec.sample_rate_hz,
+                     units={"cam_angle": "rad"}, rig=rec.rig, operating=dict(rec.operating))
+    with pytest.raises(EncoderImpactError, match="follower_angle"):
+        restitution_at_speed(bare)
