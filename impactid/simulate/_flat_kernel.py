@@ -411,17 +411,20 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
 
 
 @njit(cache=True, parallel=True)
-def sweep(p, omegas, restitutions, v_stick, revolutions, rtol, atol_a, atol_d, h_max_rev, max_steps,
+def sweep(p, omegas, restitutions, v_stick, revolutions, strobe_phase, rtol, atol_a, atol_d, h_max_rev, max_steps,
           strobe, counts, status, steps):  # pragma: no cover - compiled
     """Runs from permanent contact at ``theta_c = 0`` for each cam speed (in parallel).
 
-    ``strobe[i, k] = (theta_f, rate, mode)`` at ``theta_c = 2 pi (k + 1)``; ``counts[i]`` holds the
+    ``strobe[i, k] = (theta_f, rate, mode)`` at ``theta_c = 2 pi k + strobe_phase`` (``k = 1..``,
+    ``0 <= strobe_phase < 2 pi``, the last sample inside the run); ``counts[i]`` holds the
     impacts/sticks/releases per revolution; ``status[i]`` and ``steps[i]`` the run's outcome.
     """
     for i in prange(omegas.shape[0]):
         omega = omegas[i]
         period = 2.0 * math.pi / omega
-        grid = period * np.arange(1, revolutions + 1).astype(np.float64)
+        grid = period * (np.arange(revolutions).astype(np.float64) + strobe_phase / (2.0 * math.pi))
+        if strobe_phase == 0.0:
+            grid += period
         events = np.empty((0, N_ECOL))
         res = integrate(p, omega, 0.0, restitutions[i], v_stick, 0.0, 0.0, 0.0, STICK,
                         revolutions * period, rtol, atol_a, atol_d, h_max_rev * period, max_steps,

@@ -218,9 +218,10 @@ class BifurcationResult:
         impacts_per_revolution, releases_per_revolution, strobe_spread`` (spread of the kept
         stroboscopic angles [rad])
     strobe_angle, strobe_rate : (speeds, kept revolutions) follower angle [rad] and rate [rad/s] at
-        ``theta_c = 2 pi k`` over the kept (last) revolutions
+        ``theta_c = 2 pi k + strobe_phase`` over the kept (last) revolutions
     revolutions, kept : simulated and kept revolutions per speed
     restitution : the law used
+    strobe_phase : cam angle of the stroboscopic section [rad]
     """
 
     table: object
@@ -229,6 +230,7 @@ class BifurcationResult:
     revolutions: int
     kept: int
     restitution: SpeedRestitution
+    strobe_phase: float = 0.0
 
     def transitions(self) -> dict:
         """Transition speeds [rpm] scanning up (NaN when none): the first speed with impacts
@@ -246,14 +248,26 @@ class BifurcationResult:
         return out
 
 
+def strobe_phase_default(rig: FlatFollowerRig) -> float:
+    """Cam angle [rad] of the default stroboscopic section: 1 rad after the cam angle where contact
+    is first lost (the minimum of the required contact torque), i.e. inside the flight of the
+    impacting motion. At ``theta_c = 0`` the follower rides the cam at every speed below about
+    150 rpm, which would hide the impacting branch of the diagram."""
+    theta = np.linspace(0.0, TWO_PI, 3600, endpoint=False)
+    torque = rig.contact_torque(theta, rig.detachment_speed_hz())
+    return float(np.mod(theta[int(np.argmin(torque))] + 1.0, TWO_PI))
+
+
 def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolutions: int = 100,
-                kept: int | None = None, v_stick: float = V_STICK, periodicity_tol: float = 1e-4,
+                kept: int | None = None, strobe_phase: float | None = None, v_stick: float = V_STICK,
+                periodicity_tol: float = 1e-4,
                 max_period: int = 12, tolerances: Tolerances = DEFAULT_TOLERANCES) -> BifurcationResult:
     """Bifurcation diagram of rig F (Fig. 16 of seed 000).
 
     Each speed is run from permanent contact at ``theta_c = 0`` for ``revolutions`` cam revolutions
-    (the speeds in parallel on all cores); the last ``kept`` (default half) stroboscopic samples are
-    kept and classified: ``"contact"`` when the follower never left the cam in them, periodic with
+    (the speeds in parallel on all cores); the follower is sampled once per revolution at the cam angle
+    ``strobe_phase`` [rad] (default :func:`strobe_phase_default`); the last ``kept`` (default half)
+    samples are kept and classified: ``"contact"`` when the follower never left the cam in them, periodic with
     period k when the stroboscopic states repeat after k samples to ``periodicity_tol`` (angle
     relative to the cam's stroke, rate relative to the largest rate; the test of
     :func:`impactid.simulate.regimes._find_period`, which also rejects slowly decaying transients),
@@ -270,13 +284,14 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
     kept = revolutions // 2 if kept is None else int(kept)
     if not 1 <= kept <= revolutions:
         raise SimulationInputError(f"kept revolutions must lie in [1, {revolutions}], got {kept}")
+    phase = strobe_phase_default(rig) if strobe_phase is None else float(np.mod(strobe_phase, TWO_PI))
     rs = np.array([law(s) for s in speeds])
     strobe = np.empty((speeds.size, revolutions, 3))
     counts = np.zeros((speeds.size, revolutions, 3), dtype=np.int64)
     status = np.zeros(speeds.size, dtype=np.int64)
     steps = np.zeros(speeds.size, dtype=np.int64)
     tol = tolerances
-    FK.sweep(pack_flat_rig(rig), TWO_PI * speeds, rs, float(v_stick), revolutions, tol.rtol, tol.atol_alpha,
+    FK.sweep(pack_flat_rig(rig), TWO_PI * speeds, rs, float(v_stick), revolutions, phase, tol.rtol, tol.atol_alpha,
              tol.atol_rate, tol.max_step_revolutions, tol.max_steps, strobe, counts, status, steps)
     bad = np.flatnonzero(status != FK.OK)
     if bad.size:
@@ -303,4 +318,4 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
                      "releases_per_revolution": releases, "strobe_spread": float(np.ptp(angle[i])),
                      "steps": int(steps[i])})
     return BifurcationResult(table=pd.DataFrame(rows), strobe_angle=angle.copy(), strobe_rate=rate.copy(),
-                             revolutions=revolutions, kept=kept, restitution=law)
+                             revolutions=revolutions, kept=kept, restitution=law, strobe_phase=phase)

@@ -94,7 +94,7 @@ def test_chattering_accumulates_into_sticking_without_stalling():
 
 
 def test_stroboscopic_sweep_regimes():
-    result = bifurcation(RIG, np.array([110.0, 130.0, 140.0]) / 60.0, 0.6, revolutions=60)
+    result = bifurcation(RIG, np.array([110.0, 130.0, 140.0]) / 60.0, 0.6, revolutions=60, strobe_phase=0.0)
     regimes = list(result.table["regime"])
     assert regimes[0] == "contact"
     assert regimes[1] == "period-1" and regimes[2] == "period-1"
