@@ -28,8 +28,8 @@ DEFAULT_FOLLOWER_PPR = 10_000
 def synth_flat_encoders(rig: FlatFollowerRig, cam_speed_hz: float, duration: float, *,
                         sample_rate_hz: float = DEFAULT_FLAT_SAMPLE_RATE_HZ, cam_ppr: int | None = DEFAULT_CAM_PPR,
                         follower_ppr: int | None = DEFAULT_FOLLOWER_PPR, cam_zero_offset: float | None = None,
-                        sensors: SensorModel = NO_SENSOR_ERRORS) -> SyntheticRecording:
-    """Permanent-contact encoder recording of rig F at constant cam speed.
+                        sensors: SensorModel = NO_SENSOR_ERRORS, spin_up_s: float = 0.0) -> SyntheticRecording:
+    """Permanent-contact encoder recording of rig F at constant cam speed (after an optional spin-up).
 
     Parameters
     ----------
@@ -40,6 +40,10 @@ def synth_flat_encoders(rig: FlatFollowerRig, cam_speed_hz: float, duration: flo
         recorded ``cam_angle`` is ``theta_c - cam_zero_offset`` counted in pulses. Drawn uniformly
         in [0, 2 pi) from ``sensors.seed`` when None.
     sensors : further imperfections (Gaussian noise on the angle channels if set by name).
+    spin_up_s : the cam starts at rest and its speed ramps linearly to ``cam_speed_hz`` over the first
+        ``spin_up_s`` seconds of the recording [s] (0: constant speed throughout). The follower stays in
+        contact (the speed never exceeds ``cam_speed_hz``; the angular acceleration does not affect the
+        contact angle, only the contact torque).
 
     Raises
     ------
@@ -49,6 +53,8 @@ def synth_flat_encoders(rig: FlatFollowerRig, cam_speed_hz: float, duration: flo
     for name, value in (("cam_speed_hz", cam_speed_hz), ("duration", duration), ("sample_rate_hz", sample_rate_hz)):
         if not (math.isfinite(value) and value > 0.0):
             raise SimulationInputError(f"{name} must be positive, got {value!r}")
+    if not (math.isfinite(spin_up_s) and spin_up_s >= 0.0):
+        raise SimulationInputError(f"spin_up_s must be >= 0, got {spin_up_s!r}")
     detach = rig.detachment_speed_hz()
     if cam_speed_hz >= detach:
         raise SimulationInputError(
@@ -60,6 +66,10 @@ def synth_flat_encoders(rig: FlatFollowerRig, cam_speed_hz: float, duration: flo
     n = int(round(duration * sample_rate_hz))
     t = np.arange(n) / sample_rate_hz
     theta_c = 2.0 * math.pi * cam_speed_hz * t
+    if spin_up_s > 0.0:  # speed ramps 0 -> cam_speed_hz over spin_up_s, angle continuous after it
+        ramp = t < spin_up_s
+        theta_c = np.where(ramp, math.pi * cam_speed_hz * t * t / spin_up_s,
+                           2.0 * math.pi * cam_speed_hz * (t - 0.5 * spin_up_s))
     theta_f = rig.contact_angle(theta_c)
     cam = theta_c - cam_zero_offset
     follower = theta_f.copy()
@@ -71,12 +81,14 @@ def synth_flat_encoders(rig: FlatFollowerRig, cam_speed_hz: float, duration: flo
     recording = Recording(
         channels=measured, sample_rate_hz=sample_rate_hz, units={k: CHANNEL_UNITS[k] for k in measured},
         rig=rig, operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e},
-        provenance=(f"data_synth.synth_flat_encoders: permanent contact at {cam_speed_hz * 60:.6g} rpm",))
+        provenance=(f"data_synth.synth_flat_encoders: permanent contact at {cam_speed_hz * 60:.6g} rpm"
+                    + (f" after a {spin_up_s:g} s spin-up" if spin_up_s > 0.0 else ""),))
     truth = {
         "generator": "data_synth.synth_flat_encoders",
         "impactid_version": impactid.__version__,
         "model": "rig F permanent contact (A-17)",
         "cam_speed_hz": float(cam_speed_hz),
+        "spin_up_s": float(spin_up_s),
         "cam_zero_offset": float(cam_zero_offset),
         "cam_ppr": int(cam_ppr) if cam_ppr is not None else 0,
         "follower_ppr": int(follower_ppr) if follower_ppr is not None else 0,

@@ -85,15 +85,140 @@ def cmd_regime(args) -> int:
     return 0
 
 
+def _named_or_file_rig(spec: str | None, default):
+    """A rig from a model name ('pivoted-follower', 'flat-follower': the seeds' tables) or a file."""
+    from impactid.rigs import SEED000_TABLE5
+
+    if spec is None:
+        return default
+    named = {"pivoted-follower": SEED001_TABLE1, "flat-follower": SEED000_TABLE5}
+    if spec in named:
+        return named[spec]
+    rig, _ = load_rig_toml(spec)
+    return rig
+
+
 def cmd_detachment(args) -> int:
+    from impactid.rigs import FlatFollowerRig
     from impactid.simulate.regimes import detachment_speed
 
-    result = detachment_speed(_rig(args), mu=args.mu)
+    rig = _named_or_file_rig(args.rig, SEED001_TABLE1)
+    if isinstance(rig, FlatFollowerRig):
+        if args.e_over_rc is not None or args.mu is not None:
+            raise ImpactidError("--e-over-rc and --mu apply to the pivoted-follower rig only")
+        hz = rig.detachment_speed_hz()
+        data = {"rig": rig.model, "cam_speed_hz": hz, "cam_speed_rpm": hz * 60.0,
+                "method": "inverse kinematics: contact torque (A-11) reaches 0"}
+        if args.json:
+            _print_json(data)
+        else:
+            print(f"detachment at {hz:.6g} Hz ({hz * 60:.6g} rpm)")
+        return 0
+    if args.e_over_rc is not None:
+        rig = rig.with_eccentricity_ratio(args.e_over_rc)
+    result = detachment_speed(rig, mu=args.mu)
     if args.json:
         _print_json(result.to_dict())
     else:
         print(f"detachment at {result.cam_speed_hz:.6g} Hz ({result.cam_speed_rpm:.6g} rpm), "
               f"cam angle {result.cam_angle:.4f} rad")
+    return 0
+
+
+def _restitution_law(args):
+    from impactid.simulate.flat import DEFAULT_RESTITUTION, SpeedRestitution
+
+    if args.restitution is not None:
+        return SpeedRestitution(a=args.restitution)
+    if args.restitution_law is not None:
+        a, b = args.restitution_law
+        return SpeedRestitution.from_rpm(a, b)
+    return DEFAULT_RESTITUTION
+
+
+def cmd_bifurcation(args) -> int:
+    import numpy as np
+
+    from impactid.rigs import SEED000_TABLE5, FlatFollowerRig
+    from impactid.simulate.flat import bifurcation
+
+    rig = _named_or_file_rig(args.rig, SEED000_TABLE5)
+    if not isinstance(rig, FlatFollowerRig):
+        raise ImpactidError(f"{args.rig}: the bifurcation diagram is implemented for the 'flat-follower' rig only "
+                            "(use impactid regime-map for the pivoted follower)")
+    scale = {"rpm": 1.0 / 60.0, "hz": 1.0}[args.unit]
+    if not (0.0 < args.start < args.stop) or args.speeds < 2:
+        raise ImpactidError(f"--from {args.start:g} --to {args.stop:g} --speeds {args.speeds}: need "
+                            "0 < from < to and at least 2 speeds")
+    speeds = np.linspace(args.start, args.stop, args.speeds) * scale
+    law = _restitution_law(args)
+    result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept)
+    from impactid.reports import write_bifurcation
+
+    paths = write_bifurcation(result, args.out)
+    transitions = result.transitions()
+    data = {"transitions": transitions, "detachment_rpm_inverse_kinematics": rig.detachment_speed_hz() * 60.0,
+            "restitution_law": law.to_dict(), "regime_counts": result.table["regime"].value_counts().to_dict(),
+            "revolutions": result.revolutions, "kept": result.kept, "files": [str(x) for x in paths]}
+    if args.json:
+        _print_json(data)
+    else:
+        for path in paths:
+            print(path)
+        print(f"impacts from {transitions['detachment_rpm']:.2f} rpm (inverse kinematics "
+              f"{data['detachment_rpm_inverse_kinematics']:.2f} rpm); period-1 until "
+              f"{transitions['period1_end_rpm']:.2f} rpm; first irregular {transitions['irregular_rpm']:.2f} rpm")
+    return 0
+
+
+def cmd_restitution(args) -> int:
+    import warnings
+
+    from impactid.encoder_impacts import EncoderImpactWarning, fit_speed_law, restitution_at_speed
+    from impactid.io import read_recording
+
+    if not args.recordings:
+        raise ImpactidError("give one impacting encoder recording per cam speed")
+    profile = None
+    if args.profile:
+        from impactid.camprofile import load_profile_json
+
+        profile = load_profile_json(args.profile)
+    rig = None
+    if args.rig:
+        rig = _named_or_file_rig(args.rig, None)
+    points = []
+    notes = []
+    for path in args.recordings:
+        recording = read_recording(path)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", EncoderImpactWarning)
+            points.append(restitution_at_speed(recording, profile, method=args.method, rig=rig))
+        notes += [str(w.message) for w in caught]
+    fit = fit_speed_law(points) if len(points) > 1 else None
+    data = {"method": args.method, "profile": args.profile or "analytic A-17 of the recording's rig",
+            "points": [p.to_dict() for p in points], "warnings": notes}
+    if fit is not None:
+        data["fit"] = fit.to_dict()["law"] | {"residual_rms": fit.residual_rms}
+    if args.out:
+        from impactid.rigs._toml import write_text_atomic
+
+        for path in args.recordings:
+            if Path(path).resolve() == Path(args.out).resolve():
+                raise ImpactidError(f"--out {args.out} is an input recording; refusing to overwrite it")
+        write_text_atomic(args.out, json.dumps(data, indent=2, default=_json_default, allow_nan=False))
+    if args.json:
+        _print_json(data)
+    else:
+        for p in points:
+            print(f"{p.source}: {p.cam_speed_rpm:.2f} rpm, r = {p.restitution:.4f} +- {p.stderr:.4f} "
+                  f"({p.n_impacts} first impacts, {args.method})")
+        if fit is not None:
+            law = fit.law.to_dict()
+            print(f"r = {law['a']:.4f} + ({law['b_per_rpm']:.6f} +- {fit.stderr_b * 2 * math.pi / 60:.6f}) * rpm "
+                  f"(residual RMS {fit.residual_rms:.2g})")
+        for note in notes:
+            print(f"warning: {note}", file=sys.stderr)
     return 0
 
 
@@ -335,6 +460,51 @@ def cmd_estimate(args) -> int:
     return 0
 
 
+def cmd_cam_fit(args) -> int:
+    from impactid.camprofile import fit_cam_profile
+    from impactid.io import read_recording
+
+    path = _recording_path(args)
+    if args.out and Path(args.out).resolve() == Path(path).resolve():
+        raise ImpactidError(f"{args.out}: refusing to overwrite the input recording")
+    terms = args.terms.strip().lower()
+    if terms != "auto":
+        try:
+            terms = int(terms)
+        except ValueError:
+            raise ImpactidError(f"--terms expects a positive integer or 'auto', got {args.terms!r}") from None
+    window = None
+    if args.window:
+        try:
+            window = tuple(float(v) for v in args.window.split(","))
+        except ValueError:
+            window = ()
+        if len(window) != 2:
+            raise ImpactidError(f"--window expects T0,T1 in seconds, got {args.window!r}")
+    rec = read_recording(path, rig=args.rig)
+    fit = fit_cam_profile(rec, terms, criterion=args.criterion, max_terms=args.max_terms, window=window,
+                          nonnegative=not args.signed, counter=args.counter)
+    data = fit.to_dict(samples=3600)
+    data["recording"] = str(path)
+    if args.plots:
+        from impactid.reports import cam_fit_figures
+
+        data["plots"] = [str(p) for p in cam_fit_figures(fit, args.plots)]
+    if args.out:
+        from impactid.rigs._toml import write_text_atomic
+
+        write_text_atomic(args.out, json.dumps(data, indent=2, default=_json_default, allow_nan=False) + "\n")
+    if args.json:
+        _print_json(data)
+        return 0
+    print(fit.report())
+    if args.out:
+        print(f"  result written to {args.out}")
+    if args.plots:
+        print(f"  figures written to {args.plots}")
+    return 0
+
+
 # ---- parser -----------------------------------------------------------------------------------
 
 
@@ -384,10 +554,40 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_regime)
 
     p = sub.add_parser("detachment", help="cam speed at which the follower leaves the cam (inverse kinematics)")
-    _add_rig_args(p)
+    p.add_argument("--rig", metavar="RIG.toml|MODEL",
+                   help="rig file or 'pivoted-follower' / 'flat-follower' (the seeds' tables); default pivoted")
+    p.add_argument("--e-over-rc", type=float, default=None, help="eccentricity ratio e/r_c (rig P)")
     p.add_argument("--mu", type=float, default=None, help="friction coefficient (default: rig's)")
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_detachment)
+
+    p = sub.add_parser("bifurcation", help="rig F bifurcation diagram over cam speed, CSV and PNG (seed 000 Fig. 16)")
+    p.add_argument("--rig", metavar="RIG.toml|MODEL", help="flat-follower rig file; default seed 000 Table 5")
+    p.add_argument("--from", dest="start", type=float, default=110.0, help="lowest cam speed (default 110)")
+    p.add_argument("--to", dest="stop", type=float, default=165.0, help="highest cam speed (default 165)")
+    p.add_argument("--unit", choices=["rpm", "hz"], default="rpm", help="unit of --from/--to (default rpm)")
+    p.add_argument("--speeds", type=int, default=200, help="number of cam speeds (default 200)")
+    p.add_argument("--revolutions", type=int, default=100, help="revolutions simulated per speed (default 100)")
+    p.add_argument("--kept", type=int, default=None, help="last revolutions plotted and classified (default half)")
+    group = p.add_mutually_exclusive_group()
+    group.add_argument("--restitution", type=float, default=None, help="constant coefficient of restitution")
+    group.add_argument("--restitution-law", type=lambda t: tuple(float(v) for v in t.split(",")), default=None,
+                       metavar="A,B", help="r = A + B * rpm (default: our stand-in law, see README)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_bifurcation)
+
+    p = sub.add_parser("restitution", help="rig F: coefficient of restitution per cam speed from impacting "
+                                           "encoder recordings, and r = a + b omega")
+    p.add_argument("recordings", metavar="REC", nargs="*", help="impacting encoder recordings (one per cam speed)")
+    p.add_argument("--profile", metavar="fit.json", help="cam profile from impactid cam-fit (default: analytic A-17)")
+    p.add_argument("--method", choices=["impact-law", "first-bounce"], default="impact-law",
+                   help="impact-law: fitted flight rates either side of each first impact; first-bounce: the "
+                        "model's r that reproduces the first-bounce height (seed 000)")
+    p.add_argument("--rig", metavar="RIG.toml|MODEL", help="rig for first-bounce (default: the recording's)")
+    p.add_argument("--out", metavar="law.json", help="write the results as JSON (atomically)")
+    p.add_argument("--json", action="store_true", help="print JSON")
+    p.set_defaults(func=cmd_restitution)
 
     p = sub.add_parser("regime-map", help="regime map over (e/r_c, cam speed), CSV and PNG (Fig. 3 of seed 001)")
     _add_rig_args(p, with_ratio=False)
@@ -469,6 +669,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
     p.set_defaults(func=cmd_estimate)
+
+    p = sub.add_parser("cam-fit", help="fit a Gaussian-sum cam profile (seed 000, eq. 1) to rig F encoder data")
+    _add_recording_args(p)
+    p.add_argument("--terms", default="7", metavar="N|auto",
+                   help="number of Gaussian terms, or 'auto' to choose 1..--max-terms by --criterion (default 7)")
+    p.add_argument("--max-terms", type=int, default=9, help="highest order tried by --terms auto (default 9)")
+    p.add_argument("--criterion", choices=["bic", "aic"], default="bic", help="order-selection criterion (default bic)")
+    p.add_argument("--window", metavar="T0,T1",
+                   help="use only the samples with T0 <= t < T1 [s] (revolutions are still checked inside it)")
+    p.add_argument("--counter", choices=["floor", "round", "none"], default="floor",
+                   help="encoder counters floor (incremental counter, default) or round; 'none': no correction")
+    p.add_argument("--signed", action="store_true", help="allow negative amplitudes (default a_i >= 0)")
+    p.add_argument("--out", metavar="FIT.json",
+                   help="write coefficients, statistics and the sampled profile as JSON (atomically)")
+    p.add_argument("--plots", metavar="DIR",
+                   help="write figures (data and fit, residuals, derivatives, order selection)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.set_defaults(func=cmd_cam_fit)
     return parser
 
 

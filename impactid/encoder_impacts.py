@@ -43,6 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import optimize
 
+from impactid.camprofile import encoder_step
 from impactid.errors import ImpactidError
 from impactid.io import Recording
 from impactid.rigs.flat import FlatFollowerRig
@@ -69,19 +70,10 @@ class EncoderImpactWarning(UserWarning):
     """An impact measurement is doubtful (few impacts, scattered estimates, method outside its range)."""
 
 
-def encoder_step(angle: np.ndarray) -> float:
-    """Count size of a quantised angle channel [rad], 0 when the channel is not quantised.
-
-    The smallest positive difference between consecutive samples is a count when every difference
-    is a whole multiple of it (to 1e-6 of a count).
-    """
-    d = np.abs(np.diff(np.asarray(angle, dtype=float)))
-    d = d[d > 0.0]
-    if d.size == 0:
-        return 0.0
-    step = float(d.min())
-    ratio = d / step
-    return step if np.all(np.abs(ratio - np.round(ratio)) < 1e-6) else 0.0
+def _count(angle) -> float:
+    """Encoder count of a channel [rad] (:func:`impactid.camprofile.encoder_step`), 0 if not quantised."""
+    step = encoder_step(angle)
+    return 0.0 if step is None else float(step)
 
 
 def _channel(recording: Recording, name: str) -> np.ndarray:
@@ -89,7 +81,7 @@ def _channel(recording: Recording, name: str) -> np.ndarray:
         raise EncoderImpactError(f"{recording.source or 'recording'}: channel {name!r} is missing "
                                  "(rig F impacts need 'cam_angle' and 'follower_angle')")
     x = np.asarray(recording.channels[name], dtype=float)
-    return x + 0.5 * encoder_step(x)
+    return x + 0.5 * _count(x)
 
 
 def _analytic_profile(recording: Recording):
@@ -168,12 +160,12 @@ def relative_motion(recording: Recording, profile=None, offset: float | None = N
     if not slope > 0.0:
         raise EncoderImpactError(f"{recording.source or 'recording'}: channel 'cam_angle' does not increase "
                                  f"(mean cam speed {slope / (2 * math.pi):.4g} Hz)")
-    f_step = encoder_step(recording.channels["follower_angle"])
+    f_step = _count(recording.channels["follower_angle"])
     tolerance = max(1.5 * f_step, 2e-4)
     if offset is None:
         offset = align_profile(theta_c, theta_f, profile, tolerance)
     return RelativeMotion(t=t, theta_c=theta_c, theta_f=theta_f, relative=theta_f - profile(theta_c + offset),
-                          offset=float(offset), follower_step=f_step, cam_step=encoder_step(raw_c),
+                          offset=float(offset), follower_step=f_step, cam_step=_count(raw_c),
                           cam_speed_hz=slope / (2.0 * math.pi), source=recording.source or "", profile=profile)
 
 
