@@ -50,6 +50,13 @@ def _print_json(data) -> None:
     print(json.dumps(data, indent=2, default=_json_default, allow_nan=False))
 
 
+def _write_json(path, data) -> None:
+    """Write ``data`` as JSON to ``path`` atomically (NaN as null)."""
+    from impactid.rigs._toml import write_text_atomic
+
+    write_text_atomic(path, json.dumps(data, indent=2, default=_json_default, allow_nan=False) + "\n")
+
+
 def _range(text: str) -> list[float]:
     """``a:b:n`` (n values from a to b) or a comma-separated list."""
     import numpy as np
@@ -201,12 +208,10 @@ def cmd_restitution(args) -> int:
     if fit is not None:
         data["fit"] = fit.to_dict()["law"] | {"residual_rms": fit.residual_rms}
     if args.out:
-        from impactid.rigs._toml import write_text_atomic
-
         for path in args.recordings:
             if Path(path).resolve() == Path(args.out).resolve():
                 raise ImpactidError(f"--out {args.out} is an input recording; refusing to overwrite it")
-        write_text_atomic(args.out, json.dumps(data, indent=2, default=_json_default, allow_nan=False))
+        _write_json(args.out, data)
     if args.json:
         _print_json(data)
     else:
@@ -430,9 +435,7 @@ def cmd_estimate(args) -> int:
 
         data["plots"] = [str(p) for p in estimate_figures(result, args.plots)]
     if args.out:
-        from impactid.rigs._toml import write_text_atomic
-
-        write_text_atomic(args.out, json.dumps(data, indent=2, default=_json_default, allow_nan=False) + "\n")
+        _write_json(args.out, data)
     if args.json:
         _print_json(data)
         return 0
@@ -491,9 +494,7 @@ def cmd_cam_fit(args) -> int:
 
         data["plots"] = [str(p) for p in cam_fit_figures(fit, args.plots)]
     if args.out:
-        from impactid.rigs._toml import write_text_atomic
-
-        write_text_atomic(args.out, json.dumps(data, indent=2, default=_json_default, allow_nan=False) + "\n")
+        _write_json(args.out, data)
     if args.json:
         _print_json(data)
         return 0

@@ -207,6 +207,19 @@ def _error_norm(th0, r0, th1, r1, ea, ed, rtol, atol_a, atol_d):
 
 
 @njit(cache=True)
+def _emit_dense(grid, gi, t_stop, t, h, th, r, K, out):
+    """Write the free-flight dense output of the step ``[t, t + h]`` at the grid times up to
+    ``t_stop`` into ``out``; returns the next grid index."""
+    while gi < grid.shape[0] and grid[gi] <= t_stop:
+        gth, grt = _dense((grid[gi] - t) / h, h, th, r, K)
+        out[gi, 0] = gth
+        out[gi, 1] = grt
+        out[gi, 2] = FREE
+        gi += 1
+    return gi
+
+
+@njit(cache=True)
 def _record(events, n_ev, kind, t, theta_c, th, r_before, r_after, g_before, g_after, counts, t0, period):
     if n_ev < events.shape[0]:
         events[n_ev, E_KIND] = kind
@@ -343,13 +356,7 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
                 x_root = _illinois_gap(0.5, 1.0, gm, g1, t, h, th, r, K, p, omega, theta_c0, -1.0, 0.0)
         if x_root < 0.0:
             # no impact: emit outputs, advance
-            while gi < n_grid and grid[gi] <= t1:
-                x = (grid[gi] - t) / h
-                gth, grt = _dense(x, h, th, r, K)
-                out[gi, 0] = gth
-                out[gi, 1] = grt
-                out[gi, 2] = FREE
-                gi += 1
+            gi = _emit_dense(grid, gi, t1, t, h, th, r, K, out)
             t = t1
             th = th1
             r = r1
@@ -367,13 +374,7 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
                 hr -= g / gr
         thr, rr, _, _ = _dp5_step(th, r, hr, f0, p, K)
         # outputs before the impact (on the re-integrated step's dense output)
-        while gi < n_grid and grid[gi] <= t + hr:
-            x = (grid[gi] - t) / hr
-            gth, grt = _dense(x, hr, th, r, K)
-            out[gi, 0] = gth
-            out[gi, 1] = grt
-            out[gi, 2] = FREE
-            gi += 1
+        gi = _emit_dense(grid, gi, t + hr, t, hr, th, r, K, out)
         t = t + hr
         th = thr
         tc = theta_c0 + omega * t
