@@ -150,7 +150,7 @@ def _power(d, exponent):
     return d**exponent
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
     """``alpha_ddot`` [rad/s^2] in the given mode.
 
@@ -335,7 +335,7 @@ def _dense_coefficients(K, Q):
             Q[c, j] = s
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _dense(x, h, a0, ad0, Q):
     x2 = x * x
     x3 = x2 * x

@@ -397,23 +397,28 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
         0.0, float(alpha0), float(alpha_dot0), float(t_end), p, law_vec, float(theta0), omega, tolerances,
         grid, capacity=16, apex_capacity=0)
     _raise_status(res[0], "S1 event", res[3])
-    table = contacts[: res[1]]
-    obs = np.empty((grid.shape[0], 6))
+    n_contacts = int(res[1])
+    table = contacts[:n_contacts]
     if grid.shape[0]:
+        obs = np.empty((grid.shape[0], 6))
         K.observe(grid, g_a, g_d, g_m, p, law_vec, float(theta0), omega, obs)
-    if res[1]:
-        first = table[0]
-        first_values = (first[K.C_T_END] - first[K.C_T_START], first[K.C_ALPHA_END], first[K.C_RATE_END],
-                        first[K.C_DPSI_START], first[K.C_DPSI_END], first[K.C_PEAK_FORCE], first[K.C_PEAK_DELTA])
+        force, indentation = obs[:, 3], np.where(g_m != K.FREE, -obs[:, 0], 0.0)
+    else:  # no histories requested: skip the observation pass (S1 events are run by the thousand)
+        force, indentation = g_a, g_d
+    if n_contacts:
+        first = table[0].tolist()
+        duration = first[K.C_T_END] - first[K.C_T_START]
+        exit_a, exit_ad = first[K.C_ALPHA_END], first[K.C_RATE_END]
+        approach, separation = first[K.C_DPSI_START], first[K.C_DPSI_END]
+        peak_f, peak_d = first[K.C_PEAK_FORCE], first[K.C_PEAK_DELTA]
     else:
-        first_values = (math.nan,) * 7
-    duration, exit_a, exit_ad, approach, separation, peak_f, peak_d = (float(x) for x in first_values)
+        duration = exit_a = exit_ad = approach = separation = peak_f = peak_d = math.nan
     return EventResult(
-        alpha_m=float(res[7]), t_alpha_m=float(res[8]), contact_duration=duration, exit_alpha=exit_a,
+        alpha_m=res[7], t_alpha_m=res[8], contact_duration=duration, exit_alpha=exit_a,
         exit_alpha_dot=exit_ad, approach_gap_rate=approach, separation_gap_rate=separation, peak_force=peak_f,
-        peak_indentation=peak_d, n_contacts=int(res[1]), contact_table=table, t=grid,
-        contact_force=obs[:, 3], indentation=np.where(g_m != K.FREE, -obs[:, 0], 0.0), alpha=g_a,
-        alpha_dot=g_d, final_alpha=float(res[4]), final_alpha_dot=float(res[5]), n_steps=int(res[9]))
+        peak_indentation=peak_d, n_contacts=n_contacts, contact_table=table, t=grid,
+        contact_force=force, indentation=indentation, alpha=g_a,
+        alpha_dot=g_d, final_alpha=res[4], final_alpha_dot=res[5], n_steps=int(res[9]))
 
 
 def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,
