@@ -7,7 +7,8 @@ Measures, in one run on this machine:
    tolerances, and with scipy's ``solve_ivp`` (the independent reference model of
    tests/reference_rigp.py) for each method and tolerance; the baseline is the fastest
    ``solve_ivp`` setting whose errors (alpha_m, contact end time, peak force, against a DOP853
-   rtol 1e-13 solution) are no larger than the compiled simulator's; prints the ratio and the
+   rtol 1e-13 solution) are no larger than the compiled simulator's (errors below 1 % of the issue's
+   cross-check tolerances count as exact); prints the ratio and the
    microseconds per event;
 2. the throughput of the batch entry point (events per second) on 1 and 2 threads;
 3. cold (empty numba cache: compile) and warm (cached) start of a fresh process.
@@ -54,10 +55,22 @@ def best_time(fn, repeat=5, min_time=0.2):
     return best
 
 
+#: Errors below 1 % of the issue's cross-check tolerances (alpha_m 1e-8 relative, contact times
+#: 1e-9 s, peak force 1e-6 relative) count as exact when deciding "as accurate": below that, the
+#: ranking of two solvers flips with round-off (contact end times agree to ~1e-15 s).
+ERROR_FLOORS = (1e-10, 1e-11, 1e-8)
+
+
 def errors(result_alpha_m, result_t_end, result_peak, truth):
+    """Errors (alpha_m relative, contact end time [s], peak force relative) against ``truth``."""
     c = truth["contacts"][0]
     return (abs(result_alpha_m / truth["alpha_m"] - 1.0), abs(result_t_end - c["t_end"]),
             abs(result_peak / c["peak_force"] - 1.0))
+
+
+def as_accurate(candidate, ours):
+    """True if every error of ``candidate`` is no larger than ours (floored as ERROR_FLOORS)."""
+    return all(e <= max(o, f) for e, o, f in zip(candidate, ours, ERROR_FLOORS))
 
 
 def main(argv=None) -> int:
@@ -117,9 +130,10 @@ def main(argv=None) -> int:
         for method in ("RK45", "DOP853", "LSODA", "Radau"):
             for ivp_rtol in (1e-7, 1e-8, 1e-9, 1e-10, 1e-11, 1e-12):
                 err = ivp(method, ivp_rtol)[0]
-                if err is not None and all(e <= max(o, 1e-15) for e, o in zip(err, ours_err)):
+                if err is not None and as_accurate(err, ours_err):
                     t = ivp_time(method, ivp_rtol)
-                    print(f"  as accurate: solve_ivp {method:6s} rtol {ivp_rtol:.0e}: {t * 1e3:8.2f} ms/event")
+                    print(f"  as accurate: solve_ivp {method:6s} rtol {ivp_rtol:.0e}: {t * 1e3:8.2f} ms/event "
+                          f"(errors {err[0]:.1e}, {err[1]:.1e} s, {err[2]:.1e})")
                     if best is None or t < best[0]:
                         best = (t, method, ivp_rtol)
                     break

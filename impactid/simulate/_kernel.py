@@ -7,7 +7,13 @@ Method
 ------
 * Dormand–Prince 5(4) (the tableau of ``scipy.integrate.RK45``, taken from SciPy so that it is not
   retyped), local extrapolation, FSAL, the standard step-size controller (safety 0.9, factor
-  limits 0.2 and 10) and the 4th-order continuous extension for dense output.
+  limits 0.2 and 10; a rejected first step of a compliant contact shrinks with the exponent
+  1/(p+1) of the onset's ``t^(p+1)`` local error instead of 1/5) and the 4th-order continuous
+  extension for dense output.
+* Cost: the right-hand side is inlined into the step; the last stage also returns the monitored
+  quantities (gap, gap rate, force, force rate, sliding velocity) from the same trigonometry; the
+  stages' sines and cosines come from those at the step start by angle addition
+  (``_sincos_shifted``).
 * The state is ``(alpha, alpha_dot)``; the cam angle is ``Theta(t) = theta_ref + omega t``.
 * Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force
   ``k delta^p - beta delta^n dpsi/dt``, S-11..S-18),
@@ -36,7 +42,6 @@ import numpy as np
 from numba import njit, prange
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
-from impactid import contact as _contact
 from impactid.rigs import pivoted as _geo
 
 _jit = njit(cache=True, inline="always")
@@ -48,7 +53,6 @@ _tangential_gap_rate = _jit(_geo.tangential_gap_rate)
 _sliding_velocity_from = _jit(_geo.sliding_velocity)
 _spring_force = _jit(_geo.spring_force)
 _free_torque = _jit(_geo.free_torque)
-_hunt_crossley = _jit(_contact.hunt_crossley_force)
 
 # Dormand–Prince 5(4) tableau, from SciPy.
 _C = np.ascontiguousarray(_RK45.C, dtype=np.float64)
@@ -111,29 +115,96 @@ def _sliding_velocity(a, ad, th, omega, psi, rsum, ecc, r_c):
 
 
 @_jit
-def _force_law(psi, dpsi, p, law):
-    force = _hunt_crossley(-psi, dpsi, p[K_H], law[BETA], law[N_EXP], law[P_EXP])
-    if law[CLIP] != 0.0 and force < 0.0:
+def _free_torque_of(sa, ca, p):
+    """Spring and gravity torque about the pivot [N m] from sin/cos of alpha (S-9)."""
+    return p[M_B] * p[GRAV] * p[L_G] * ca - p[K_S] * (
+        p[L_SU] - p[D_Y] + (p[D_X] * sa + 0.5 * p[W_B]) / ca) * p[D_X]
+
+
+@_jit
+def _evaluate(mode, t, a, ad, add, p, law, theta_ref, omega, want_acceleration):
+    """The right-hand side and the monitored quantities at one state, sharing the trigonometry.
+
+    Returns ``(alpha_ddot, g, dpsi, force, dforce, v_r)``. With ``want_acceleration`` false,
+    ``add`` is taken as the known ``alpha_ddot`` (FSAL) instead of being computed. ``g`` is the
+    function whose zero ends the mode (the gap, or the constraint force when sticking), then the
+    gap rate [m/s], the contact force [N], its rate [N/s] (contact only) and the sliding velocity
+    [m/s] (contact and stick only).
+    """
+    th = theta_ref + omega * t
+    return _evaluate_trig(mode, a, ad, add, math.sin(a), math.cos(a), math.sin(th), math.cos(th), p, law, omega,
+                          want_acceleration)
+
+
+@_jit
+def _sincos_shifted(x0, s0, c0, d):
+    """``sin(x0 + d), cos(x0 + d)`` from ``s0 = sin(x0), c0 = cos(x0)``.
+
+    For the small in-step increments (``|d| < 0.03``) by the angle-addition formulas with the
+    Taylor series of ``sin d`` and ``cos d - 1`` (truncation below 1e-19 relative, i.e. below
+    round-off), which is about 4x cheaper than two library calls; otherwise directly.
+    """
+    if abs(d) < 0.03:
+        d2 = d * d
+        sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0))))
+        cm1 = -0.5 * d2 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)))
+        return s0 + (s0 * cm1 + c0 * sd), c0 + (c0 * cm1 - s0 * sd)
+    return math.sin(x0 + d), math.cos(x0 + d)
+
+
+@_jit
+def _evaluate_trig(mode, a, ad, add, sa, ca, st, ct, p, law, omega, want_acceleration):
+    """``_evaluate`` with the sines and cosines of alpha (``sa, ca``) and Theta (``st, ct``) given."""
+    gx = p[PE_X] - p[ECC] * ct
+    gy = p[PE_Y] - p[ECC] * st
+    psi = sa * gx + ca * gy - p[RSUM]
+    chi = ca * gx - sa * gy
+    s = sa * ct + ca * st  # sin(alpha + Theta)
+    c = ca * ct - sa * st  # cos(alpha + Theta)
+    dpsi = chi * ad - p[ECC] * c * omega
+    torque = _free_torque_of(sa, ca, p)
+    if mode == FREE:
+        if want_acceleration:
+            add = torque / p[I_B]
+        return add, psi, dpsi, 0.0, 0.0, 0.0
+    chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
+    vr = -chi_dot - (p[R_C] + p[ECC] * s) * (ad + omega)
+    if mode == STICK:
+        if want_acceleration:
+            add = -(chi_dot * ad + p[ECC] * s * (ad + omega) * omega) / chi
+        lam = (p[I_B] * add - torque) / (chi - p[MU] * np.sign(vr) * p[H_P])
+        return add, lam, dpsi, lam, 0.0, vr
+    d = -psi if psi < 0.0 else 0.0
+    pe = law[P_EXP]
+    n = law[N_EXP]
+    stiff = _power(d, pe)
+    damp = stiff if n == pe else _power(d, n)
+    beta = law[BETA]
+    force = p[K_H] * stiff - beta * damp * dpsi
+    clipped = law[CLIP] != 0.0 and force < 0.0
+    if clipped:
         force = 0.0
-    return force
+    if want_acceleration:
+        add = (torque + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) / p[I_B]
+    dforce = 0.0
+    if d > 0.0 and not (law[CLIP] != 0.0 and force <= 0.0):
+        ddpsi = chi_dot * ad + chi * add + p[ECC] * s * (ad + omega) * omega
+        dforce = -pe * p[K_H] * _power(d, pe - 1.0) * dpsi - beta * damp * ddpsi
+        if n != 0.0:
+            dforce += beta * n * _power(d, n - 1.0) * dpsi * dpsi
+    return add, psi, dpsi, force, dforce, vr
 
 
 @njit(cache=True)
 def stick_acceleration(t, a, ad, p, theta_ref, omega):
     """Angular acceleration that keeps ``d2psi/dt2 = 0`` (rigid contact) [rad/s^2]."""
-    th = theta_ref + omega * t
-    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
-    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
-    s = math.sin(a + th)
-    chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
-    return -(chi_dot * ad + p[ECC] * s * (ad + omega) * omega) / chi
+    return _evaluate(STICK, t, a, ad, 0.0, p, np.zeros(N_LAW), theta_ref, omega, True)[0]
 
 
 @njit(cache=True)
 def stick_force(t, a, ad, p, theta_ref, omega):
     """Normal force ``lambda`` [N] that the rigid constraint needs (negative = would pull)."""
-    add = stick_acceleration(t, a, ad, p, theta_ref, omega)
-    return _snapshot(STICK, t, a, ad, add, p, np.zeros(N_LAW), theta_ref, omega)[2]
+    return _evaluate(STICK, t, a, ad, 0.0, p, np.zeros(N_LAW), theta_ref, omega, True)[3]
 
 
 @_jit
@@ -155,36 +226,14 @@ def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
     """``alpha_ddot`` [rad/s^2] in the given mode.
 
     The hot path of the integrator: the formulas of ``rigs.pivoted`` (gap, lever arm, gap rate,
-    sliding velocity, spring torque) and ``contact.hunt_crossley_force`` fused here so that the
-    trigonometric functions of alpha and Theta are computed once. ``tests/simulate/
-    test_kernel_rhs.py`` checks it against those public functions to round-off.
+    sliding velocity, spring torque) and ``contact.hunt_crossley_force`` fused in ``_evaluate`` so
+    that the trigonometric functions of alpha and Theta are computed once (free flight needs only
+    those of alpha). ``tests/simulate/test_kernel_rhs.py`` checks it against those public
+    functions to round-off.
     """
-    if mode == STICK:
-        return stick_acceleration(t, a, ad, p, theta_ref, omega)
-    sa = math.sin(a)
-    ca = math.cos(a)
-    torque = p[M_B] * p[GRAV] * p[L_G] * ca - p[K_S] * (
-        p[L_SU] - p[D_Y] + p[D_X] * sa / ca + 0.5 * p[W_B] / ca) * p[D_X]
     if mode == FREE:
-        return torque / p[I_B]
-    th = theta_ref + omega * t
-    st = math.sin(th)
-    ct = math.cos(th)
-    gx = p[PE_X] - p[ECC] * ct
-    gy = p[PE_Y] - p[ECC] * st
-    psi = sa * gx + ca * gy - p[RSUM]
-    chi = ca * gx - sa * gy
-    s = sa * ct + ca * st  # sin(alpha + Theta)
-    c = ca * ct - sa * st  # cos(alpha + Theta)
-    dpsi = chi * ad - p[ECC] * c * omega
-    d = -psi if psi < 0.0 else 0.0
-    stiff = _power(d, law[P_EXP])
-    damp = stiff if law[N_EXP] == law[P_EXP] else _power(d, law[N_EXP])
-    force = p[K_H] * stiff - law[BETA] * damp * dpsi
-    if law[CLIP] != 0.0 and force < 0.0:
-        force = 0.0
-    vr = ad * (psi + p[RSUM]) - p[ECC] * omega * s - (p[R_C] + p[ECC] * s) * (ad + omega)
-    return (torque + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) / p[I_B]
+        return _free_torque_of(math.sin(a), math.cos(a), p) / p[I_B]
+    return _evaluate(mode, t, a, ad, 0.0, p, law, theta_ref, omega, True)[0]
 
 
 @njit(cache=True)
@@ -192,61 +241,23 @@ def contact_force(mode, t, a, ad, p, law, theta_ref, omega):
     """Normal contact force [N]: Hunt–Crossley in CONTACT, ``lambda`` in STICK, 0 in FREE."""
     if mode == FREE:
         return 0.0
-    if mode == STICK:
-        return stick_force(t, a, ad, p, theta_ref, omega)
-    th = theta_ref + omega * t
-    psi = _gap(a, th, p[PE_X], p[PE_Y], p[ECC], p[RSUM])
-    chi = _lever_arm(a, th, p[PE_X], p[PE_Y], p[ECC])
-    dpsi = chi * ad - p[ECC] * math.cos(a + th) * omega
-    return _force_law(psi, dpsi, p, law)
+    return _evaluate(mode, t, a, ad, 0.0, p, law, theta_ref, omega, True)[3]
 
 
 @njit(cache=True)
 def _force_rate(t, a, ad, p, law, theta_ref, omega):
-    """``dF/dt`` of the Hunt–Crossley force in contact [N/s] (the formula lives in ``_snapshot``)."""
-    add = acceleration(CONTACT, t, a, ad, p, law, theta_ref, omega)
-    return _snapshot(CONTACT, t, a, ad, add, p, law, theta_ref, omega)[3]
+    """``dF/dt`` of the Hunt–Crossley force in contact [N/s]."""
+    return _evaluate(CONTACT, t, a, ad, 0.0, p, law, theta_ref, omega, True)[4]
 
 
 @njit(cache=True)
 def _snapshot(mode, t, a, ad, add, p, law, theta_ref, omega):
     """Switching and monitoring quantities at a state whose ``alpha_ddot`` is known (FSAL).
 
-    Returns ``(g, dpsi, force, dforce, v_r)``: ``g`` is the function whose zero ends the mode
-    (the gap, or the constraint force when sticking), then the gap rate, the contact force, its
-    rate (contact only) and the sliding velocity (contact only). Shares the trigonometry so a
-    step costs one evaluation instead of one per monitored quantity.
+    Returns ``(g, dpsi, force, dforce, v_r)`` (see ``_evaluate``).
     """
-    th = theta_ref + omega * t
-    sa = math.sin(a)
-    ca = math.cos(a)
-    gx = p[PE_X] - p[ECC] * math.cos(th)
-    gy = p[PE_Y] - p[ECC] * math.sin(th)
-    psi = sa * gx + ca * gy - p[RSUM]
-    chi = ca * gx - sa * gy
-    s = math.sin(a + th)
-    c = math.cos(a + th)
-    dpsi = chi * ad - p[ECC] * c * omega
-    if mode == FREE:
-        return psi, dpsi, 0.0, 0.0, 0.0
-    dpsi_j = ad * (psi + p[RSUM]) - p[ECC] * omega * s
-    vr = dpsi_j - (p[R_C] + p[ECC] * s) * (ad + omega)
-    if mode == STICK:
-        lam = (p[I_B] * add - _torque(a, p)) / (chi - p[MU] * np.sign(vr) * p[H_P])
-        return lam, dpsi, lam, 0.0, vr
-    force = _force_law(psi, dpsi, p, law)
-    delta = -psi
-    dforce = 0.0
-    if delta > 0.0 and not (law[CLIP] != 0.0 and force <= 0.0):
-        chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
-        ddpsi = chi_dot * ad + chi * add + p[ECC] * s * (ad + omega) * omega
-        beta = law[BETA]
-        n = law[N_EXP]
-        pe = law[P_EXP]
-        dforce = -pe * p[K_H] * _power(delta, pe - 1.0) * dpsi - beta * _power(delta, n) * ddpsi
-        if n != 0.0:
-            dforce += beta * n * _power(delta, n - 1.0) * dpsi * dpsi
-    return psi, dpsi, force, dforce, vr
+    r = _evaluate(mode, t, a, ad, add, p, law, theta_ref, omega, False)
+    return r[1], r[2], r[3], r[4], r[5]
 
 
 @njit(cache=True)
@@ -292,31 +303,54 @@ def observe(t, a, ad, mode, p, law, theta_ref, omega, out):
 
 
 @njit(cache=True)
-def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K):
-    """One DP5 step from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2).
+def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S):
+    """One DP5 step from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2) and, with the
+    monitored quantities ``(g, dpsi, force, dforce, v_r)`` at the step's end, S (5).
 
     Returns (a_new, ad_new, err_a, err_ad)."""
     K[0, 0] = ad
     K[0, 1] = f0
+    # The stages' sines and cosines come from those at the step start by angle addition
+    # (``_sincos_shifted``): alpha and Theta move by small amounts within a step.
+    sa0 = math.sin(a)
+    ca0 = math.cos(a)
+    th0 = theta_ref + omega * t
+    st0 = 0.0
+    ct0 = 1.0
+    if mode != FREE:
+        st0 = math.sin(th0)
+        ct0 = math.cos(th0)
     for s in range(1, 6):
-        sa = 0.0
-        sd = 0.0
+        acc_a = 0.0
+        acc_d = 0.0
         for j in range(s):
-            sa += _A[s, j] * K[j, 0]
-            sd += _A[s, j] * K[j, 1]
-        ys = a + h * sa
-        yds = ad + h * sd
+            acc_a += _A[s, j] * K[j, 0]
+            acc_d += _A[s, j] * K[j, 1]
+        ys = a + h * acc_a
+        yds = ad + h * acc_d
         K[s, 0] = yds
-        K[s, 1] = acceleration(mode, t + _C[s] * h, ys, yds, p, law, theta_ref, omega)
-    sa = 0.0
-    sd = 0.0
+        ss, cs = _sincos_shifted(a, sa0, ca0, h * acc_a)
+        if mode == FREE:
+            K[s, 1] = _free_torque_of(ss, cs, p) / p[I_B]
+        else:
+            st, ct = _sincos_shifted(th0, st0, ct0, omega * _C[s] * h)
+            K[s, 1] = _evaluate_trig(mode, ys, yds, 0.0, ss, cs, st, ct, p, law, omega, True)[0]
+    acc_a = 0.0
+    acc_d = 0.0
     for j in range(6):
-        sa += _B[j] * K[j, 0]
-        sd += _B[j] * K[j, 1]
-    a1 = a + h * sa
-    ad1 = ad + h * sd
+        acc_a += _B[j] * K[j, 0]
+        acc_d += _B[j] * K[j, 1]
+    a1 = a + h * acc_a
+    ad1 = ad + h * acc_d
     K[6, 0] = ad1
-    K[6, 1] = acceleration(mode, t + h, a1, ad1, p, law, theta_ref, omega)
+    # the last stage also gives the step end's monitored quantities (S), sharing its trigonometry
+    ss, cs = _sincos_shifted(a, sa0, ca0, h * acc_a)
+    if mode == FREE:
+        st = math.sin(th0 + omega * h)
+        ct = math.cos(th0 + omega * h)
+    else:
+        st, ct = _sincos_shifted(th0, st0, ct0, omega * h)
+    K[6, 1], S[0], S[1], S[2], S[3], S[4] = _evaluate_trig(mode, a1, ad1, 0.0, ss, cs, st, ct, p, law, omega, True)
     ea = 0.0
     ed = 0.0
     for j in range(7):
@@ -528,6 +562,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     status = OK
     K = np.empty((7, 2))
     Q = np.empty((2, 4))
+    S = np.empty(5)
     restitution = law[LAW_KIND] == KIND_RESTITUTION
     n_grid = grid.shape[0]
     cap_c = contacts.shape[0]
@@ -555,6 +590,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
     h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
     step_rejected = False
+    onset = mode == CONTACT  # True until the first accepted step of a compliant contact
     span = t_end - t0
     while t < t_end:
         if n_steps >= max_steps:
@@ -566,7 +602,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         if h <= 16.0 * 2.2e-16 * max(abs(t), 1e-300):
             status = STEP_UNDERFLOW
             break
-        a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K)
+        a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S)
         if not (math.isfinite(a1) and math.isfinite(ad1)):
             # treat like a failed step: shrink hard
             h *= 0.1
@@ -578,10 +614,17 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             continue
         err = _error_norm(a, ad, a1, ad1, ea, ed, rtol, atol_a, atol_d)
         if err > 1.0:
-            h *= max(0.2, 0.9 * err ** -0.2)
+            if onset:
+                # first step of a compliant contact: the force grows like delta^p ~ t^p, so the
+                # local error of a step from the onset scales like h^(p+1), not h^5; shrinking with
+                # the true exponent lands on an acceptable step at once instead of after ~6 tries
+                h *= max(0.01, 0.9 * err ** (-1.0 / (law[P_EXP] + 1.0)))
+            else:
+                h *= max(0.2, 0.9 * err ** -0.2)
             n_rej += 1
             step_rejected = True
             continue
+        onset = False
         # ---- accepted: look for the event that ends the current mode ------------------------
         if err == 0.0:
             factor = 10.0
@@ -592,7 +635,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         step_rejected = False
         switch = False
         switch_now = False
-        g1, q1, f1, r1, v1 = _snapshot(mode, t + h, a1, ad1, K[6, 1], p, law, theta_ref, omega)
+        g1, q1, f1, r1, v1 = S[0], S[1], S[2], S[3], S[4]
         # At the surface (g0 on the boundary) the gap rate decides: leaving means no event, and a
         # step that nevertheless ends on the wrong side hides a whole flight (or contact) inside
         # it, so it is rejected and shortened until the crossing can be bracketed properly.
@@ -639,16 +682,16 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 ad1 = ad
                 h = 0.0
             else:
-                a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_ev, f0, p, law, theta_ref, omega, K)
+                a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_ev, f0, p, law, theta_ref, omega, K, S)
                 if term_kind == EV_GAP:
-                    g_new, rate, _f, _r, _v = _snapshot(FREE, t + h_ev, a1, ad1, 0.0, p, law, theta_ref, omega)
+                    g_new, rate = S[0], S[1]  # the gap and its rate (S[0] is the gap in FREE/CONTACT)
                     if g_new != 0.0 and rate != 0.0:
                         h_new = h_ev - g_new / rate
                         if h_new > 0.0 and h_new <= h:
-                            a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_new, f0, p, law, theta_ref, omega, K)
+                            a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_new, f0, p, law, theta_ref, omega, K, S)
                             h_ev = h_new
                 h = h_ev
-                g1, q1, f1, r1, v1 = _snapshot(mode, t + h, a1, ad1, K[6, 1], p, law, theta_ref, omega)
+                g1, q1, f1, r1, v1 = S[0], S[1], S[2], S[3], S[4]
         t1 = t + h if h > 0.0 else t
         if h > 0.0:
             n_steps += 1
@@ -777,6 +820,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
         h_prev = h
         h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
+        onset = mode == CONTACT
         if h_prev > 0.0 and mode == FREE:
             h = max(h, min(h_prev, h_max))
     return (status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rej)
