@@ -327,10 +327,10 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     # sub-sample onset: how far (in samples) the onset lies before the first contact sample
     onset_offset = (usable["onset_index"].to_numpy() - (usable["t_onset"].to_numpy() - recording.start_time_s)
                     * rate_hz)
-    # The rate change over each window (see detrend_integrate): the window runs from the first
-    # contact sample to the last free sample before the next onset; the onset rates of period-1
-    # motion are equal, so the change is minus the rise from the onset to the first sample and
-    # minus the free flight from the last sample to the next onset (both sub-sample pieces).
+    # Each window runs from the first contact sample to the last free sample before the next onset;
+    # the event's true span (EventSpan, for the event means of detrend_integrate) adds the two
+    # sub-sample pieces: the pulse's rise from the onset to the first sample, and the free flight
+    # from the last sample to the next onset.
     next_offset = k1 - (usable["t_next"].to_numpy() - recording.start_time_s) * rate_hz
     angular = accel / rig.l_a
     noise = events.noise_sigma / rig.l_a

@@ -124,7 +124,7 @@ def edge_correction(n: int, dt: float, method, edges: Sequence[PowerLawEdge]) ->
     above ``p`` are infinite, so no polynomial rule integrates it to its order, and the error
     depends on where the edge falls between samples (the generalised Euler-Maclaurin expansion:
     ``c dt^(p+1)`` times a Hurwitz-zeta factor of the sub-sample position). On rig P at 204.8 kHz
-    that is 1e-5 .. 3e-4 rad/s of rate after a pulse. This function applies the integration
+    that is 1e-5 .. 6e-4 rad/s of rate after a pulse. This function applies the integration
     method itself to the samples of the bare power law within :data:`EDGE_SPAN_SAMPLES` samples
     of the edge and returns its cumulative result minus the exact integral (``c x^(p+1)/(p+1)``),
     held constant after the span. Subtracting it from the cumulative integral of the acceleration
