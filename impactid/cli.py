@@ -430,14 +430,7 @@ def cmd_estimate(args) -> int:
                           n_bounds=tuple(args.n_range), progress=progress)
     data = result.to_dict()
     data["recordings_read"] = [str(p) for p in paths]
-    if args.plots:
-        from impactid.reports import estimate_figures
-
-        data["plots"] = [str(p) for p in estimate_figures(result, args.plots)]
-    if args.out:
-        _write_json(args.out, data)
-    if args.json:
-        _print_json(data)
+    if _deliver(args, data, "estimate_figures", result):
         return 0
     d, r = result.damping, result.restitution
     unc = data["uncertainty"]
@@ -456,11 +449,32 @@ def cmd_estimate(args) -> int:
     print(f"  xi_mean = {r.xi_mean:.5g}, va_mean = {r.va_mean:.5g} m/s, constant r = {r.r_constant:.5g}")
     for message in result.warnings:
         print(f"  warning: {message}")
+    _say_written(args)
+    return 0
+
+
+def _deliver(args, data: dict, figures: str, result) -> bool:
+    """The outputs shared by ``estimate`` and ``cam-fit``: the figures of ``result`` (by the name
+    of their writer in :mod:`impactid.reports`, imported only when asked for) into ``--plots``
+    with their paths recorded in ``data``, ``data`` as JSON into ``--out`` (atomically) and, with
+    ``--json``, on stdout. Returns True when the JSON was printed (no text report then)."""
+    if args.plots:
+        from impactid import reports
+
+        data["plots"] = [str(p) for p in getattr(reports, figures)(result, args.plots)]
+    if args.out:
+        _write_json(args.out, data)
+    if args.json:
+        _print_json(data)
+        return True
+    return False
+
+
+def _say_written(args) -> None:
     if args.out:
         print(f"  result written to {args.out}")
     if args.plots:
         print(f"  figures written to {args.plots}")
-    return 0
 
 
 def cmd_cam_fit(args) -> int:
@@ -489,20 +503,10 @@ def cmd_cam_fit(args) -> int:
                           nonnegative=not args.signed, counter=args.counter)
     data = fit.to_dict(samples=3600)
     data["recording"] = str(path)
-    if args.plots:
-        from impactid.reports import cam_fit_figures
-
-        data["plots"] = [str(p) for p in cam_fit_figures(fit, args.plots)]
-    if args.out:
-        _write_json(args.out, data)
-    if args.json:
-        _print_json(data)
+    if _deliver(args, data, "cam_fit_figures", fit):
         return 0
     print(fit.report())
-    if args.out:
-        print(f"  result written to {args.out}")
-    if args.plots:
-        print(f"  figures written to {args.plots}")
+    _say_written(args)
     return 0
 
 

@@ -196,12 +196,6 @@ def _evaluate_trig(mode, a, ad, add, sa, ca, st, ct, p, law, omega, want_acceler
 
 
 @njit(cache=True)
-def stick_acceleration(t, a, ad, p, theta_ref, omega):
-    """Angular acceleration that keeps ``d2psi/dt2 = 0`` (rigid contact) [rad/s^2]."""
-    return _evaluate(STICK, t, a, ad, 0.0, p, np.zeros(N_LAW), theta_ref, omega, True)[0]
-
-
-@njit(cache=True)
 def stick_force(t, a, ad, p, theta_ref, omega):
     """Normal force ``lambda`` [N] that the rigid constraint needs (negative = would pull)."""
     return _evaluate(STICK, t, a, ad, 0.0, p, np.zeros(N_LAW), theta_ref, omega, True)[3]
