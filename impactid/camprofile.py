@@ -275,6 +275,8 @@ def load_profile_json(path: str | os.PathLike[str]) -> GaussianSumProfile:
     import json
 
     path = os.fspath(path)
+    if os.path.exists(path) and not os.path.isfile(path):
+        raise CamProfileError(f"{path}: not a regular file (a folder, named pipe or device)")
     try:
         with open(path, encoding="utf-8") as handle:
             data = json.load(handle)

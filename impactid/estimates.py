@@ -108,6 +108,7 @@ class _Objective:
         self.residual = residual
         self.delta_ref = delta_ref
         self.n_simulations = 0
+        self.n_failed = 0  # S1 runs that could not be simulated (penalised, see residuals)
         self.n_events = sum(len(s) for s in self.sets)
 
     def beta(self, logc, n):
@@ -119,7 +120,9 @@ class _Objective:
                                       np.atleast_1d(np.asarray(n, dtype=float)))
         trials = np.column_stack([self.beta(logc, n), n])
         self.n_simulations += trials.shape[0] * self.n_events
-        return np.concatenate([s.residuals(trials, self.residual) for s in self.sets], axis=1)
+        parts = [s.residuals_and_failures(trials, self.residual) for s in self.sets]
+        self.n_failed += int(sum(int(f.sum()) for _, f in parts))
+        return np.concatenate([r for r, _ in parts], axis=1)
 
     @staticmethod
     def mean(per_event: np.ndarray) -> np.ndarray:
@@ -204,6 +207,8 @@ class DampingEstimate:
     n_simulations: int
     seconds: float
     warnings: tuple[str, ...] = ()
+    #: S1 runs (trial law x event) that could not be simulated and got the documented penalty
+    n_failed_simulations: int = 0
 
     @property
     def damping_at_reference(self) -> float:
@@ -386,6 +391,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         n_range = None if fix_n is not None else (max(n_hat - 0.15, n_lo), min(n_hat + 0.15, n_hi))
         lc2, n2, _ = _profile_fit(sub, centre_of, (lc_lo, lc_hi), 0.1, n_range=n_range, fix_n=fix_n)
         obj.n_simulations += sub.n_simulations
+        obj.n_failed += sub.n_failed
         phase_beta_sd = math.hypot(phase_beta_sd, float(obj.beta(lc2, n2)) - float(obj.beta(logc_hat, n_hat)))
         # (a relative sd of beta is used below: beta shifts multiplicatively along the valley)
         phase_n_sd = math.hypot(phase_n_sd, n2 - n_hat)
@@ -433,6 +439,12 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     per_event = pd.DataFrame({"source": sources, "event": events, "approach_speed": np.concatenate(
         [s.approach_speed for s in sets]), "residual": per_event_hat})
     land = objective_landscape(sets, residual, delta_ref=delta_ref) if landscape else None
+    if obj.n_failed:
+        from impactid.residuals import FAILED_SIMULATION_RESIDUAL
+
+        notes.append(f"{obj.n_failed} of {obj.n_simulations} S1 runs with trial laws could not be simulated "
+                     f"(step budget or step-size underflow); each counted as a residual of "
+                     f"{FAILED_SIMULATION_RESIDUAL:g} for its event, so the search avoided those laws")
     progress("done", 1.0)
     for message in notes:
         warnings.warn(message, EstimationWarning, stacklevel=2)
@@ -442,7 +454,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         n_bootstrap_interval=(float(n_boot[0]), float(n_boot[1])), indifference=indifference, separable=separable,
         phase_beta_sd=phase_beta_sd, phase_n_sd=phase_n_sd, valley=valley, per_event=per_event,
         delta_ref=delta_ref, bootstrap=boot, landscape=land,
-        n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes))
+        n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes),
+        n_failed_simulations=obj.n_failed)
 
 
 def _widen(interval, centre, extra):
@@ -600,7 +613,7 @@ class Estimate:
     """Result of :func:`estimate`: contact damping, restitution, and what they rest on."""
 
     damping: DampingEstimate
-    restitution: RestitutionEstimate
+    restitution: RestitutionEstimate | None
     sources: tuple[str, ...]
     operating_points: tuple[dict, ...]
     reconstructions: tuple = field(default=(), repr=False)
@@ -612,7 +625,8 @@ class Estimate:
         """The result as JSON-ready data: the keys of FORMAT.md (SI units) plus uncertainty and detail."""
         d, r = self.damping, self.restitution
         out = {
-            "beta": d.beta, "n": d.n, "gamma": r.gamma, "xi_mean": r.xi_mean, "va_mean": r.va_mean,
+            "beta": d.beta, "n": d.n, "gamma": r.gamma if r else None, "xi_mean": r.xi_mean if r else None,
+            "va_mean": r.va_mean if r else None,
             "impacts_used": int(len(d.per_event[np.isfinite(d.per_event["residual"])])),
             "residual": d.residual, "objective": d.objective,
             "units": {"beta": "N s m^-(n+1)", "gamma": "s/m", "va_mean": "m/s", "c_ref": "N s/m",
@@ -621,24 +635,26 @@ class Estimate:
                 "beta_interval": list(d.beta_interval), "n_interval": list(d.n_interval),
                 "beta_bootstrap_95": list(d.beta_bootstrap_interval), "n_bootstrap_95": list(d.n_bootstrap_interval),
                 "objective_indifference": d.indifference, "separable": d.separable, "n_fixed": d.fixed_n,
-                "gamma_stderr": r.gamma_stderr, "beta_sd_from_cam_phase": d.phase_beta_sd,
+                "gamma_stderr": r.gamma_stderr if r else None, "beta_sd_from_cam_phase": d.phase_beta_sd,
                 "n_sd_from_cam_phase": d.phase_n_sd,
             },
             "contact_damping": {"method": d.method, "delta_ref": d.delta_ref, "c_ref": d.damping_at_reference,
-                                "simulations": d.n_simulations, "seconds": d.seconds,
+                                "simulations": d.n_simulations, "failed_simulations": d.n_failed_simulations,
+                                "seconds": d.seconds,
                                 "valley": d.valley[["n", "beta", "objective"]].to_dict(orient="list")},
-            "restitution": {"gamma": r.gamma, "gamma_stderr": r.gamma_stderr, "r_constant": r.r_constant,
-                            "r_constant_stderr": r.r_constant_stderr, "intercept": r.intercept,
-                            "intercept_stderr": r.intercept_stderr, "slope": r.slope, "slope_stderr": r.slope_stderr,
-                            "va_spread": r.va_spread, "beta_equivalent_n1.5": r.beta_equivalent,
-                            "impacts_used": r.impacts_used},
+            "restitution": None if r is None else {
+                "gamma": r.gamma, "gamma_stderr": r.gamma_stderr, "r_constant": r.r_constant,
+                "r_constant_stderr": r.r_constant_stderr, "intercept": r.intercept,
+                "intercept_stderr": r.intercept_stderr, "slope": r.slope, "slope_stderr": r.slope_stderr,
+                "va_spread": r.va_spread, "beta_equivalent_n1.5": r.beta_equivalent,
+                "impacts_used": r.impacts_used},
             "recordings": [dict(source=s, **op) for s, op in zip(self.sources, self.operating_points)],
             "warnings": list(self.warnings),
             "provenance": list(self.provenance),
         }
         if per_impact:
-            merged = d.per_event.merge(r.per_impact[["source", "event", "xi", "separation_speed"]],
-                                       on=["source", "event"], how="outer")
+            merged = d.per_event if r is None else d.per_event.merge(
+                r.per_impact[["source", "event", "xi", "separation_speed"]], on=["source", "event"], how="outer")
             out["per_impact"] = merged.to_dict(orient="records")
         return out
 
@@ -653,7 +669,8 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     ----------
     recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
     residual, fix_n, method, grid, c_bounds, n_bounds, landscape, progress : see :func:`fit_contact_damping`.
-    rig : overrides the recordings' rig (a :class:`~impactid.rigs.PivotedFollowerRig`).
+    rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
+        rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
     """
     from impactid.events import EventWarning
@@ -662,7 +679,8 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
 
     if isinstance(recordings, (Recording, str)) or hasattr(recordings, "__fspath__"):
         recordings = [recordings]
-    recs = [r if isinstance(r, Recording) else read_recording(r, rig=rig) for r in recordings]
+    recs = [(r.with_rig(rig) if rig is not None else r) if isinstance(r, Recording) else read_recording(r, rig=rig)
+            for r in recordings]
     if not recs:
         raise ImpactidError("no recording given")
     collected: list[str] = []
@@ -670,7 +688,7 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", EventWarning)
         for rec in recs:
-            recon = reconstruct(rec, integration=integration, anchor=anchor, rig=rig)
+            recon = reconstruct(rec, integration=integration, anchor=anchor)
             es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
             recons.append(recon)
             sets.append(es)
@@ -688,7 +706,13 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
         warnings.simplefilter("always", EstimationWarning)
         damping = fit_contact_damping(sets, residual, fix_n=fix_n, method=method, grid=grid, c_bounds=c_bounds,
                                       n_bounds=n_bounds, landscape=landscape, progress=progress)
-        restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H)
+        # a part of the job that cannot be done does not take the others with it: without a
+        # determined xi the restitution law is missing from the result, with the reason
+        try:
+            restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H)
+        except ImpactidError as exc:
+            restitution = None
+            warnings.warn(f"restitution law not estimated: {exc}", EstimationWarning, stacklevel=1)
     collected += [str(w.message) for w in caught if issubclass(w.category, EstimationWarning)]
     for message in collected:
         warnings.warn(message, EstimationWarning, stacklevel=2)

@@ -38,7 +38,7 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from impactid.io import Recording
+from impactid.io import Recording, RecordingError
 
 #: Samples skipped between a baseline window and the pulse, and the baseline window length.
 BASELINE_GAP = 16
@@ -52,8 +52,19 @@ PEAK_TOLERANCE = 0.03
 NOISY_ONSET = 1e-4
 
 
+#: Fewest samples in which a pulse and its two baseline windows can be found.
+MIN_SAMPLES = 2 * (BASELINE_GAP + BASELINE_LENGTH) + 8
+#: A channel whose largest negative excursion from the median exceeds this many times its largest
+#: positive one is taken as inverted (impact pulses on rig P's accelerometer are positive).
+INVERTED_RATIO = 3.0
+
+
 class EventWarning(UserWarning):
     """The events break an assumption of the pipeline (period-1 impacting, clean pulses)."""
+
+
+class NoImpactsError(RecordingError):
+    """A recording in which no impact can be found (names the file and the channel)."""
 
 
 @dataclass(frozen=True)
@@ -113,6 +124,43 @@ def _baseline(x: np.ndarray, lo: int, hi: int):
     centre = 0.5 * (lo + hi)
     coeffs = np.polyfit(np.arange(lo, hi) - centre, x[lo:hi], 2)
     return lambda at: np.polyval(coeffs, np.asarray(at) - centre)
+
+
+#: Most times the post-pulse baseline window is moved on past a tensile tail.
+MAX_BASELINE_MOVES = 16
+
+
+def _next_core_start(starts: np.ndarray, current: int, size: int) -> int:
+    """Start of the pulse core after the one starting at ``current`` (``size`` if none)."""
+    later = starts[starts > current]
+    return int(later[0]) if later.size else size
+
+
+def _clean_baseline_after(x: np.ndarray, core_end: int, threshold: float, limit: int):
+    """Free-flight baseline after a pulse whose core ends at ``core_end``: ``(baseline, window start)``.
+
+    The window of :data:`BASELINE_LENGTH` samples starts :data:`BASELINE_GAP` samples after the
+    core. If samples of its first half deviate from the fitted quadratic by more than
+    ``threshold`` (the pulse's tail is still in the window: a tensile tail below the baseline,
+    or a slow return), the window is moved to start ``BASELINE_GAP`` samples after the last such
+    sample and fitted again, at most :data:`MAX_BASELINE_MOVES` times and never into the next
+    pulse (``limit``). Returns ``(None, start)`` when no window fits.
+    """
+    a_lo = core_end + BASELINE_GAP
+    after = _baseline(x, a_lo, a_lo + BASELINE_LENGTH)
+    for _ in range(MAX_BASELINE_MOVES):
+        if after is None:
+            break
+        head = np.arange(a_lo, a_lo + BASELINE_LENGTH // 2)
+        bad = np.flatnonzero(np.abs(x[head] - after(head)) > threshold)
+        if bad.size == 0:
+            break
+        moved = int(head[bad[-1]]) + BASELINE_GAP
+        if moved + BASELINE_LENGTH > limit:
+            break
+        a_lo = moved
+        after = _baseline(x, a_lo, a_lo + BASELINE_LENGTH)
+    return after, a_lo
 
 
 def _subsample_start(r: np.ndarray, k_first: int, direction: int) -> float:
@@ -194,10 +242,26 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     recording.require(channel, method="event detection")
     x = recording[channel]
     rate = recording.sample_rate_hz
+    where = recording.source or "recording"
+    if x.size < MIN_SAMPLES:
+        raise NoImpactsError(f"{where}: no impacts found in channel {channel!r}: the recording has only "
+                             f"{x.size} samples (at least {MIN_SAMPLES} are needed for a pulse and its baselines)")
     sigma = noise_floor(x)
     level = float(np.median(x))
-    excursion = float(np.max(x)) - level
+    lo_x, hi_x = recording.channel_range(channel)
+    excursion = hi_x - level
+    if hi_x == lo_x:
+        raise NoImpactsError(f"{where}: no impacts found in channel {channel!r}: the channel is constant "
+                             f"({hi_x:.6g} {recording.units.get(channel, '')}); is the sensor connected?")
+    if level - lo_x > INVERTED_RATIO * max(excursion, 0.0):
+        raise NoImpactsError(
+            f"{where}: channel {channel!r} looks inverted: its largest excursion from the median is negative "
+            f"({lo_x - level:.4g} against {excursion:+.4g}), but a contact pushes the follower towards "
+            "increasing alpha, so impact pulses are positive (FORMAT: positive for increasing alpha); "
+            "flip the sign of the channel")
     thr = float(threshold) if threshold is not None else max(10.0 * sigma, 0.02 * excursion)
+    if not (math.isfinite(thr) and thr > 0.0):
+        raise ValueError(f"threshold must be positive and finite, got {threshold!r}")
     starts, ends = _runs(x - level > thr)
     # merge cores split by a few noisy samples (one pulse), never across a real free flight
     if starts.size > 1:
@@ -205,7 +269,6 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         ends = np.concatenate((ends[:-1][keep[1:]], ends[-1:]))
         starts = starts[keep]
     rows = []
-    lo_x, hi_x = recording.channel_range(channel)
     for cs, ce in zip(starts, ends):
         peak_index = cs + int(np.argmax(x[cs:ce]))
         flags = {"truncated": False, "too_short": False, "overlapping": False, "clipped": False}
@@ -228,10 +291,13 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         t_on = _subsample_start(rise, k0, +1)
         if othr > NOISY_ONSET * abs(peak):
             t_on = _fit_onset(x, before, k0, peak, sigma, t_on)
-        # separation: baseline after the core
-        a_lo, a_hi = ce + BASELINE_GAP, ce + BASELINE_GAP + BASELINE_LENGTH
+        # separation: baseline after the pulse. The pulse may end with a tensile tail below the
+        # baseline (a damping law with n < 1.5 pulls before the gap reopens) that lasts longer
+        # than BASELINE_GAP beyond the positive core: the baseline window is moved on until its
+        # first half is free of it (:func:`_clean_baseline_after`).
+        after, a_lo = _clean_baseline_after(x, ce, othr, limit=_next_core_start(starts, cs, x.size))
+        a_hi = a_lo + BASELINE_LENGTH
         search_a = np.arange(ce - 1, a_lo)
-        after = _baseline(x, a_lo, a_hi)
         if after is None:
             flags["truncated"] = True
             ka, t_sep = ce, float(ce)
@@ -256,6 +322,10 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         rows.append(dict(onset_index=k0, t_onset=recording.start_time_s + t_on / rate, separation_index=ka,
                          t_separation=recording.start_time_s + t_sep / rate, peak=peak, contact_samples=ka - k0,
                          **flags))
+    if not rows:
+        raise NoImpactsError(f"{where}: no impacts found in channel {channel!r} (no pulse rises {thr:.4g} "
+                             f"{recording.units.get(channel, '')} above the median {level:.4g}; noise floor "
+                             f"{sigma:.3g})")
     table = pd.DataFrame(rows, columns=["onset_index", "t_onset", "separation_index", "t_separation", "peak",
                                         "contact_samples", "truncated", "too_short", "overlapping", "clipped"])
     table["onset_index"] = table["onset_index"].astype(np.int64)
@@ -267,14 +337,10 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     messages = _period_check(table, recording.cam_speed_hz)
     table["usable"] = ~(table["truncated"] | table["overlapping"] | table["clipped"])
     table.index.name = "event"
-    where = recording.source or "recording"
-    if len(table) == 0:
-        messages.append(f"{where}: no impacts found on {channel!r} (threshold {thr:.4g} m/s^2 above the median)")
-    else:
-        for flag, text in (("clipped", "clipped pulses"), ("overlapping", "overlapping contacts")):
-            bad = table.index[table[flag]].tolist()
-            if bad:
-                messages.append(f"{where}: {text} at events {_list(bad)}; they are not used")
+    for flag, text in (("clipped", "clipped pulses"), ("overlapping", "overlapping contacts")):
+        bad = table.index[table[flag]].tolist()
+        if bad:
+            messages.append(f"{where}: {text} at events {_list(bad)}; they are not used")
     messages = [m if m.startswith(where) else f"{where}: {m}" for m in messages]
     if warn:
         for message in messages:

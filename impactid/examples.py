@@ -7,13 +7,19 @@ from pathlib import Path
 from impactid.io import Recording, read_recording
 
 
-def example_recording_path(refresh: bool = False) -> Path:
-    """Path of the built-in example recording (rig P, e/r_c = 0.2, 16 Hz; see :mod:`data_synth.example`)."""
-    from data_synth.example import example_recording_path as _path
+def example_recording_paths(refresh: bool = False) -> list[Path]:
+    """Paths of the two built-in example recordings: one rig at two operating points (e/r_c 0.2 at
+    16 Hz and 0.25 at 15 Hz, the same contact law; see :mod:`data_synth.example`)."""
+    from data_synth.example import example_recording_paths as _paths
 
-    return _path(refresh=refresh)
+    return _paths(refresh=refresh)
+
+
+def example_recording_path(refresh: bool = False) -> Path:
+    """Path of the first built-in example recording (e/r_c = 0.2, 16 Hz)."""
+    return example_recording_paths(refresh)[0]
 
 
 def example_recording() -> Recording:
-    """The built-in example recording, read like any user file (its ``/truth`` is not loaded)."""
+    """The first built-in example recording, read like any user file (its ``/truth`` is not loaded)."""
     return read_recording(example_recording_path())

@@ -16,9 +16,8 @@ from __future__ import annotations
 import json
 import math
 import os
-import tempfile
 import warnings
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -26,10 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from impactid._files import StagedFiles, atomic_write
 from impactid._scan import channel_scan, count_equal, extreme_stats
 from impactid.errors import ImpactidError, RigParameterError
 from impactid.rigs import load_rig_toml, rig_from_mapping
 from impactid.rigs.registry import RIG_MODELS
+from impactid.units import UnitError, si_factor
 
 FORMAT_NAME = "recording"
 FORMAT_VERSION = 1
@@ -43,17 +44,29 @@ CHANNEL_UNITS: Mapping[str, str] = MappingProxyType({
     "follower_angle": "rad",
 })
 
-# Accepted spellings of units and the factor to SI, per SI unit.
-_UNIT_FACTORS: dict[str, dict[str, float]] = {
-    "m/s^2": {"m/s^2": 1.0, "m/s2": 1.0, "m s^-2": 1.0, "m/s**2": 1.0, "mm/s^2": 1e-3, "g": 9.80665},
-    "N": {"n": 1.0, "kn": 1e3, "mn": 1e-3},
-    "rad": {"rad": 1.0, "radian": 1.0, "radians": 1.0, "deg": math.pi / 180.0, "degree": math.pi / 180.0,
-            "degrees": math.pi / 180.0, "rev": 2.0 * math.pi},
-}
+#: The physical quantity of each channel (its unit string is parsed by :mod:`impactid.units`).
+CHANNEL_QUANTITY: Mapping[str, str] = MappingProxyType({
+    "accel_tangential": "acceleration",
+    "force_x": "force",
+    "force_y": "force",
+    "cam_angle": "angle",
+    "follower_angle": "angle",
+})
+
+#: Largest recording read into memory, as a fraction of the machine's physical memory (a file that
+#: declares more samples is refused before anything is allocated).
+MAX_MEMORY_FRACTION = 0.5
+#: Dataset attributes of a linear calibration ``value = raw * scale + offset`` (an integer channel
+#: of ADC codes, say), in the spellings of common conventions.
+SCALE_ATTRIBUTES = ("scale", "scale_factor")
+OFFSET_ATTRIBUTES = ("offset", "add_offset")
 
 #: Consecutive accelerometer samples at the channel's extreme value that (with a histogram spike
 #: there) mark a clipped, saturated recording.
 CLIP_RUN = 3
+#: Relative difference between the operating point's cam speed and the cam encoder's mean speed
+#: above which :meth:`Recording.check` warns.
+CAM_SPEED_TOLERANCE = 0.002
 #: A recording shorter than this many cam revolutions gets a warning.
 SHORT_REVOLUTIONS = 3.0
 
@@ -228,10 +241,32 @@ class Recording:
                 "(add it to /operating or to the [operating] table of a TOML rig file)")
         return self.cam_speed_hz
 
+    def encoder_speed_hz(self, channel: str = "cam_angle") -> float:
+        """Mean turning speed of an angle channel [Hz] (least-squares slope of the unwrapped angle
+        against time, over at most 200 000 evenly spread samples)."""
+        angle = self.channel(channel)
+        step = max(1, angle.size // 200_000)
+        y = np.unwrap(angle[::step])
+        t = np.arange(y.size) * (step / self.sample_rate_hz)
+        t = t - t.mean()
+        denom = float(np.dot(t, t))
+        return float(np.dot(t, y - y.mean()) / denom / (2.0 * math.pi)) if denom > 0 else math.nan
+
     # ---- new recordings from this one (never mutating) -----------------------------------------
     def with_step(self, description: str, **changes: Any) -> Recording:
         """A new recording with ``changes`` applied and ``description`` appended to the provenance."""
         return replace(self, provenance=self.provenance + (description,), **changes)
+
+    def with_rig(self, rig: Any) -> Recording:
+        """A new recording with its rig (and, from a TOML rig file, its operating point) replaced.
+
+        ``rig`` is a rig dataclass or the path of a TOML rig file (FORMAT.md)."""
+        new_rig, operating, note = _resolve_rig(rig)
+        merged = dict(self.operating)
+        merged.update(operating)
+        if getattr(new_rig, "e", None) is not None and "eccentricity_m" in merged and "eccentricity_m" not in operating:
+            merged["eccentricity_m"] = new_rig.e
+        return self.with_step(note, rig=new_rig, operating=merged)
 
     def slice_time(self, start: float, stop: float) -> Recording:
         """The samples with ``start <= t < stop`` [s], as a new recording."""
@@ -268,6 +303,12 @@ class Recording:
                     messages.append(
                         f"{where}: channel 'accel_tangential' looks clipped: {count} samples at its "
                         f"{label} {extreme:.6g} m/s^2 (longest run {run}); impacts there are unreliable")
+        if self.cam_speed_hz is not None and "cam_angle" in self.channels and self.n_samples > 2:
+            turning = self.encoder_speed_hz("cam_angle")
+            if not math.isclose(turning, self.cam_speed_hz, rel_tol=CAM_SPEED_TOLERANCE):
+                messages.append(f"{where}: channel 'cam_angle' turns at {turning:.6g} Hz but the operating point "
+                                f"says cam_speed_hz = {self.cam_speed_hz:.6g} Hz; the methods use the operating "
+                                "point's value")
         if self.cam_speed_hz is not None:
             revs = self.duration * self.cam_speed_hz
             if revs < SHORT_REVOLUTIONS:
@@ -281,20 +322,58 @@ class Recording:
 
 
 def _to_si(where: str, channel: str, unit: str, data: np.ndarray) -> tuple[np.ndarray, str, str | None]:
-    """Convert a channel to SI; returns (data, SI unit, provenance note or None)."""
+    """Convert a channel to SI; returns (data, SI unit, provenance note or None).
+
+    The unit string is parsed case-sensitively (:func:`impactid.units.si_factor`); a channel
+    impactid does not interpret keeps its data and unit.
+    """
     si = CHANNEL_UNITS.get(channel)
     if si is None:
         return data, unit, None  # a channel impactid does not interpret: kept as is
-    table = _UNIT_FACTORS[si]
-    key = unit.strip()
-    factor = table.get(key, table.get(key.lower()))
-    if factor is None:
-        raise RecordingError(
-            f"{where}: channel {channel!r} has units {unit!r}; expected {si!r} "
-            f"(or one of {', '.join(sorted(table))})")
+    try:
+        factor = si_factor(unit, CHANNEL_QUANTITY[channel])
+    except UnitError as exc:
+        raise RecordingError(f"{where}: channel {channel!r} has units {unit!r}: {exc.reason}") from None
     if factor == 1.0:
         return data, si, None
     return data * factor, si, f"channel {channel!r} converted from {unit} to {si} (x {factor!r})"
+
+
+def _memory_limit() -> float:
+    """Bytes a recording may take in memory (:data:`MAX_MEMORY_FRACTION` of physical memory)."""
+    try:
+        return MAX_MEMORY_FRACTION * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover - platforms without sysconf
+        return 8e9
+
+
+def _check_size(where: str, name: str, n_samples: int, n_channels: int) -> None:
+    """Refuse a recording whose channels would not fit in memory as float64."""
+    need = 8.0 * n_samples * max(n_channels, 1)
+    if need > _memory_limit():
+        raise RecordingError(
+            f"{where}: channel {name!r} declares {n_samples:,} samples; with {n_channels} channel(s) that is "
+            f"{need / 2**30:.3g} GiB as "
+            f"float64), more than this machine can hold ({_memory_limit() / 2**30:.3g} GiB allowed); "
+            "split the recording")
+
+
+def _calibrate(where: str, name: str, attrs, data: np.ndarray) -> tuple[np.ndarray, str | None]:
+    """Apply a dataset's ``scale``/``offset`` attributes (raw -> physical value)."""
+    scale = next((attrs[k] for k in SCALE_ATTRIBUTES if k in attrs), None)
+    offset = next((attrs[k] for k in OFFSET_ATTRIBUTES if k in attrs), None)
+    if scale is None and offset is None:
+        if data.dtype.kind in "iu" and CHANNEL_UNITS.get(name) not in (None, "rad"):
+            warnings.warn(f"{where}: channel {name!r} holds integers ({data.dtype}) without a 'scale' attribute: "
+                          f"read as values in its units, not as ADC codes", RecordingWarning, stacklevel=3)
+        return data, None
+    scale_v = 1.0 if scale is None else _attr_float(where, f"channel {name!r} attribute scale", scale)
+    offset_v = 0.0 if offset is None else _attr_float(where, f"channel {name!r} attribute offset", offset)
+    if not (math.isfinite(scale_v) and scale_v != 0.0 and math.isfinite(offset_v)):
+        raise RecordingError(f"{where}: channel {name!r} has an invalid calibration (scale {scale_v!r}, "
+                             f"offset {offset_v!r})")
+    return (data.astype(np.float64) * scale_v + offset_v,
+            f"channel {name!r} calibrated: raw x {scale_v!r} + {offset_v!r}")
 
 
 # ---------------------------------------------------------------------------------------------
@@ -321,11 +400,14 @@ def _attr_float(where: str, what: str, value: Any) -> float:
 
 
 def _check_path(path: Path) -> None:
-    """A clear error for a path that does not exist or is a directory."""
+    """A clear error for a path that does not exist, is a directory or a special file (opening a
+    named pipe would wait for a writer forever)."""
     if not path.exists():
         raise RecordingError(f"{path}: file not found")
     if path.is_dir():
         raise RecordingError(f"{path}: is a directory, not a recording")
+    if not path.is_file():
+        raise RecordingError(f"{path}: is a special file (named pipe, device or socket), not a recording")
 
 
 def _open_hdf5(path: Path):
@@ -378,7 +460,8 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
             channels: dict[str, np.ndarray] = {}
             units: dict[str, str] = {}
             notes: list[str] = []
-            for name, item in signals.items():
+            items = list(signals.items())
+            for name, item in items:
                 if not isinstance(item, h5py.Dataset):
                     raise RecordingError(f"{where}: /signals/{name} is not a dataset")
                 if "units" not in item.attrs:
@@ -387,7 +470,16 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
                     raise RecordingError(f"{where}: channel {name!r} must be 1-D, got shape {item.shape}")
                 if item.dtype.kind not in "fiu":
                     raise RecordingError(f"{where}: channel {name!r} is not numeric (dtype {item.dtype})")
+                _check_size(where, name, int(item.shape[0]), len(items))
+                stored = item.id.get_storage_size()
+                if item.compression is None and item.chunks is None and item.shape[0] and stored < item.nbytes:
+                    raise RecordingError(f"{where}: channel {name!r} declares {item.shape[0]:,} samples but stores "
+                                         f"only {stored:,} of its {item.nbytes:,} bytes (damaged or never written)")
+            for name, item in items:
                 data = item[()]
+                data, cal_note = _calibrate(where, name, item.attrs, data)
+                if cal_note:
+                    notes.append(cal_note)
                 data, unit, note = _to_si(where, name, _attr_str(item.attrs["units"]), data)
                 channels[name] = _frozen(data) if data.dtype == np.float64 else data
                 units[name] = unit
@@ -481,18 +573,6 @@ def read_truth(path: str | os.PathLike[str]) -> dict[str, Any]:
         return load(group)
 
 
-def _atomic_target(path: Path, protect: Iterable[str] = ()) -> tuple[int, str]:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    for source in protect:
-        if source and path.exists() and Path(source).exists() and path.resolve() == Path(source).resolve():
-            raise RecordingError(f"{path}: refusing to overwrite the input recording")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)  # mkstemp creates 0600; give the file the usual permissions
-    return fd, tmp
-
-
 def _write_group_tree(group, values: Mapping[str, Any]) -> None:
     for key, value in values.items():
         if isinstance(value, Mapping):
@@ -524,9 +604,8 @@ def write_hdf5(recording: Recording, path: str | os.PathLike[str], *, truth: Map
     import h5py
 
     path = Path(path)
-    fd, tmp = _atomic_target(path, [recording.source])
-    os.close(fd)
-    try:
+
+    def write(tmp: Path) -> None:
         # libver v110: object headers and the superblock carry checksums, so a damaged file is
         # reported by the HDF5 library instead of being parsed (old-format metadata can crash it)
         with h5py.File(tmp, "w", libver=("v110", "latest")) as fh:
@@ -549,11 +628,8 @@ def write_hdf5(recording: Recording, path: str | os.PathLike[str], *, truth: Map
                 op.attrs[key] = float(value)
             if truth is not None:
                 _write_group_tree(fh.create_group("truth"), truth)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+
+    return atomic_write(path, write, protect=[recording.source])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -579,6 +655,7 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     path = Path(path)
     where = str(path)
     _check_path(path)
+    _check_csv_header(path)
     try:
         with warnings.catch_warnings():
             # pandas only warns when a row has more fields than the header: make it an error
@@ -652,30 +729,49 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
                      provenance=(f"read_csv({where})", rig_note, *notes))
 
 
+def _check_csv_header(path: Path) -> None:
+    """Refuse duplicated column names (pandas would rename the second ``a`` to ``a.1`` silently)."""
+    import csv
+
+    try:
+        with path.open("r", encoding="utf-8", newline="") as fh:
+            for line in fh:
+                if line.strip() and not line.lstrip().startswith("#"):
+                    header = [c.strip() for c in next(csv.reader([line]))]
+                    break
+            else:
+                return
+    except UnicodeDecodeError:
+        raise RecordingError(f"{path}: not a text CSV file") from None
+    except OSError:
+        return  # reported by the reader itself
+    seen: set[str] = set()
+    twice = sorted({c for c in header if c in seen or seen.add(c)})
+    if twice:
+        raise RecordingError(f"{path}: malformed CSV: duplicate column name(s) {', '.join(map(repr, twice))}")
+
+
 def write_csv(recording: Recording, path: str | os.PathLike[str], rig_path: str | os.PathLike[str] | None = None,
               ) -> tuple[Path, Path]:
     """Write a recording as CSV (``time_s`` + channels, 17 significant digits) and its TOML rig file.
 
     The rig file defaults to the CSV path with suffix ``.toml``. Both are written atomically.
     """
-    from impactid.rigs._toml import write_text_atomic
-
     path = Path(path)
     rig_path = Path(rig_path) if rig_path is not None else path.with_suffix(".toml")
     if recording.rig is None:
         raise RecordingError(f"{path}: cannot write a CSV recording without a rig")
     names = list(recording.channels)
     table = np.column_stack([recording.time] + [recording.channels[n] for n in names])
-    fd, tmp = _atomic_target(path, [recording.source])
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+
+    def write(tmp: Path) -> None:
+        with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(",".join(["time_s"] + names) + "\n")
             np.savetxt(fh, table, delimiter=",", fmt="%.17g")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    write_text_atomic(rig_path, recording.rig.to_toml(dict(recording.operating)))
+
+    with StagedFiles(protect=[recording.source]) as staged:  # the CSV and its rig file together
+        staged.write_with(path, write)
+        staged.write_text(rig_path, recording.rig.to_toml(dict(recording.operating)))
     return path, rig_path
 
 

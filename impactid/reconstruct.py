@@ -99,7 +99,9 @@ def _anchor_return_time(ctx: dict) -> np.ndarray:
                         1e-14, out)
     ctx["anchor_iterations"] = out[:, 2]
     ctx["anchor_slope"] = out[:, 1]
-    return np.array([out[i, 0] - angles[i][starts[i]] for i in range(n)])
+    constants = np.array([out[i, 0] - angles[i][starts[i]] for i in range(n)])
+    ctx["alpha_onset_return_time"] = ctx["angle_onset"] + constants
+    return constants
 
 
 def _anchor_cam_geometry(ctx: dict) -> np.ndarray:
@@ -392,6 +394,8 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     rows = []
     contact: dict[int, EventKinematics] = {}
     messages = list(events.warnings)
+    hertz = np.full(len(angles), np.nan)
+    ctx["hertz_ratio"] = hertz
     for i, event in enumerate(usable.index):
         ev_row = usable.loc[event]
         n_contact = int(ka[i] - k0[i])
@@ -400,6 +404,7 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         hist = _contact_history(angles[i], rates[i], accs[i], recording, k0[i], lo, hi, onset_offset[i], constants[i],
                                 theta_on[i], rig, omega, dt, event)
         contact[event] = hist
+        hertz[i] = _hertz_ratio(hist, rig) if not impulsive[i] else math.nan
         alpha_full = angles[i] + constants[i]
         j = int(np.argmax(alpha_full))
         alpha_m, t_m = _parabolic_max(alpha_full, j)
@@ -425,6 +430,7 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
             "chattering": bool(ev_row["chattering"]), "not_period1": bool(ev_row["not_period1"]),
         })
     table = pd.DataFrame(rows, index=pd.Index(list(usable.index), name="event"))
+    messages += _plausibility(recording, rig, ctx, angles, accs, k0, constants)
     undetermined = table.index[~np.isfinite(table["xi"])].tolist()
     if undetermined:
         messages.append(
@@ -446,6 +452,91 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         _recording=recording)
 
 
+#: Events whose free flights enter the force-balance check (enough to average the noise).
+PLAUSIBILITY_EVENTS = 8
+#: Mean free-flight contact force, as a fraction of the typical free-flight pivot force, above
+#: which the force channels and the accelerometer are reported as inconsistent.
+FORCE_BALANCE_TOLERANCE = 0.1
+#: Margin [rad] around the range of contact angles within which return-time onset angles must lie.
+CONTACT_ANGLE_MARGIN = 0.01
+#: Largest factor between the accelerometer's force at the deepest indentation and the Hertz force
+#: there. Noise-free they agree to 1-4 % (friction, mu h_p / chi, is 3 % on rig P); with 1 % noise
+#: the indentation's error moves the ratio to 0.88-2.0 (measured over period-1 points with beta
+#: 8e9-9e10, n 1.2-1.8). A unit mistake moves it by orders of magnitude (g read as m/s^2: 3e-4).
+HERTZ_TOLERANCE = 3.0
+
+
+def _hertz_ratio(hist: EventKinematics, rig: PivotedFollowerRig) -> float:
+    """Force implied by the accelerometer at the deepest indentation over ``k_H delta^1.5`` there."""
+    j = int(np.argmin(hist.gap))
+    delta = -float(hist.gap[j])
+    if not delta > 0.0:
+        return math.nan
+    alpha, theta = float(hist.alpha[j]), float(hist.theta[j])
+    torque = rig.m_b * rig.g * rig.l_g * math.cos(alpha) - float(
+        spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)) * rig.d_x
+    chi = float(rig.lever_arm(alpha, theta))
+    force = (rig.I_b * float(hist.alpha_ddot[j]) - torque) / chi
+    return force / (rig.k_H * delta ** 1.5)
+
+
+def _plausibility(recording: Recording, rig: PivotedFollowerRig, ctx: dict, angles, accs, k0, constants) -> list[str]:
+    """Cross-checks of the channels against the rig model; returns warning texts naming channels.
+
+    * onset angles: the return-time anchor's onset angles (accelerometer only) must lie where the
+      follower can touch the cam, within the range of ``contact_angle(Theta)`` over a revolution;
+    * Hertz at the deepest indentation (accelerometer only): there the gap rate is zero, so the
+      Hunt–Crossley damping term vanishes and the contact force is ``k_H delta^1.5`` with the rig's
+      own Hertz stiffness. The force the accelerometer implies (the equation of motion solved for
+      it, friction left out: a few per cent) must match it; an accelerometer in other units than
+      declared (g read as m/s^2, say) scales the force but not the indentation in the same way;
+    * force balance (S-21) in free flight, where the contact force is zero: with the pivot forces and
+      the accelerometer it must give about 0 N. Swapped or mislabelled force channels, or an
+      accelerometer off by a factor, leave a mean force comparable with the pivot force itself.
+    """
+    where = recording.source or "recording"
+    out = []
+    onset = ctx.get("alpha_onset_return_time")
+    if onset is not None and np.any(np.isfinite(onset)):
+        reach = np.asarray(rig.contact_angle(np.linspace(0.0, 2.0 * math.pi, 361)))
+        lo, hi = float(np.min(reach)) - CONTACT_ANGLE_MARGIN, float(np.max(reach)) + CONTACT_ANGLE_MARGIN
+        median = float(np.nanmedian(onset))
+        if not lo <= median <= hi:
+            out.append(f"{where}: channel 'accel_tangential': the reconstructed onset angles (median {median:.4g} rad) "
+                       f"lie outside the angles where the follower touches the cam ({lo:.4g} to {hi:.4g} rad): the "
+                       "accelerometer's scale or units look wrong")
+    ratio = ctx.get("hertz_ratio")
+    if ratio is not None and np.any(np.isfinite(ratio)):
+        median = float(np.nanmedian(ratio))
+        if not (1.0 / HERTZ_TOLERANCE <= median <= HERTZ_TOLERANCE):
+            out.append(f"{where}: channel 'accel_tangential' implies {median:.3g} times the Hertz force k_H delta^1.5 "
+                       "at the deepest indentation, where the two must agree: the accelerometer's scale or units look "
+                       f"wrong (declared {recording.units.get('accel_tangential')!r}; in g, perhaps?)")
+    if "force_x" in recording and "force_y" in recording:
+        residual, pivot = [], []
+        starts, ends = ctx["free_start"], ctx["free_end"]
+        for i in range(min(len(angles), PLAUSIBILITY_EVENTS)):
+            lo_i, hi_i = int(starts[i]), int(ends[i])
+            if hi_i - lo_i < 16:
+                continue
+            alpha = angles[i][lo_i:hi_i] + constants[i]
+            nx = recording["force_x"][k0[i] + lo_i:k0[i] + hi_i]
+            ny = recording["force_y"][k0[i] + lo_i:k0[i] + hi_i]
+            fs = spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)
+            force = (rig.m_b * rig.l_g * accs[i][lo_i:hi_i] + nx * np.sin(alpha)
+                     + (ny + fs - rig.m_b * rig.g) * np.cos(alpha))
+            residual.append(float(np.median(force)))
+            pivot.append(float(np.median(np.hypot(nx, ny))))
+        if residual:
+            mean_force, typical = float(np.median(residual)), float(np.median(pivot))
+            if abs(mean_force) > FORCE_BALANCE_TOLERANCE * typical:
+                out.append(f"{where}: channels 'force_x', 'force_y' and 'accel_tangential' disagree: the force "
+                           f"balance (S-21) gives {mean_force:.3g} N of contact force in free flight, where it is 0, "
+                           f"against pivot forces of {typical:.3g} N; are the force channels swapped or mislabelled, "
+                           "or the accelerometer in other units than declared?")
+    return out
+
+
 def _edge_law(angular: np.ndarray, k: int, s: float, direction: int, noise: float) -> tuple[float, float]:
     """Power law ``c d^p`` of a pulse edge above the free-flight baseline: ``(c, p)``, ``c`` per
     sample^p of the distance ``d`` into the pulse (NaN when the samples do not determine it).
@@ -464,12 +555,16 @@ def _edge_law(angular: np.ndarray, k: int, s: float, direction: int, noise: floa
     free1, free2 = angular[k - d], angular[k - 2 * d]
     dev0 = angular[k] - (2.0 * free1 - free2)
     dev1 = angular[k + d] - (3.0 * free1 - 2.0 * free2)
+    # a compressive edge rises above the baseline; a tensile one (the tail of a law with n < p that
+    # pulls before the gap reopens) falls below it: the law is fitted to the magnitudes
+    sign = 1.0 if dev0 > 0.0 else -1.0
+    dev0, dev1 = sign * dev0, sign * dev1
     if not (EDGE_SNR * noise < dev0 < dev1):
         return math.nan, math.nan
     p = math.log(dev1 / dev0) / math.log((1.0 + s) / s)
     if not 0.0 <= p <= 4.0:
         return math.nan, math.nan
-    return dev0 / s ** p, p
+    return sign * dev0 / s ** p, p
 
 
 def _onset_rate_change(angular: np.ndarray, k: np.ndarray, offset: np.ndarray, dt: float,

@@ -2,47 +2,45 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from impactid._files import StagedFiles, atomic_write
+
 REGIME_COLOURS = {"contact": "#4c72b0", "period-1": "#55a868", "period-k": "#dd8452", "irregular": "#c44e52"}
 
 
-def _atomic_target(path: Path):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    return Path(tmp)
+@contextlib.contextmanager
+def _transaction(staged: StagedFiles | None):
+    """The caller's transaction, or a new one committed at the end of the block."""
+    if staged is not None:
+        yield staged
+        return
+    with StagedFiles() as own:
+        yield own
 
 
-def write_csv_atomic(frame: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
-    """Write a DataFrame as CSV through a temporary file and a rename."""
-    path = Path(path)
-    tmp = _atomic_target(path)
-    try:
-        frame.to_csv(tmp, index=False)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+def write_csv_atomic(frame: pd.DataFrame, path: str | os.PathLike[str], staged: StagedFiles | None = None) -> Path:
+    """Write a DataFrame as CSV, atomically (or staged in ``staged``, committed with it)."""
+    if staged is not None:
+        return staged.write_with(path, lambda tmp: frame.to_csv(tmp, index=False))
+    return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False))
 
 
-def save_figure_atomic(fig, path: str | os.PathLike[str], **kwargs) -> Path:
-    """Save a matplotlib figure through a temporary file and a rename."""
-    path = Path(path)
-    tmp = _atomic_target(path)
-    try:
-        fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", **kwargs)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+def save_figure_atomic(fig, path: str | os.PathLike[str], staged: StagedFiles | None = None, **kwargs) -> Path:
+    """Save a matplotlib figure, atomically (or staged in ``staged``, committed with it)."""
+    fmt = Path(path).suffix.lstrip(".") or "png"
+
+    def write(tmp: Path) -> None:
+        fig.savefig(tmp, format=fmt, **kwargs)
+
+    if staged is not None:
+        return staged.write_with(path, write)
+    return atomic_write(path, write)
 
 
 def plot_regime_map(frame: pd.DataFrame):
@@ -67,17 +65,19 @@ def plot_regime_map(frame: pd.DataFrame):
     return fig
 
 
-def write_regime_map(frame: pd.DataFrame, out_dir: str | os.PathLike[str]) -> list[Path]:
-    """Write ``regime_map.csv`` and ``regime_map.png`` into ``out_dir``."""
+def write_regime_map(frame: pd.DataFrame, out_dir: str | os.PathLike[str],
+                     staged: StagedFiles | None = None) -> list[Path]:
+    """Write ``regime_map.csv`` and ``regime_map.png`` into ``out_dir`` (one transaction)."""
     import matplotlib.pyplot as plt
 
     out_dir = Path(out_dir)
-    csv = write_csv_atomic(frame, out_dir / "regime_map.csv")
-    fig = plot_regime_map(frame)
-    try:
-        png = save_figure_atomic(fig, out_dir / "regime_map.png", dpi=120)
-    finally:
-        plt.close(fig)
+    with _transaction(staged) as st:
+        csv = write_csv_atomic(frame, out_dir / "regime_map.csv", st)
+        fig = plot_regime_map(frame)
+        try:
+            png = save_figure_atomic(fig, out_dir / "regime_map.png", st, dpi=120)
+        finally:
+            plt.close(fig)
     return [csv, png]
 
 
@@ -113,7 +113,7 @@ def plot_bifurcation(result, transitions: dict | None = None):
     return fig
 
 
-def write_bifurcation(result, out_dir: str | os.PathLike[str]) -> list[Path]:
+def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None) -> list[Path]:
     """Write ``bifurcation.csv`` (one row per speed and kept revolution: ``cam_speed_rpm``,
     ``revolution``, ``theta_f`` [rad], ``theta_f_dot`` [rad/s], ``regime``), ``regimes.csv`` (one
     row per speed) and ``bifurcation.png`` into ``out_dir``, atomically."""
@@ -129,12 +129,14 @@ def write_bifurcation(result, out_dir: str | os.PathLike[str]) -> list[Path]:
         "theta_f_dot": result.strobe_rate.ravel(),
         "regime": np.repeat(table["regime"].to_numpy(), kept),
     })
-    paths = [write_csv_atomic(points, out_dir / "bifurcation.csv"), write_csv_atomic(table, out_dir / "regimes.csv")]
-    fig = plot_bifurcation(result, result.transitions())
-    try:
-        paths.append(save_figure_atomic(fig, out_dir / "bifurcation.png", dpi=130))
-    finally:
-        plt.close(fig)
+    with _transaction(staged) as st:
+        paths = [write_csv_atomic(points, out_dir / "bifurcation.csv", st),
+                 write_csv_atomic(table, out_dir / "regimes.csv", st)]
+        fig = plot_bifurcation(result, result.transitions())
+        try:
+            paths.append(save_figure_atomic(fig, out_dir / "bifurcation.png", st, dpi=130))
+        finally:
+            plt.close(fig)
     return paths
 
 
@@ -153,7 +155,7 @@ def period1_band(frame: pd.DataFrame) -> pd.DataFrame:
 # ---------------------------------------------------------------------------------------------
 
 
-def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
+def estimate_figures(result, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None) -> list[Path]:
     """Write the figures of an :class:`impactid.estimates.Estimate` to ``out_dir`` (PNG), atomically.
 
     ``hysteresis.png``: contact force against indentation of the median-speed impact, measured
@@ -170,9 +172,14 @@ def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
     from impactid.estimates import objective_landscape
 
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     d, r = result.damping, result.restitution
     written = []
+    with _transaction(staged) as st:
+        _estimate_figures(result, d, r, out, st, written, plt, objective_landscape)
+    return written
+
+
+def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) -> None:
     # hysteresis loop of the median-speed event of the first recording
     es = result.event_sets[0]
     i = int(np.argsort(es.approach_speed)[len(es) // 2])
@@ -185,19 +192,21 @@ def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
     ax.set(xlabel="indentation [um]", ylabel="contact force [N]",
            title=f"{es.source}: event {int(es.events[i])}, beta={d.beta:.4g}, n={d.n:.3g}")
     ax.legend()
-    written.append(save_figure_atomic(fig, out / "hysteresis.png", dpi=120))
+    written.append(save_figure_atomic(fig, out / "hysteresis.png", st, dpi=120))
     plt.close(fig)
-    # restitution
-    frame = r.per_impact[r.per_impact["used"]]
-    fig, ax = plt.subplots(figsize=(6, 4.5))
-    ax.plot(frame["approach_speed"], frame["xi"], "o", ms=4, label="impacts")
-    v = np.linspace(0.0, max(float(frame["approach_speed"].max()) * 1.2, 1e-3), 50)
-    ax.plot(v, 1.0 - r.gamma * v, "-", label=f"xi = 1 - gamma v_a, gamma = {r.gamma:.4g} s/m")
-    ax.axhline(r.r_constant, ls="--", color="0.5", label=f"constant r = {r.r_constant:.4g}")
-    ax.set(xlabel="approach speed v_a [m/s]", ylabel="xi", ylim=(0, 1.05), title="restitution (Fig. 10 of seed 001)")
-    ax.legend()
-    written.append(save_figure_atomic(fig, out / "restitution.png", dpi=120))
-    plt.close(fig)
+    # restitution (absent when no impact had a determined xi)
+    if r is not None:
+        frame = r.per_impact[r.per_impact["used"]]
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        ax.plot(frame["approach_speed"], frame["xi"], "o", ms=4, label="impacts")
+        v = np.linspace(0.0, max(float(frame["approach_speed"].max()) * 1.2, 1e-3), 50)
+        ax.plot(v, 1.0 - r.gamma * v, "-", label=f"xi = 1 - gamma v_a, gamma = {r.gamma:.4g} s/m")
+        ax.axhline(r.r_constant, ls="--", color="0.5", label=f"constant r = {r.r_constant:.4g}")
+        ax.set(xlabel="approach speed v_a [m/s]", ylabel="xi", ylim=(0, 1.05),
+               title="restitution (Fig. 10 of seed 001)")
+        ax.legend()
+        written.append(save_figure_atomic(fig, out / "restitution.png", st, dpi=120))
+        plt.close(fig)
     # landscape with the valley
     land = d.landscape or objective_landscape(list(result.event_sets), d.residual, delta_ref=d.delta_ref)
     fig, ax = plt.subplots(figsize=(6.5, 4.8))
@@ -208,7 +217,7 @@ def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
     ax.plot([d.n], [np.log10(d.beta)], "r*", ms=12, label="estimate")
     ax.set(xlabel="n", ylabel="log10 beta [N s m^-(n+1)]", title="objective landscape")
     ax.legend(loc="lower right")
-    written.append(save_figure_atomic(fig, out / "landscape.png", dpi=120))
+    written.append(save_figure_atomic(fig, out / "landscape.png", st, dpi=120))
     plt.close(fig)
     # per-impact residuals
     fig, ax = plt.subplots(figsize=(6.5, 4))
@@ -217,9 +226,8 @@ def estimate_figures(result, out_dir: str | os.PathLike[str]) -> list[Path]:
     ax.axhline(0.0, color="0.4", lw=0.8)
     ax.set(xlabel="event", ylabel=f"{d.residual} (signed)", title=f"per-impact residuals, mean |.| = {d.objective:.3g}")
     ax.legend(fontsize=8)
-    written.append(save_figure_atomic(fig, out / "residuals.png", dpi=120))
+    written.append(save_figure_atomic(fig, out / "residuals.png", st, dpi=120))
     plt.close(fig)
-    return written
 
 
 # ---------------------------------------------------------------------------------------------
@@ -324,7 +332,7 @@ def plot_cam_fit_order(fit):
     return fig
 
 
-def cam_fit_figures(fit, out_dir: str | os.PathLike[str]) -> list[Path]:
+def cam_fit_figures(fit, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None) -> list[Path]:
     """Write ``cam_fit.png`` (:func:`plot_cam_fit`) and, for ``terms="auto"``, ``cam_fit_order.png``
     (:func:`plot_cam_fit_order`) into ``out_dir``, atomically."""
     import matplotlib.pyplot as plt
@@ -334,10 +342,11 @@ def cam_fit_figures(fit, out_dir: str | os.PathLike[str]) -> list[Path]:
     figures = [("cam_fit.png", plot_cam_fit)]
     if fit.order_table is not None:
         figures.append(("cam_fit_order.png", plot_cam_fit_order))
-    for name, make in figures:
-        fig = make(fit)
-        try:
-            written.append(save_figure_atomic(fig, out / name, dpi=120))
-        finally:
-            plt.close(fig)
+    with _transaction(staged) as st:
+        for name, make in figures:
+            fig = make(fit)
+            try:
+                written.append(save_figure_atomic(fig, out / name, st, dpi=120))
+            finally:
+                plt.close(fig)
     return written

@@ -39,6 +39,11 @@ from impactid.reconstruct import Reconstruction
 from impactid.rigs.pivoted import PivotedFollowerRig
 from impactid.simulate.runs import DEFAULT_TOLERANCES, BatchResult, Tolerances, simulate_events
 
+#: Residual of an event whose S1 run with a trial law cannot be simulated (step budget exceeded,
+#: step-size underflow, non-finite state): a 100 % relative error, far above the residual of any
+#: plausible law (near the estimate residuals are 1e-5 .. 1e-2), so the search moves away from it.
+FAILED_SIMULATION_RESIDUAL = 1.0
+
 #: Residual names, and the short aliases accepted on input.
 RESIDUALS = ("lambda1", "lambda2", "lambda3")
 _ALIASES = {"l1": "lambda1", "l2": "lambda2", "l3": "lambda3", "lambda1": "lambda1", "lambda2": "lambda2",
@@ -185,18 +190,39 @@ class EventSet:
                  tolerances: Tolerances = DEFAULT_TOLERANCES) -> BatchResult:
         """Batch S1 of every event for every trial ``(beta, n)`` (histories on the contact samples)."""
         return simulate_events(self.rig, self.cam_speed_hz, self.states, self.t_end, np.atleast_2d(trials),
-                               grids=list(self.t) if histories else None, tolerances=tolerances)
+                               grids=list(self.t) if histories else None, tolerances=tolerances,
+                               on_failure="flag")
 
     def residuals(self, trials: np.ndarray, residual: str = "lambda1", *,
                   tolerances: Tolerances = DEFAULT_TOLERANCES) -> np.ndarray:
         """Per-event residuals, shape (n_trials, n_events); signed for lambda1 and lambda3 (see module doc).
 
-        Events whose measured loop area or force norm is not positive get NaN.
+        Events whose measured loop area or force norm is not positive get NaN. A run that cannot
+        be simulated gets :data:`FAILED_SIMULATION_RESIDUAL` (see :meth:`residuals_and_failures`).
+        """
+        return self.residuals_and_failures(trials, residual, tolerances=tolerances)[0]
+
+    def residuals_and_failures(self, trials: np.ndarray, residual: str = "lambda1", *,
+                               tolerances: Tolerances = DEFAULT_TOLERANCES) -> tuple[np.ndarray, np.ndarray]:
+        """Per-event residuals and a bool array of the runs that could not be simulated.
+
+        A trial law is a question, not an input: its S1 run may chatter, stick or fail. Chattering
+        and sticking runs are simulated to the end (``alpha_m`` exists whatever the number of
+        contacts); a run that truly fails (step budget, step-size underflow, non-finite state)
+        gets the documented penalty :data:`FAILED_SIMULATION_RESIDUAL` for that event, so that
+        the search goes on and stays away from it.
         """
         residual = residual_name(residual)
         self.require(residual)
         trials = np.atleast_2d(np.asarray(trials, dtype=float))
         batch = self.simulate(trials, histories=residual != "lambda1", tolerances=tolerances)
+        failed = batch.failed
+        out = self._residuals_of(batch, trials, residual)
+        if failed.any():
+            out = np.where(failed, FAILED_SIMULATION_RESIDUAL, out)
+        return out, failed
+
+    def _residuals_of(self, batch: BatchResult, trials: np.ndarray, residual: str) -> np.ndarray:
         if residual == "lambda1":
             return (batch.alpha_m - self.alpha_m) / self.alpha_m
         out = np.empty((trials.shape[0], len(self)))

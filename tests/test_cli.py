@@ -45,10 +45,10 @@ def test_simulate_command(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["regime", "--e-over-rc", "0.2", "--cam-speed", "0"], "cam speed must be positive"),
+        (["regime", "--e-over-rc", "0.2", "--cam-speed", "0"], "argument --cam-speed: must be positive"),
         (["regime", "--e-over-rc", "1.5", "--cam-speed", "16"], "smaller than the cam radius"),
         (["detachment", "--rig", "/nonexistent/rig.toml"], "/nonexistent/rig.toml: rig file not found"),
-        (["simulate", "--cam-speed", "16", "--beta", "-1"], "beta must be >= 0"),
+        (["simulate", "--cam-speed", "16", "--beta", "-1"], "argument --beta: must be >= 0"),
     ],
 )
 def test_bad_input_exits_2_with_message(argv, message, capsys):

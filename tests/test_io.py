@@ -11,6 +11,7 @@ import pytest
 
 from impactid import SEED001_TABLE1, save_rig_toml
 from impactid.cli import main
+from impactid.errors import ImpactidError
 from impactid.io import (
     Recording,
     RecordingError,
@@ -116,7 +117,7 @@ def test_writer_never_overwrites_its_input(tmp_path):
     path = write_hdf5(small_recording(), tmp_path / "r.h5")
     before = sha(path)
     rec = read_recording(path, check=False)
-    with pytest.raises(RecordingError, match="refusing to overwrite the input"):
+    with pytest.raises(ImpactidError, match="is an input of this command; refusing to overwrite it"):
         write_hdf5(rec, path)
     assert sha(path) == before
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 import os
-import tempfile
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -20,6 +19,10 @@ from impactid.errors import RigParameterError
 def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read a TOML file, raising :class:`RigParameterError` naming the file on any problem."""
     path = Path(path)
+    if path.is_dir():
+        raise RigParameterError(f"{path}: is a folder, not a rig file")
+    if path.exists() and not path.is_file():
+        raise RigParameterError(f"{path}: is a special file (named pipe, device or socket), not a rig file")
     try:
         with path.open("rb") as fh:
             return tomllib.load(fh)
@@ -58,17 +61,7 @@ def format_toml(tables: Mapping[str, Mapping[str, Any]], header: str = "") -> st
 
 
 def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
-    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    """Write ``text`` to ``path`` atomically (see :mod:`impactid._files`)."""
+    from impactid._files import atomic_write
+
+    return atomic_write(path, text)

@@ -493,6 +493,17 @@ def initial_mode(t, a, ad, p, law, theta_ref, omega):
     return STICK  # restitution model: a state inside the cam is projected onto the constraint
 
 
+@njit(cache=True, inline="always")
+def _row_for(n_contacts, capacity, overflow_ok):
+    """Row of the contact table for contact number ``n_contacts``; -1 when the table is full
+    (with ``overflow_ok`` the last row is reused instead, if the table has at least two)."""
+    if n_contacts < capacity:
+        return n_contacts
+    if overflow_ok and capacity >= 2:
+        return capacity - 1
+    return -1
+
+
 @njit(cache=True)
 def _open_row(contacts, n_contacts, kind, t, a, ad, dpsi):
     r = n_contacts
@@ -521,7 +532,7 @@ def _close_row(contacts, r, t, a, ad, dpsi):
 @njit(cache=True)
 def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
               rtol, atol_a, atol_d, h_max, max_steps,
-              grid, g_a, g_d, g_mode, contacts, apexes):
+              grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok=False):
     """Integrate the hybrid model from ``t0`` to ``t_end``.
 
     Parameters
@@ -537,6 +548,10 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     grid : sorted times in [t0, t_end] at which the state is written to g_a, g_d, g_mode.
     contacts : (capacity, N_CCOL) table of contact phases/impacts, filled in order.
     apexes : (capacity, 2) table of local maxima (t, alpha); capacity 0 disables it.
+    overflow_ok : when the contact table is full, keep integrating and let the last row take
+        each further contact in turn (the first rows and the count stay right); otherwise stop
+        with ``CONTACTS_FULL`` so that the caller can grow the table. S1 events use it: a
+        chattering trial law still has an ``alpha_m``.
 
     Returns
     -------
@@ -758,15 +773,16 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         # ---- mode switch at (t, a, ad) --------------------------------------------------------
         dpsi = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
         if mode == FREE:
-            if n_contacts >= cap_c:
+            row = _row_for(n_contacts, cap_c, overflow_ok)
+            if row < 0:
                 status = CONTACTS_FULL
                 break
             if not restitution:
-                _open_row(contacts, n_contacts, ROW_COMPLIANT, t, a, ad, dpsi)
+                _open_row(contacts, row, ROW_COMPLIANT, t, a, ad, dpsi)
                 f_start = contact_force(CONTACT, t, a, ad, p, law, theta_ref, omega)
-                contacts[n_contacts, C_PEAK_FORCE] = f_start
-                contacts[n_contacts, C_T_PEAK_FORCE] = t
-                open_row = n_contacts
+                contacts[row, C_PEAK_FORCE] = f_start
+                contacts[row, C_T_PEAK_FORCE] = t
+                open_row = row
                 n_contacts += 1
                 mode = CONTACT
             else:
@@ -781,7 +797,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                     break
                 dpsi_after = xi * v_a
                 ad_before = ad
-                _open_row(contacts, n_contacts, ROW_IMPACT, t, a, ad_before, dpsi)
+                _open_row(contacts, row, ROW_IMPACT, t, a, ad_before, dpsi)
                 # a slow enough impact ends in sticking if the constraint force is compressive
                 stick = False
                 ad_stick = 0.0
@@ -791,18 +807,19 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                     lam = stick_force(t, a, ad_stick, p, theta_ref, omega)
                     stick = lam > 0.0
                 ad = ad_stick if stick else (dpsi_after + cam_term) / chi
-                _close_row(contacts, n_contacts, t, a, ad, 0.0 if stick else dpsi_after)
-                contacts[n_contacts, C_XI] = xi
+                _close_row(contacts, row, t, a, ad, 0.0 if stick else dpsi_after)
+                contacts[row, C_XI] = xi
                 n_contacts += 1
                 open_row = -1
                 if stick:
-                    if n_contacts >= cap_c:
+                    row = _row_for(n_contacts, cap_c, overflow_ok)
+                    if row < 0:
                         status = CONTACTS_FULL
                         break
-                    _open_row(contacts, n_contacts, ROW_STICK, t, a, ad, 0.0)
-                    contacts[n_contacts, C_PEAK_FORCE] = lam
-                    contacts[n_contacts, C_T_PEAK_FORCE] = t
-                    open_row = n_contacts
+                    _open_row(contacts, row, ROW_STICK, t, a, ad, 0.0)
+                    contacts[row, C_PEAK_FORCE] = lam
+                    contacts[row, C_T_PEAK_FORCE] = t
+                    open_row = row
                     n_contacts += 1
                     mode = STICK
         else:
@@ -874,7 +891,7 @@ def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, a
     gm = np.empty(hi - lo, dtype=np.int8)
     mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
     res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
-                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes)
+                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes, True)
     st = res[0]
     nc = res[1]
     out = summary[tr, ev]

@@ -28,6 +28,15 @@ from impactid.simulate import _kernel as K
 Law = HuntCrossley | Restitution
 
 MODE_NAMES = {K.FREE: "free", K.CONTACT: "contact", K.STICK: "stick"}
+
+#: Step budget of one S1 event: a period-1 event takes about 150 steps, a chattering one a few
+#: thousand; a trial law that needs more than this is reported as failed, not waited for.
+S1_MAX_STEPS = 200_000
+#: Contact-table rows kept per S1 run (only the first contact's summary is used; further contacts
+#: are counted, see ``integrate(overflow_ok=True)``).
+S1_CONTACT_ROWS = 64
+#: Largest number of (trial, event) runs per compiled batch call (about 0.2 s on two cores).
+BATCH_CHUNK_JOBS = 8192
 _ROW_KINDS = {K.ROW_COMPLIANT: "contact", K.ROW_IMPACT: "impact", K.ROW_STICK: "stick"}
 
 
@@ -308,6 +317,14 @@ class BatchResult:
     grid_offsets: np.ndarray
     contact_force: np.ndarray | None
     gap: np.ndarray | None
+    status: np.ndarray | None = None
+
+    @property
+    def failed(self) -> np.ndarray:
+        """(n_trials, n_events) bool: runs that could not be simulated (``on_failure="flag"``)."""
+        if self.status is None:
+            return np.zeros(self.alpha_m.shape, dtype=bool)
+        return self.status != K.OK
 
     @property
     def contact_duration(self) -> np.ndarray:
@@ -424,7 +441,8 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
 def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,
                     trials: np.ndarray, *, clip: bool = False, mu: float | None = None,
                     grids: Sequence[np.ndarray] | None = None,
-                    tolerances: Tolerances = DEFAULT_TOLERANCES) -> BatchResult:
+                    tolerances: Tolerances = DEFAULT_TOLERANCES, on_failure: str = "raise",
+                    max_steps: int = S1_MAX_STEPS) -> BatchResult:
     """Batch S1: every event for every trial ``(beta, n)``, in parallel (numba ``prange``).
 
     Parameters
@@ -435,9 +453,20 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
     grids : optional per-event time grids [s] (from the event start) on which the contact force
         and gap histories are returned (``contact_force``, ``gap``: (n_trials, total grid length),
         event i in columns ``grid_offsets[i]:grid_offsets[i+1]``).
+    on_failure : ``"raise"`` (default): a run that fails raises :class:`SimulationError` naming the
+        event and trial; ``"flag"``: failed runs get NaN results and their status code in
+        ``BatchResult.status`` (an estimator asks questions with trial laws, and a trial may be
+        impossible to simulate without that being an error of the job).
+    max_steps : step budget of one event (default :data:`S1_MAX_STEPS`, about 1000 times what a
+        period-1 event takes); a run that needs more fails with ``MAX_STEPS``.
 
-    Runs that fail raise :class:`SimulationError` naming the event and trial.
+    A chattering trial law (any number of contacts in one event) is simulated to the end: the
+    first contact's summary and ``alpha_m`` stay exact, only the count is reported for the rest.
+    The work is done in chunks of at most :data:`BATCH_CHUNK_JOBS` runs, so that Ctrl-C
+    interrupts a long batch within a fraction of a second.
     """
+    if on_failure not in ("raise", "flag"):
+        raise ValueError(f"on_failure must be 'raise' or 'flag', got {on_failure!r}")
     cam_speed_hz = _cam_speed(cam_speed_hz)
     states = np.ascontiguousarray(np.atleast_2d(np.asarray(states, dtype=float)))
     t_end = np.ascontiguousarray(np.atleast_1d(np.asarray(t_end, dtype=float)))
@@ -473,15 +502,30 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
     hist_gap = np.empty((n_tr, grid.shape[0]))
     summary = np.empty((n_tr, n_ev, K.N_SUM))
     h_max = tolerances.max_step_revolutions * 2.0 * math.pi / omega
-    K.batch_events(states, t_end, trials, p, law_vec, omega, tolerances.rtol, tolerances.atol_alpha,
-                   tolerances.atol_rate, h_max, tolerances.max_steps, grid, offsets, summary,
-                   hist_force, hist_gap, 64)
+    budget = int(min(max_steps, tolerances.max_steps))
+    per_call = max(1, BATCH_CHUNK_JOBS // max(n_ev, 1))
+    for lo in range(0, n_tr, per_call):  # chunks: Python sees Ctrl-C between them
+        hi = min(lo + per_call, n_tr)
+        K.batch_events(states, t_end, trials[lo:hi], p, law_vec, omega, tolerances.rtol, tolerances.atol_alpha,
+                       tolerances.atol_rate, h_max, budget, grid, offsets, summary[lo:hi],
+                       hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS)
     status = summary[:, :, K.S_STATUS].astype(int)
-    if np.any(status != K.OK):
-        tr, ev = np.argwhere(status != K.OK)[0]
-        raise SimulationError(
-            f"S1 batch: event {ev} with beta={trials[tr, 0]:.6g}, n={trials[tr, 1]:.6g} failed: "
-            f"{K.STATUS_MESSAGES.get(int(status[tr, ev]), status[tr, ev])}")
+    failed = status != K.OK
+    if np.any(failed):
+        if on_failure == "raise":
+            tr, ev = np.argwhere(failed)[0]
+            raise SimulationError(
+                f"S1 batch: event {ev} with beta={trials[tr, 0]:.6g}, n={trials[tr, 1]:.6g} failed: "
+                f"{K.STATUS_MESSAGES.get(int(status[tr, ev]), status[tr, ev])}")
+        keep = [K.S_STATUS, K.S_N_STEPS, K.S_N_CONTACTS]
+        cols = [c for c in range(K.N_SUM) if c not in keep]
+        summary[:, :, cols] = np.where(failed[:, :, None], np.nan, summary[:, :, cols])
+        if grid.size:
+            for i in range(n_ev):
+                bad = failed[:, i]
+                if bad.any():
+                    hist_force[bad, offsets[i]:offsets[i + 1]] = np.nan
+                    hist_gap[bad, offsets[i]:offsets[i + 1]] = np.nan
     s = summary
     return BatchResult(
         trials=trials, alpha_m=s[:, :, K.S_ALPHA_M], t_alpha_m=s[:, :, K.S_T_ALPHA_M],
@@ -491,7 +535,8 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         peak_indentation=s[:, :, K.S_PEAK_DELTA], final_alpha=s[:, :, K.S_ALPHA_END],
         final_alpha_dot=s[:, :, K.S_RATE_END], n_steps=s[:, :, K.S_N_STEPS].astype(int),
         grid=grid, grid_offsets=offsets,
-        contact_force=hist_force if grid.size else None, gap=hist_gap if grid.size else None)
+        contact_force=hist_force if grid.size else None, gap=hist_gap if grid.size else None,
+        status=status)
 
 
 def observables(rig: PivotedFollowerRig, law: Law, cam_speed_hz: float, t, alpha, alpha_dot, mode, *,
