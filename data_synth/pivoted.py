@@ -171,7 +171,8 @@ def synth_pivoted(rig: PivotedFollowerRig, cam_speed_hz: float, law: HuntCrossle
     t_samples = settle_s + np.arange(n) / sample_rate_hz
     recording = Recording(
         channels=measured, sample_rate_hz=sample_rate_hz, units={k: CHANNEL_UNITS[k] for k in measured},
-        rig=rig, operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e},
+        rig=rig if mu == rig.mu else rig.replace(mu=mu),  # the file describes the rig that was simulated
+        operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e},
         start_time_s=settle_s,
         provenance=(f"data_synth.synth_pivoted: {type(law).__name__} at {cam_speed_hz} Hz, e/r_c = "
                     f"{rig.e / rig.r_c:.6g}, settle {settle_s} s",))

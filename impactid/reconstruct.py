@@ -131,7 +131,7 @@ def _anchor_cam_phase(ctx: dict) -> np.ndarray:
     rig, omega, t_rel = ctx["rig"], ctx["omega"], ctx["t_onset_rel"]
     angle_onset = ctx["angle_onset"]
     alpha_on = angle_onset + constants
-    theta = _theta_from_gap(rig, alpha_on, ctx["rate_onset"], omega)
+    theta = _theta_from_gap(rig, alpha_on, ctx["rate_onset"], omega, _contact_windows(ctx, constants))
     phases = np.angle(np.exp(1j * (theta - omega * t_rel)))
     ok = np.isfinite(phases)
     if not np.any(ok):
@@ -186,8 +186,20 @@ def _encoder_theta(rec: Recording, k0: np.ndarray, k1: np.ndarray, t_onset_rel: 
     return out
 
 
-def _theta_from_gap(rig: PivotedFollowerRig, alpha0: np.ndarray, rate0: np.ndarray, omega: float) -> np.ndarray:
-    """Cam angle where ``psi_i(alpha0, Theta) = 0`` with the gap closing (S-5 solved for Theta)."""
+def _theta_from_gap(rig: PivotedFollowerRig, alpha0: np.ndarray, rate0: np.ndarray, omega: float,
+                    contacts=None) -> np.ndarray:
+    """Cam angle where ``psi_i(alpha0, Theta) = 0`` with the gap closing (S-5 solved for Theta).
+
+    A follower angle meets the cam twice per revolution (on its rising and on its falling side),
+    and both roots can have a closing gap, with free flights that both stay outside the cam (a
+    low cam speed, or a heavily damped contact). ``contacts`` (per event: the times [s from the
+    onset], angles and angular accelerations over the contact) then decides by the physics of the
+    contact: at the deepest indentation the gap rate is zero, so the force the accelerometer
+    implies must be the Hertz force ``k_H delta^1.5`` of the indentation the cam angle gives
+    (:func:`_hertz_ratio`); the root whose ratio is nearest 1 is taken. (The reopening time of
+    the gap is no guide: with noise and a nearly plastic impact the right root's gap may not
+    reopen at all.)
+    """
     grid = np.linspace(0.0, 2.0 * math.pi, 721)
     out = np.full(alpha0.size, np.nan)
     for i, (a, ad) in enumerate(zip(alpha0, rate0)):
@@ -196,10 +208,41 @@ def _theta_from_gap(rig: PivotedFollowerRig, alpha0: np.ndarray, rate0: np.ndarr
         for j in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:])):
             roots.append(optimize.brentq(lambda th, a=a: float(rig.gap(a, th)), grid[j], grid[j + 1], xtol=1e-15))
         closing = [th for th in roots if rig.gap_rate(a, ad, th, omega) < 0.0]
-        if closing:
+        if len(closing) > 1 and contacts is not None and contacts[i] is not None:
+            t, alpha, acceleration = contacts[i]
+            ratios = np.array([_hertz_ratio(rig, t, alpha, acceleration, th, omega) for th in closing])
+            scores = np.where(ratios > 0.0, np.abs(np.log(np.where(ratios > 0.0, ratios, 1.0))), np.inf)
+            out[i] = closing[int(np.argmin(scores))]
+        elif closing:
             out[i] = closing[0]
         elif roots:  # grazing: take the root nearest the closing side
             out[i] = min(roots, key=lambda th: rig.gap_rate(a, ad, th, omega))
+    return out
+
+
+def _reopening(gap: np.ndarray) -> tuple[int, float] | None:
+    """Where a sampled gap turns positive after its deepest point: ``(j, w)`` with the crossing at
+    ``j + w`` samples (linear interpolation), or None when it never reopens."""
+    deepest = int(np.argmin(gap))
+    after = np.flatnonzero((gap[deepest:-1] <= 0.0) & (gap[deepest + 1:] > 0.0))
+    if after.size == 0 or gap[deepest] >= 0.0:
+        return None
+    j = deepest + int(after[0])
+    return j, float(-gap[j] / (gap[j + 1] - gap[j]))
+
+
+def _contact_windows(ctx: dict, constants: np.ndarray) -> list:
+    """Per event, ``(t, alpha, alpha_ddot)`` over its contact and :data:`ANCHOR_MARGIN` samples
+    after it, times from the sub-sample onset [s], with the anchor's constants applied."""
+    out = []
+    dt = 1.0 / ctx["sample_rate_hz"]
+    for i, angle in enumerate(ctx["angles"]):
+        hi = min(int(ctx["free_start"][i]) + 1, angle.size)
+        if hi < 3 or not math.isfinite(constants[i]):
+            out.append(None)
+            continue
+        k = np.arange(hi)
+        out.append(((k + ctx["onset_offset"][i]) * dt, angle[:hi] + constants[i], ctx["accs"][i][:hi]))
     return out
 
 
@@ -348,7 +391,7 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         angles.append(angle)
         rates.append(rate)
         accs.append(add)
-    ctx = dict(recording=recording, rig=rig, sample_rate_hz=rate_hz, angles=angles, rates=rates,
+    ctx = dict(recording=recording, rig=rig, sample_rate_hz=rate_hz, angles=angles, rates=rates, accs=accs,
                free_start=(ka - k0) + ANCHOR_MARGIN, free_end=(k1 - k0) - 1 - ANCHOR_MARGIN,
                onset_offset=onset_offset, omega=omega,
                t_onset_rel=usable["t_onset"].to_numpy() - recording.start_time_s)
@@ -390,7 +433,7 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     elif anchor == "cam-phase" and "theta_onset_phase" in ctx:
         theta_on = ctx["theta_onset_phase"]
     else:
-        theta_on = _theta_from_gap(rig, alpha_on, rate_on, omega)
+        theta_on = _theta_from_gap(rig, alpha_on, rate_on, omega, _contact_windows(ctx, constants))
     rows = []
     contact: dict[int, EventKinematics] = {}
     messages = list(events.warnings)
@@ -404,7 +447,8 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         hist = _contact_history(angles[i], rates[i], accs[i], recording, k0[i], lo, hi, onset_offset[i], constants[i],
                                 theta_on[i], rig, omega, dt, event)
         contact[event] = hist
-        hertz[i] = _hertz_ratio(hist, rig) if not impulsive[i] else math.nan
+        hertz[i] = (math.nan if impulsive[i] else
+                    _hertz_ratio(rig, hist.t, hist.alpha, hist.alpha_ddot, float(theta_on[i]), omega))
         alpha_full = angles[i] + constants[i]
         j = int(np.argmax(alpha_full))
         alpha_m, t_m = _parabolic_max(alpha_full, j)
@@ -466,17 +510,21 @@ CONTACT_ANGLE_MARGIN = 0.01
 HERTZ_TOLERANCE = 3.0
 
 
-def _hertz_ratio(hist: EventKinematics, rig: PivotedFollowerRig) -> float:
-    """Force implied by the accelerometer at the deepest indentation over ``k_H delta^1.5`` there."""
-    j = int(np.argmin(hist.gap))
-    delta = -float(hist.gap[j])
+def _hertz_ratio(rig: PivotedFollowerRig, t: np.ndarray, alpha: np.ndarray, acceleration: np.ndarray,
+                 theta0: float, omega: float) -> float:
+    """Force implied by the accelerometer at the deepest indentation over ``k_H delta^1.5`` there,
+    for the contact histories ``t`` [s from the onset], ``alpha`` [rad], ``acceleration``
+    [rad/s^2] with the cam at ``theta0 + omega t`` (NaN without indentation)."""
+    gap = rig.gap(alpha, theta0 + omega * t)
+    j = int(np.argmin(gap))
+    delta = -float(gap[j])
     if not delta > 0.0:
         return math.nan
-    alpha, theta = float(hist.alpha[j]), float(hist.theta[j])
+    alpha, theta = float(alpha[j]), float(theta0 + omega * t[j])
     torque = rig.m_b * rig.g * rig.l_g * math.cos(alpha) - float(
         spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)) * rig.d_x
     chi = float(rig.lever_arm(alpha, theta))
-    force = (rig.I_b * float(hist.alpha_ddot[j]) - torque) / chi
+    force = (rig.I_b * float(acceleration[j]) - torque) / chi
     return force / (rig.k_H * delta ** 1.5)
 
 
@@ -652,11 +700,8 @@ def _parabolic_max(x: np.ndarray, j: int) -> tuple[float, float]:
 
 def _reopening_rate(hist: EventKinematics) -> float:
     """Gap rate where the gap turns positive again after the deepest indentation (interpolated)."""
-    gap = hist.gap
-    deepest = int(np.argmin(gap))
-    after = np.flatnonzero((gap[deepest:-1] <= 0.0) & (gap[deepest + 1:] > 0.0))
-    if after.size == 0:
+    crossing = _reopening(hist.gap)
+    if crossing is None:
         return math.nan
-    j = deepest + int(after[0])
-    w = -gap[j] / (gap[j + 1] - gap[j])
+    j, w = crossing
     return float((1.0 - w) * hist.gap_rate[j] + w * hist.gap_rate[j + 1])

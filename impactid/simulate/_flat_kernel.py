@@ -9,11 +9,12 @@ point ``p_C`` equal those of the cam centre.)
 
 Method
 ------
-* Free flight: Dormand–Prince 5(4) (SciPy's ``RK45`` tableau), standard step-size control, 4th-order
-  dense output. After each accepted step the gap is checked at the step end and its midpoint; a
-  sign change is located with the Illinois (modified regula falsi) method on the dense output,
-  the step is re-integrated from its start to the root and one Newton correction
-  ``dt = -h / h_dot`` (another re-integration) puts the impact where ``|h|`` is at round-off level.
+* Free flight: the Dormand–Prince 5(4) core of :mod:`impactid.simulate.dp5` (pair layout: the
+  follower angle and rate), standard step-size control, 4th-order dense output. After each
+  accepted step the gap is checked at the step end and its midpoint; a sign change is located
+  with Brent's method (:func:`~impactid.simulate.dp5.brent`) on the dense output, the step is
+  re-integrated from its start to the root and one Newton correction ``dt = -h / h_dot`` (another
+  re-integration) puts the impact where ``|h|`` is at round-off level.
 * The step that starts at an impact has a root at its own start (``h = 0``, ``h_dot+ > 0``); the
   gap is deflated there, ``h(t) / (t - t_i)``, whose value at ``t_i`` is ``h_dot+``, so the next
   impact is found however short the bounce.
@@ -23,7 +24,7 @@ Method
   ends the sequence: the follower sticks. This is what keeps the integrator from stalling.
 * Sticking: the state is the exact contact motion, no integration. The contact torque
   ``tau(theta_c) = J omega^2 theta_hat'' + M_s(theta_hat)`` is scanned at ``STICK_SCAN`` points per
-  revolution and its downward zero is located by the Illinois method; the follower is then
+  revolution and its downward zero is located by Brent's method; the follower is then
   released into free flight with the contact state.
 
 Status codes are returned instead of raising; :mod:`impactid.simulate.flat` turns them into
@@ -33,12 +34,14 @@ Status codes are returned instead of raising; :mod:`impactid.simulate.flat` turn
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import njit, prange
 
 from impactid.rigs import flat as _geo
-from impactid.simulate._kernel import _A, _B, _E, _P
+from impactid.simulate import dp5
+from impactid.simulate.dp5 import BAD_INPUT, MAX_STEPS, NONFINITE, OK, STATUS_MESSAGES, STEP_UNDERFLOW
 
 _jit = njit(cache=True, inline="always")
 _gap = _jit(_geo.flat_gap)
@@ -56,14 +59,11 @@ FREE, STICK = 0, 1
 EV_IMPACT, EV_STICK, EV_RELEASE = 1.0, 2.0, 3.0
 E_KIND, E_T, E_THETA_C, E_THETA_F, E_RATE_BEFORE, E_RATE_AFTER, E_GAPRATE_BEFORE, E_GAPRATE_AFTER = range(8)
 N_ECOL = 8
-# ---- status codes --------------------------------------------------------------------------
-OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, BAD_INPUT = range(5)
-STATUS_MESSAGES = {
-    MAX_STEPS: "step budget exhausted",
-    STEP_UNDERFLOW: "step size fell below the floating-point resolution",
-    NONFINITE: "the state became non-finite",
-    BAD_INPUT: "non-finite initial state or times",
-}
+# ---- status codes: the core's (dp5.STATUS_MESSAGES) ----------------------------------------
+__all__ = ["BAD_INPUT", "MAX_STEPS", "NONFINITE", "OK", "STATUS_MESSAGES", "STEP_UNDERFLOW", "integrate", "sweep"]
+#: What :func:`integrate` returns: the status, the number of events, the final time, state and
+#: mode, and the number of steps.
+RunEnd = namedtuple("RunEnd", ["status", "n_events", "t", "theta", "rate", "mode", "n_steps"])
 #: Points per cam revolution at which the contact torque is checked while sticking.
 STICK_SCAN = 2048
 
@@ -87,62 +87,45 @@ def contact_state(theta_c, omega, p):
     return th, omega * d1, tau
 
 
+@njit(cache=True, inline="always")
+def _begin(mode, t, y, p, law):
+    return (0.0,)
+
+
+@njit(cache=True, inline="always")
+def _stage(mode, cache, t, y, d, ch, p, law, K, s, monitor):
+    """Free flight (A-10): the rate and acceleration at ``y + d`` (the flight is autonomous)."""
+    K[s, 0] = y[1] + d[1]
+    K[s, 1] = free_acceleration(y[0] + d[0], p)
+
+
+_NO_WORK = np.empty(0)
+
+
 @njit(cache=True)
-def _dp5_step(theta, rate, h, f0, p, K):
-    """One DP5 step of the free flight (autonomous). Fills K (7x2); returns the new state and
-    the embedded error estimates."""
+def _dp5_step(theta, rate, h, f0, p, K, Q):
+    """One DP5 step of the free flight from the core; fills the continuous extension ``Q``;
+    returns the new state and its error estimate."""
     K[0, 0] = rate
     K[0, 1] = f0
-    for s in range(1, 6):
-        sa = 0.0
-        sd = 0.0
-        for j in range(s):
-            sa += _A[s, j] * K[j, 0]
-            sd += _A[s, j] * K[j, 1]
-        K[s, 0] = rate + h * sd
-        K[s, 1] = free_acceleration(theta + h * sa, p)
-    sa = 0.0
-    sd = 0.0
-    for j in range(6):
-        sa += _B[j] * K[j, 0]
-        sd += _B[j] * K[j, 1]
-    th1 = theta + h * sa
-    r1 = rate + h * sd
-    K[6, 0] = r1
-    K[6, 1] = free_acceleration(th1, p)
-    ea = 0.0
-    ed = 0.0
-    for j in range(7):
-        ea += _E[j] * K[j, 0]
-        ed += _E[j] * K[j, 1]
-    return th1, r1, h * ea, h * ed
+    y1, err = dp5.step(_stage, _begin, FREE, 0.0, (theta, rate), h, p, p, K, _NO_WORK, _NO_WORK, _NO_WORK)
+    dp5.dense_coefficients(K, Q)
+    return y1[0], y1[1], err[0], err[1]
 
 
 @njit(cache=True)
-def _dense(x, h, th0, r0, K):
-    """State at fraction ``x`` of the step from the continuous extension."""
-    th = th0
-    r = r0
-    xp = 1.0
-    for j in range(4):
-        xp *= x
-        qa = 0.0
-        qd = 0.0
-        for i in range(7):
-            qa += K[i, 0] * _P[i, j]
-            qd += K[i, 1] * _P[i, j]
-        th += h * qa * xp
-        r += h * qd * xp
-    return th, r
+def _dense(x, h, th0, r0, Q):
+    """State at fraction ``x`` of the step from the continuous extension ``Q``."""
+    return dp5.dense(x, h, (th0, r0), Q, _NO_WORK)
 
 
 @njit(cache=True)
-def _gap_dense(x, t0, h, th0, r0, K, p, omega, theta_c0, x_deflate, slope0):
+def _gap_dense(x, t0, h, th0, r0, Q, p, omega, theta_c0, x_deflate, slope0):
     """Gap on the dense output at fraction ``x``; with ``x_deflate >= 0`` the gap divided by
     ``(x - x_deflate)`` (its limit at ``x_deflate`` is ``slope0``, the gap rate times ``h``)."""
     if x_deflate >= 0.0 and x - x_deflate <= 0.0:
         return slope0
-    th, _ = _dense(x, h, th0, r0, K)
+    th, _ = _dense(x, h, th0, r0, Q)
     g = gap(th, theta_c0 + omega * (t0 + x * h), p)
     if x_deflate >= 0.0:
         return g / (x - x_deflate)
@@ -150,68 +133,37 @@ def _gap_dense(x, t0, h, th0, r0, K, p, omega, theta_c0, x_deflate, slope0):
 
 
 @njit(cache=True)
-def _illinois_gap(xa, xb, fa, fb, t0, h, th0, r0, K, p, omega, theta_c0, x_deflate, slope0):
-    """Root of the (deflated) gap in [xa, xb] (fa > 0 > fb), Illinois method, to 1e-15 of a step."""
-    side = 0
-    for _ in range(200):
-        xm = (xa * fb - xb * fa) / (fb - fa)
-        if not (xa < xm < xb):
-            xm = 0.5 * (xa + xb)
-        fm = _gap_dense(xm, t0, h, th0, r0, K, p, omega, theta_c0, x_deflate, slope0)
-        if fm > 0.0:
-            xa, fa = xm, fm
-            if side == -1:
-                fb *= 0.5
-            side = -1
-        elif fm < 0.0:
-            xb, fb = xm, fm
-            if side == 1:
-                fa *= 0.5
-            side = 1
-        else:
-            return xm
-        if xb - xa < 1e-15 * max(1.0, xb) + 1e-16 / max(h, 1e-300):
-            break
-    return xb
+def _gap_at(x, args):
+    t0, h, th0, r0, Q, p, omega, theta_c0, x_deflate, slope0 = args
+    return _gap_dense(x, t0, h, th0, r0, Q, p, omega, theta_c0, x_deflate, slope0)
 
 
 @njit(cache=True)
-def _illinois_torque(ta, tb, fa, fb, omega, theta_c0, p):
-    """Downward zero of the contact torque in [ta, tb] (fa >= 0 > fb) to about 1e-15 s."""
-    side = 0
-    for _ in range(200):
-        tm = (ta * fb - tb * fa) / (fb - fa)
-        if not (ta < tm < tb):
-            tm = 0.5 * (ta + tb)
-        _, _, fm = contact_state(theta_c0 + omega * tm, omega, p)
-        if fm >= 0.0:
-            ta, fa = tm, fm
-            if side == -1:
-                fb *= 0.5
-            side = -1
-        else:
-            tb, fb = tm, fm
-            if side == 1:
-                fa *= 0.5
-            side = 1
-        if tb - ta < 4e-16 * max(1.0, abs(tb)):
-            break
-    return ta
+def _root_gap(xa, xb, fa, fb, t0, h, th0, r0, Q, p, omega, theta_c0, x_deflate, slope0):
+    """Root of the (deflated) gap in [xa, xb] (fa > 0 > fb) to about 1e-16 of a step."""
+    args = (t0, h, th0, r0, Q, p, omega, theta_c0, x_deflate, slope0)
+    return dp5.brent(_gap_at, args, xa, xb, fa, fb, max(4e-16, 1e-16 / max(h, 1e-300)), -1)
 
 
 @njit(cache=True)
-def _error_norm(th0, r0, th1, r1, ea, ed, rtol, atol_a, atol_d):
-    sa = atol_a + rtol * max(abs(th0), abs(th1))
-    sd = atol_d + rtol * max(abs(r0), abs(r1))
-    return math.sqrt(0.5 * ((ea / sa) ** 2 + (ed / sd) ** 2))
+def _torque_at(tm, args):
+    omega, theta_c0, p = args
+    return contact_state(theta_c0 + omega * tm, omega, p)[2]
 
 
 @njit(cache=True)
-def _emit_dense(grid, gi, t_stop, t, h, th, r, K, out):
+def _root_torque(ta, tb, fa, fb, omega, theta_c0, p):
+    """Downward zero of the contact torque in [ta, tb] (fa >= 0 > fb) to about 1e-15 s: the last
+    time at which the cam still holds the follower."""
+    return dp5.brent(_torque_at, (omega, theta_c0, p), ta, tb, fa, fb, 4e-16 * max(1.0, abs(tb)), 1)
+
+
+@njit(cache=True)
+def _emit_dense(grid, gi, t_stop, t, h, th, r, Q, out):
     """Write the free-flight dense output of the step ``[t, t + h]`` at the grid times up to
     ``t_stop`` into ``out``; returns the next grid index."""
     while gi < grid.shape[0] and grid[gi] <= t_stop:
-        gth, grt = _dense((grid[gi] - t) / h, h, th, r, K)
+        gth, grt = _dense((grid[gi] - t) / h, h, th, r, Q)
         out[gi, 0] = gth
         out[gi, 1] = grt
         out[gi, 2] = FREE
@@ -257,7 +209,7 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
 
     Returns
     -------
-    (status, n_events, t, theta, rate, mode, n_steps)
+    :data:`RunEnd` (a named record).
     """
     period = 2.0 * math.pi / omega
     t = t0
@@ -269,8 +221,9 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
     gi = 0
     n_grid = grid.shape[0]
     K = np.empty((7, 2))
+    Q = np.empty((2, 4))
     if not (math.isfinite(t0) and math.isfinite(t_end) and math.isfinite(theta0) and math.isfinite(rate0)):
-        return BAD_INPUT, 0, t, th, r, mode, 0
+        return RunEnd(BAD_INPUT, 0, t, th, r, mode, 0)
     if mode == STICK:
         th, r, tau = contact_state(theta_c0 + omega * t, omega, p)
         if tau < 0.0:
@@ -288,7 +241,7 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
                 tb = min(t + dt_scan, t_end)
                 _, _, tau_b = contact_state(theta_c0 + omega * tb, omega, p)
                 if tau_b < 0.0:
-                    tb = _illinois_torque(t, tb, max(tau_a, 0.0), tau_b, omega, theta_c0, p)
+                    tb = _root_torque(t, tb, max(tau_a, 0.0), tau_b, omega, theta_c0, p)
                     released = True
                 while gi < n_grid and grid[gi] <= tb:
                     gth, grt, _ = contact_state(theta_c0 + omega * grid[gi], omega, p)
@@ -311,20 +264,20 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
             continue
         # ---- free flight: one adaptive DP5 step ----
         if n_steps >= max_steps:
-            return MAX_STEPS, n_ev, t, th, r, mode, n_steps
+            return RunEnd(MAX_STEPS, n_ev, t, th, r, mode, n_steps)
         f0 = free_acceleration(th, p)
         h = min(h, h_max, t_end - t)
         if h <= 4e-16 * max(1.0, abs(t)):
             if t_end - t <= 4e-16 * max(1.0, abs(t)):
                 t = t_end
                 break
-            return STEP_UNDERFLOW, n_ev, t, th, r, mode, n_steps
-        th1, r1, ea, ed = _dp5_step(th, r, h, f0, p, K)
+            return RunEnd(STEP_UNDERFLOW, n_ev, t, th, r, mode, n_steps)
+        th1, r1, ea, ed = _dp5_step(th, r, h, f0, p, K, Q)
         n_steps += 1
-        err = _error_norm(th, r, th1, r1, ea, ed, rtol, atol_a, atol_d)
+        err = dp5.error_norm((th, r), (th1, r1), (ea, ed), rtol, (atol_a, atol_d))
         if not (math.isfinite(th1) and math.isfinite(r1)):
             if h < 1e-12 * period:
-                return NONFINITE, n_ev, t, th, r, mode, n_steps
+                return RunEnd(NONFINITE, n_ev, t, th, r, mode, n_steps)
             h *= 0.2
             continue
         if err > 1.0:
@@ -333,17 +286,17 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
         # accepted: look for an impact inside the step
         t1 = t + h
         g1 = gap(th1, theta_c0 + omega * t1, p)
-        gm = _gap_dense(0.5, t, h, th, r, K, p, omega, theta_c0, -1.0, 0.0)
+        gm = _gap_dense(0.5, t, h, th, r, Q, p, omega, theta_c0, -1.0, 0.0)
         x_root = -1.0
         if deflate:
             # the flight starts on the surface: work with the gap deflated at the step start
             slope0 = g_start_rate * h
             if slope0 > 0.0:
                 if gm < 0.0:
-                    x_root = _illinois_gap(0.0, 0.5, slope0, gm / 0.5, t, h, th, r, K, p, omega, theta_c0,
+                    x_root = _root_gap(0.0, 0.5, slope0, gm / 0.5, t, h, th, r, Q, p, omega, theta_c0,
                                            0.0, slope0)
                 elif g1 < 0.0:
-                    x_root = _illinois_gap(0.5, 1.0, gm / 0.5, g1, t, h, th, r, K, p, omega, theta_c0, 0.0, slope0)
+                    x_root = _root_gap(0.5, 1.0, gm / 0.5, g1, t, h, th, r, Q, p, omega, theta_c0, 0.0, slope0)
             elif gm < 0.0 and g1 < 0.0:
                 # left the surface with zero gap rate and was pushed straight back: ride the cam again
                 mode = STICK
@@ -351,12 +304,12 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
         else:
             g0 = gap(th, theta_c0 + omega * t, p)
             if gm < 0.0:
-                x_root = _illinois_gap(0.0, 0.5, g0, gm, t, h, th, r, K, p, omega, theta_c0, -1.0, 0.0)
+                x_root = _root_gap(0.0, 0.5, g0, gm, t, h, th, r, Q, p, omega, theta_c0, -1.0, 0.0)
             elif g1 < 0.0:
-                x_root = _illinois_gap(0.5, 1.0, gm, g1, t, h, th, r, K, p, omega, theta_c0, -1.0, 0.0)
+                x_root = _root_gap(0.5, 1.0, gm, g1, t, h, th, r, Q, p, omega, theta_c0, -1.0, 0.0)
         if x_root < 0.0:
             # no impact: emit outputs, advance
-            gi = _emit_dense(grid, gi, t1, t, h, th, r, K, out)
+            gi = _emit_dense(grid, gi, t1, t, h, th, r, Q, out)
             t = t1
             th = th1
             r = r1
@@ -366,15 +319,15 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
         # impact inside the step: re-integrate to the root, one Newton correction
         hr = x_root * h
         for _ in range(2):
-            thr, rr, _, _ = _dp5_step(th, r, hr, f0, p, K)
+            thr, rr, _, _ = _dp5_step(th, r, hr, f0, p, K, Q)
             tc = theta_c0 + omega * (t + hr)
             g = gap(thr, tc, p)
             gr = _gap_rate(thr, rr, tc, omega, p[P_E], p[P_X0], p[P_Y0])
             if gr < 0.0:
                 hr -= g / gr
-        thr, rr, _, _ = _dp5_step(th, r, hr, f0, p, K)
+        thr, rr, _, _ = _dp5_step(th, r, hr, f0, p, K, Q)
         # outputs before the impact (on the re-integrated step's dense output)
-        gi = _emit_dense(grid, gi, t + hr, t, hr, th, r, K, out)
+        gi = _emit_dense(grid, gi, t + hr, t, hr, th, r, Q, out)
         t = t + hr
         th = thr
         tc = theta_c0 + omega * t
@@ -408,7 +361,7 @@ def integrate(p, omega, theta_c0, restitution, v_stick, t0, theta0, rate0, mode0
             out[gi, 1] = r
         out[gi, 2] = mode
         gi += 1
-    return OK, n_ev, t, th, r, mode, n_steps
+    return RunEnd(OK, n_ev, t, th, r, mode, n_steps)
 
 
 @njit(cache=True, parallel=True)
@@ -430,5 +383,5 @@ def sweep(p, omegas, restitutions, v_stick, revolutions, strobe_phase, rtol, ato
         res = integrate(p, omega, 0.0, restitutions[i], v_stick, 0.0, 0.0, 0.0, STICK,
                         revolutions * period, rtol, atol_a, atol_d, h_max_rev * period, max_steps,
                         grid, strobe[i], events, counts[i])
-        status[i] = res[0]
-        steps[i] = res[6]
+        status[i] = res.status
+        steps[i] = res.n_steps

@@ -37,12 +37,13 @@ loops); :mod:`impactid.simulate.runs` turns them into :class:`~impactid.errors.S
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import njit, prange
-from scipy.integrate._ivp.rk import RK45 as _RK45
 
 from impactid.rigs import pivoted as _geo
+from impactid.simulate import dp5
 
 _jit = njit(cache=True, inline="always")
 
@@ -53,13 +54,6 @@ _tangential_gap_rate = _jit(_geo.tangential_gap_rate)
 _sliding_velocity_from = _jit(_geo.sliding_velocity)
 _spring_force = _jit(_geo.spring_force)
 _free_torque = _jit(_geo.free_torque)
-
-# Dormand–Prince 5(4) tableau, from SciPy.
-_C = np.ascontiguousarray(_RK45.C, dtype=np.float64)
-_A = np.ascontiguousarray(_RK45.A, dtype=np.float64)
-_B = np.ascontiguousarray(_RK45.B, dtype=np.float64)
-_E = np.ascontiguousarray(_RK45.E, dtype=np.float64)
-_P = np.ascontiguousarray(_RK45.P, dtype=np.float64)
 
 # ---- parameter vector layout (built by runs.pack_rig) --------------------------------------
 PE_X, PE_Y, ECC, RSUM, R_C, H_P, M_B, GRAV, L_G, K_S, L_SU, D_Y, D_X, W_B, I_B, K_H, MU = range(17)
@@ -79,18 +73,16 @@ EV_GAP, EV_RATE, EV_GAPRATE, EV_DFORCE, EV_VR, EV_LAMBDA = range(6)
  C_T_PEAK_DELTA, C_XI) = range(15)
 N_CCOL = 15
 ROW_COMPLIANT, ROW_IMPACT, ROW_STICK = 1.0, 2.0, 3.0
-# ---- status codes --------------------------------------------------------------------------
-OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, CONTACTS_FULL, APEX_FULL, XI_NEGATIVE, BAD_INPUT = range(8)
-STATUS_MESSAGES = {
-    OK: "ok",
-    MAX_STEPS: "maximum number of integration steps reached",
-    STEP_UNDERFLOW: "step size fell below the floating-point resolution of t",
-    NONFINITE: "the state became non-finite",
-    CONTACTS_FULL: "contact table full",
-    APEX_FULL: "apex table full",
-    XI_NEGATIVE: "restitution law gave xi < 0 (approach speed beyond 1/gamma: outside the law's range)",
-    BAD_INPUT: "invalid input to the integrator",
-}
+# ---- status codes: the core's, with this kernel's names for its tables --------------------
+OK, MAX_STEPS, STEP_UNDERFLOW, NONFINITE, BAD_INPUT = (dp5.OK, dp5.MAX_STEPS, dp5.STEP_UNDERFLOW, dp5.NONFINITE,
+                                                       dp5.BAD_INPUT)
+CONTACTS_FULL, APEX_FULL, XI_NEGATIVE = dp5.EVENTS_FULL, dp5.SAMPLES_FULL, dp5.LAW_RANGE
+STATUS_MESSAGES = {**dp5.STATUS_MESSAGES, CONTACTS_FULL: "contact table full", APEX_FULL: "apex table full",
+                   XI_NEGATIVE: "restitution law gave xi < 0 (approach speed beyond 1/gamma: outside the law's range)"}
+#: What :func:`integrate` returns: the status, the table counts, the final state and mode, the
+#: largest follower angle and its time, and the step statistics.
+RunEnd = namedtuple("RunEnd", ["status", "n_contacts", "n_apexes", "t", "alpha", "alpha_dot", "mode", "alpha_max",
+                               "t_alpha_max", "n_steps", "n_rejected"])
 # ---- summary columns of the batch entry point ----------------------------------------------
 (S_ALPHA_M, S_T_ALPHA_M, S_N_CONTACTS, S_T_START, S_T_END, S_DPSI_START, S_DPSI_END,
  S_PEAK_FORCE, S_PEAK_DELTA, S_ALPHA_END, S_RATE_END, S_STATUS, S_N_STEPS) = range(13)
@@ -296,183 +288,86 @@ def observe(t, a, ad, mode, p, law, theta_ref, omega, out):
 # ============================================================================================
 
 
+@njit(cache=True, inline="always")
+def _begin(mode, t, y, run, law):
+    """Step start: the sines and cosines of alpha and Theta, reused by the stages (angle addition)."""
+    p, theta_ref, omega = run
+    th0 = theta_ref + omega * t
+    if mode == FREE:
+        return math.sin(y[0]), math.cos(y[0]), th0, 0.0, 1.0
+    return math.sin(y[0]), math.cos(y[0]), th0, math.sin(th0), math.cos(th0)
+
+
+@njit(cache=True, inline="always")
+def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
+    """Rate and acceleration at ``y + d``, ``t + ch`` (the core's stage); the last stage (``s = 6``)
+    also writes the step end's monitored quantities ``(g, dpsi, force, dforce, v_r)`` into ``S``,
+    sharing its trigonometry. The stages' sines and cosines come from those at the step start by
+    angle addition (``_sincos_shifted``): alpha and Theta move by small amounts within a step."""
+    p, theta_ref, omega = run
+    sa0, ca0, th0, st0, ct0 = cache
+    a = y[0] + d[0]
+    ad = y[1] + d[1]
+    K[s, 0] = ad
+    ss, cs = _sincos_shifted(y[0], sa0, ca0, d[0])
+    if s < 6:
+        if mode == FREE:
+            K[s, 1] = _free_torque_of(ss, cs, p) / p[I_B]
+        else:
+            st, ct = _sincos_shifted(th0, st0, ct0, omega * ch)
+            K[s, 1] = _evaluate_trig(mode, a, ad, 0.0, ss, cs, st, ct, p, law, omega, True)[0]
+        return
+    if mode == FREE:
+        st = math.sin(th0 + omega * ch)
+        ct = math.cos(th0 + omega * ch)
+    else:
+        st, ct = _sincos_shifted(th0, st0, ct0, omega * ch)
+    K[6, 1], S[0], S[1], S[2], S[3], S[4] = _evaluate_trig(mode, a, ad, 0.0, ss, cs, st, ct, p, law, omega, True)
+
+
+_NO_WORK = np.empty(0)
+
+
 @njit(cache=True)
 def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S):
-    """One DP5 step from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2) and, with the
+    """One step of the core from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2) and, with the
     monitored quantities ``(g, dpsi, force, dforce, v_r)`` at the step's end, S (5).
 
     Returns (a_new, ad_new, err_a, err_ad)."""
     K[0, 0] = ad
     K[0, 1] = f0
-    # The stages' sines and cosines come from those at the step start by angle addition
-    # (``_sincos_shifted``): alpha and Theta move by small amounts within a step.
-    sa0 = math.sin(a)
-    ca0 = math.cos(a)
-    th0 = theta_ref + omega * t
-    st0 = 0.0
-    ct0 = 1.0
-    if mode != FREE:
-        st0 = math.sin(th0)
-        ct0 = math.cos(th0)
-    for s in range(1, 6):
-        acc_a = 0.0
-        acc_d = 0.0
-        for j in range(s):
-            acc_a += _A[s, j] * K[j, 0]
-            acc_d += _A[s, j] * K[j, 1]
-        ys = a + h * acc_a
-        yds = ad + h * acc_d
-        K[s, 0] = yds
-        ss, cs = _sincos_shifted(a, sa0, ca0, h * acc_a)
-        if mode == FREE:
-            K[s, 1] = _free_torque_of(ss, cs, p) / p[I_B]
-        else:
-            st, ct = _sincos_shifted(th0, st0, ct0, omega * _C[s] * h)
-            K[s, 1] = _evaluate_trig(mode, ys, yds, 0.0, ss, cs, st, ct, p, law, omega, True)[0]
-    acc_a = 0.0
-    acc_d = 0.0
-    for j in range(6):
-        acc_a += _B[j] * K[j, 0]
-        acc_d += _B[j] * K[j, 1]
-    a1 = a + h * acc_a
-    ad1 = ad + h * acc_d
-    K[6, 0] = ad1
-    # the last stage also gives the step end's monitored quantities (S), sharing its trigonometry
-    ss, cs = _sincos_shifted(a, sa0, ca0, h * acc_a)
-    if mode == FREE:
-        st = math.sin(th0 + omega * h)
-        ct = math.cos(th0 + omega * h)
-    else:
-        st, ct = _sincos_shifted(th0, st0, ct0, omega * h)
-    K[6, 1], S[0], S[1], S[2], S[3], S[4] = _evaluate_trig(mode, a1, ad1, 0.0, ss, cs, st, ct, p, law, omega, True)
-    ea = 0.0
-    ed = 0.0
-    for j in range(7):
-        ea += _E[j] * K[j, 0]
-        ed += _E[j] * K[j, 1]
-    return a1, ad1, h * ea, h * ed
-
-
-@njit(cache=True)
-def _dense_coefficients(K, Q):
-    for c in range(2):
-        for j in range(4):
-            s = 0.0
-            for i in range(7):
-                s += K[i, c] * _P[i, j]
-            Q[c, j] = s
+    y1, err = dp5.step(_stage, _begin, mode, t, (a, ad), h, (p, theta_ref, omega), law, K, _NO_WORK, _NO_WORK, S)
+    return y1[0], y1[1], err[0], err[1]
 
 
 @njit(cache=True, inline="always")
 def _dense(x, h, a0, ad0, Q):
-    x2 = x * x
-    x3 = x2 * x
-    x4 = x3 * x
-    a = a0 + h * (Q[0, 0] * x + Q[0, 1] * x2 + Q[0, 2] * x3 + Q[0, 3] * x4)
-    ad = ad0 + h * (Q[1, 0] * x + Q[1, 1] * x2 + Q[1, 2] * x3 + Q[1, 3] * x4)
-    return a, ad
+    return dp5.dense(x, h, (a0, ad0), Q, _NO_WORK)
 
 
 @njit(cache=True)
-def _g_dense(x, kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega):
+def _event_at(x, args):
+    kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega = args
     a, ad = _dense(x, h, a0, ad0, Q)
     return _event_value(kind, mode, t0 + x * h, a, ad, p, law, theta_ref, omega)
 
 
 @njit(cache=True)
 def _root_dense(kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega, g0, g1):
-    """Brent's method for the root of an event function on [0, 1] (fraction of the step)."""
-    xtol = max(4e-16, 1e-16 / h)
-    xa = 0.0
-    xb = 1.0
-    fa = g0
-    fb = g1
-    if fa == 0.0:
-        return 0.0
-    if fb == 0.0:
-        return 1.0
-    xc = xa
-    fc = fa
-    d = xb - xa
-    e = d
-    for _ in range(100):
-        if (fb > 0.0) == (fc > 0.0):
-            xc = xa
-            fc = fa
-            d = xb - xa
-            e = d
-        if abs(fc) < abs(fb):
-            xa = xb
-            xb = xc
-            xc = xa
-            fa = fb
-            fb = fc
-            fc = fa
-        tol = 2.0 * 2.2e-16 * abs(xb) + 0.5 * xtol
-        m = 0.5 * (xc - xb)
-        if abs(m) <= tol or fb == 0.0:
-            break
-        if abs(e) >= tol and abs(fa) > abs(fb):
-            s = fb / fa
-            if xa == xc:
-                pp = 2.0 * m * s
-                qq = 1.0 - s
-            else:
-                qq = fa / fc
-                r = fb / fc
-                pp = s * (2.0 * m * qq * (qq - r) - (xb - xa) * (r - 1.0))
-                qq = (qq - 1.0) * (r - 1.0) * (s - 1.0)
-            if pp > 0.0:
-                qq = -qq
-            else:
-                pp = -pp
-            if 2.0 * pp < min(3.0 * m * qq - abs(tol * qq), abs(e * qq)):
-                e = d
-                d = pp / qq
-            else:
-                d = m
-                e = m
-        else:
-            d = m
-            e = m
-        xa = xb
-        fa = fb
-        if abs(d) > tol:
-            xb += d
-        else:
-            xb += tol if m > 0.0 else -tol
-        fb = _g_dense(xb, kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega)
-    return min(max(xb, 0.0), 1.0)
-
-
-@njit(cache=True)
-def _error_norm(a0, ad0, a1, ad1, ea, ed, rtol, atol_a, atol_d):
-    sa = atol_a + rtol * max(abs(a0), abs(a1))
-    sd = atol_d + rtol * max(abs(ad0), abs(ad1))
-    return math.sqrt(0.5 * ((ea / sa) ** 2 + (ed / sd) ** 2))
+    """Root of an event function on the dense output, as a fraction of the step in [0, 1]."""
+    args = (kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega)
+    x = dp5.brent(_event_at, args, 0.0, 1.0, g0, g1, max(4e-16, 1e-16 / h), 0)
+    return min(max(x, 0.0), 1.0)
 
 
 @njit(cache=True)
 def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max):
-    """Hairer–Nørsett–Wanner starting step (as scipy's ``select_initial_step``), order 5."""
-    sa = atol_a + rtol * abs(a)
-    sd = atol_d + rtol * abs(ad)
-    d0 = math.sqrt(0.5 * ((a / sa) ** 2 + (ad / sd) ** 2))
-    d1 = math.sqrt(0.5 * ((ad / sa) ** 2 + (f0 / sd) ** 2))
-    if d0 < 1e-5 or d1 < 1e-5:
-        h0 = 1e-6
-    else:
-        h0 = 0.01 * d0 / d1
-    h0 = min(h0, h_max)
-    a1 = a + h0 * ad
-    ad1 = ad + h0 * f0
-    f1 = acceleration(mode, t + h0, a1, ad1, p, law, theta_ref, omega)
-    d2 = math.sqrt(0.5 * (((ad1 - ad) / sa) ** 2 + ((f1 - f0) / sd) ** 2)) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** 0.2
-    return min(100.0 * h0, h1, h_max)
+    """The core's starting step (Hairer–Nørsett–Wanner, as scipy's ``select_initial_step``)."""
+    K = np.empty((7, 2))
+    K[0, 0] = ad
+    K[0, 1] = f0
+    return dp5.initial_step(_stage, _begin, mode, t, (a, ad), (p, theta_ref, omega), law, K, _NO_WORK,
+                            np.empty(5), rtol, (atol_a, atol_d), h_max)
 
 
 # ============================================================================================
@@ -555,7 +450,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
 
     Returns
     -------
-    (status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rejected)
+    :data:`RunEnd` (a named record).
     """
     t = t0
     a = a0
@@ -578,7 +473,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     cap_a = apexes.shape[0]
     gi = 0
     if not (math.isfinite(a0) and math.isfinite(ad0) and math.isfinite(t0) and math.isfinite(t_end)):
-        return (BAD_INPUT, 0, 0, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
+        return RunEnd(BAD_INPUT, 0, 0, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
     while gi < n_grid and grid[gi] <= t0:
         g_a[gi] = a0
         g_d[gi] = ad0
@@ -587,7 +482,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     open_row = -1
     if mode == CONTACT or mode == STICK:
         if n_contacts >= cap_c:
-            return (CONTACTS_FULL, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
+            return RunEnd(CONTACTS_FULL, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
         dpsi0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
         _open_row(contacts, n_contacts, ROW_COMPLIANT if mode == CONTACT else ROW_STICK, t, a, ad, dpsi0)
         f_start = contact_force(mode, t, a, ad, p, law, theta_ref, omega)
@@ -621,26 +516,21 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 status = NONFINITE
                 break
             continue
-        err = _error_norm(a, ad, a1, ad1, ea, ed, rtol, atol_a, atol_d)
+        err = dp5.error_norm((a, ad), (a1, ad1), (ea, ed), rtol, (atol_a, atol_d))
         if err > 1.0:
             if onset:
                 # first step of a compliant contact: the force grows like delta^p ~ t^p, so the
                 # local error of a step from the onset scales like h^(p+1), not h^5; shrinking with
                 # the true exponent lands on an acceptable step at once instead of after ~6 tries
-                h *= max(0.01, 0.9 * err ** (-1.0 / (law[P_EXP] + 1.0)))
+                h *= dp5.shrink_factor(err, 1.0 / (law[P_EXP] + 1.0), 0.01)
             else:
-                h *= max(0.2, 0.9 * err ** -0.2)
+                h *= dp5.shrink_factor(err, 1.0 / dp5.ORDER, 0.2)
             n_rej += 1
             step_rejected = True
             continue
         onset = False
         # ---- accepted: look for the event that ends the current mode ------------------------
-        if err == 0.0:
-            factor = 10.0
-        else:
-            factor = min(10.0, 0.9 * err ** -0.2)
-        if step_rejected:
-            factor = min(1.0, factor)
+        factor = dp5.step_factor(err, step_rejected)
         step_rejected = False
         switch = False
         switch_now = False
@@ -683,7 +573,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             n_steps += 1
         elif switch:
             term_kind = EV_LAMBDA if mode == STICK else EV_GAP
-            _dense_coefficients(K, Q)
+            dp5.dense_coefficients(K, Q)
             x = _root_dense(term_kind, mode, t, h, a, ad, Q, p, law, theta_ref, omega, g0, g1)
             h_ev = x * h
             if h_ev <= 0.0:
@@ -707,7 +597,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             # dense-output coefficients only when this step needs them (events, grid points)
             if (ad > 0.0 and ad1 <= 0.0) or (q0 < 0.0 and q1 >= 0.0) or (r0 > 0.0 and r1 <= 0.0) or (
                     gi < n_grid and grid[gi] <= t1):
-                _dense_coefficients(K, Q)
+                dp5.dense_coefficients(K, Q)
             # ---- non-terminal events inside [t, t1] -------------------------------------------
             if ad > 0.0 and ad1 <= 0.0:
                 x = _root_dense(EV_RATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, ad, ad1)
@@ -834,7 +724,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         onset = mode == CONTACT
         if h_prev > 0.0 and mode == FREE:
             h = max(h, min(h_prev, h_max))
-    return (status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rej)
+    return RunEnd(status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rej)
 
 
 # ============================================================================================
@@ -892,16 +782,16 @@ def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, a
     mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
     res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
                     h_max, max_steps, gt, ga, gd, gm, contacts, apexes, True)
-    st = res[0]
-    nc = res[1]
+    st = res.status
+    nc = res.n_contacts
     out = summary[tr, ev]
-    out[S_ALPHA_M] = res[7]
-    out[S_T_ALPHA_M] = res[8]
+    out[S_ALPHA_M] = res.alpha_max
+    out[S_T_ALPHA_M] = res.t_alpha_max
     out[S_N_CONTACTS] = nc
-    out[S_ALPHA_END] = res[4]
-    out[S_RATE_END] = res[5]
+    out[S_ALPHA_END] = res.alpha
+    out[S_RATE_END] = res.alpha_dot
     out[S_STATUS] = st
-    out[S_N_STEPS] = res[9]
+    out[S_N_STEPS] = res.n_steps
     if nc > 0:
         out[S_T_START] = contacts[0, C_T_START]
         out[S_T_END] = contacts[0, C_T_END]

@@ -185,10 +185,11 @@ def simulate_flat(rig: FlatFollowerRig, cam_speed_hz: float, duration: float, *,
     out = np.empty((times.size, 3))
     events = np.empty((max_events, FK.N_ECOL))
     tol = tolerances
-    status, n_ev, t_stop, *_rest, steps = FK.integrate(
+    end = FK.integrate(
         p, omega, float(theta_c0), r, float(v_stick), 0.0, th0, rate0, mode0, float(duration),
         tol.rtol, tol.atol_alpha, tol.atol_rate, tol.max_step_revolutions / speed, tol.max_steps,
         times, out, events, np.zeros((0, 3), dtype=np.int64))
+    status, n_ev, t_stop, steps = end.status, end.n_events, end.t, end.n_steps
     if status != FK.OK:
         raise SimulationError(f"rig F at {speed * 60:.6g} rpm: {FK.STATUS_MESSAGES[status]} (at t = {t_stop:.9g} s)")
     if n_ev > max_events:

@@ -180,7 +180,7 @@ def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, gri
         res = K.integrate(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
                           tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
                           grid, g_a, g_d, g_m, contacts, apexes)
-        status = res[0]
+        status = res.status
         if status == K.CONTACTS_FULL and capacity < limit:
             capacity = min(capacity * 8, limit)
         elif status == K.APEX_FULL and apex_capacity < limit:
@@ -383,14 +383,14 @@ def simulate(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, duration: f
     res, contacts, apexes, g_a, g_d, g_m = _run_kernel(
         t_start, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tolerances, grid,
         capacity=int(8 * revolutions) + 64, apex_capacity=int(8 * revolutions) + 64)
-    status, n_c, n_ap, t_fin, a_fin, ad_fin = res[0], res[1], res[2], res[3], res[4], res[5]
+    status, n_c, n_ap, t_fin, a_fin, ad_fin = res.status, res.n_contacts, res.n_apexes, res.t, res.alpha, res.alpha_dot
     _raise_status(status, f"simulation at {cam_speed_hz} Hz", t_fin)
     return SimulationResult(
         t=grid, alpha=g_a, alpha_dot=g_d, mode=g_m, contacts=_contact_frame(contacts[:n_c]),
         apexes=pd.DataFrame({"t": apexes[:n_ap, 0], "alpha": apexes[:n_ap, 1]}),
         final_time=t_fin, final_alpha=a_fin, final_alpha_dot=ad_fin, rig=rig, law=law,
-        cam_speed_hz=cam_speed_hz, theta_ref=theta_ref, mu=float(p[K.MU]), n_steps=int(res[9]),
-        n_rejected=int(res[10]))
+        cam_speed_hz=cam_speed_hz, theta_ref=theta_ref, mu=float(p[K.MU]), n_steps=int(res.n_steps),
+        n_rejected=int(res.n_rejected))
 
 
 def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha0: float, alpha_dot0: float,
@@ -413,8 +413,8 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
     res, contacts, _, g_a, g_d, g_m = _run_kernel(
         0.0, float(alpha0), float(alpha_dot0), float(t_end), p, law_vec, float(theta0), omega, tolerances,
         grid, capacity=16, apex_capacity=0)
-    _raise_status(res[0], "S1 event", res[3])
-    n_contacts = int(res[1])
+    _raise_status(res.status, "S1 event", res.t)
+    n_contacts = int(res.n_contacts)
     table = contacts[:n_contacts]
     if grid.shape[0]:
         obs = np.empty((grid.shape[0], 6))
@@ -431,11 +431,11 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
     else:
         duration = exit_a = exit_ad = approach = separation = peak_f = peak_d = math.nan
     return EventResult(
-        alpha_m=res[7], t_alpha_m=res[8], contact_duration=duration, exit_alpha=exit_a,
+        alpha_m=res.alpha_max, t_alpha_m=res.t_alpha_max, contact_duration=duration, exit_alpha=exit_a,
         exit_alpha_dot=exit_ad, approach_gap_rate=approach, separation_gap_rate=separation, peak_force=peak_f,
         peak_indentation=peak_d, n_contacts=n_contacts, contact_table=table, t=grid,
         contact_force=force, indentation=indentation, alpha=g_a,
-        alpha_dot=g_d, final_alpha=res[4], final_alpha_dot=res[5], n_steps=int(res[9]))
+        alpha_dot=g_d, final_alpha=res.alpha, final_alpha_dot=res.alpha_dot, n_steps=int(res.n_steps))
 
 
 def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,
