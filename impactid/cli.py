@@ -944,7 +944,47 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write figures (data and fit, residuals, derivatives, order selection)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=cmd_cam_fit)
+    _add_rig_commands(sub)
     return parser
+
+
+def _add_rig_commands(sub) -> None:
+    """The commands the registered rigs contribute (:class:`~impactid.rigs.base.CommandSpec`).
+
+    A command several rigs contribute takes ``--rig MODEL`` and runs the chosen rig's
+    implementation; its arguments are the union of theirs. Commands are grouped
+    (``impactid valvetrain simulate``) or top-level (group ``""``)."""
+    from impactid.rigs.registry import MODELS
+
+    specs: dict[tuple[str, str], list] = {}
+    for model in MODELS.values():
+        for spec in model.commands:
+            specs.setdefault((spec.group, spec.name), []).append((model, spec))
+    groups: dict[str, argparse._SubParsersAction] = {}
+    for (group, name), entries in specs.items():
+        if group:
+            if group not in groups:
+                rigs = ", ".join(sorted({m.name for m, _ in entries}))
+                holder = sub.add_parser(group, help=f"{group} commands ({rigs})")
+                groups[group] = holder.add_subparsers(dest=f"{group}_command", required=True, parser_class=_Parser)
+            target = groups[group]
+        else:
+            target = sub
+        p = target.add_parser(name, help=entries[0][1].help)
+        names = [m.name for m, _ in entries]
+        p.add_argument("--rig", choices=names, default=names[0] if len(names) == 1 else None,
+                       required=len(names) > 1, help=f"rig model ({', '.join(names)})")
+        for _, spec in entries:
+            for argument in spec.arguments:
+                argument.add_to(p)
+        p.set_defaults(func=_run_rig_command, rig_commands={m.name: spec for m, spec in entries})
+
+
+def _run_rig_command(args) -> int:
+    from impactid.rigs.registry import rig_model
+
+    spec = args.rig_commands[args.rig]
+    return int(spec.run(args, rig_model(args.rig)) or 0)
 
 
 # ---- entry point ------------------------------------------------------------------------------

@@ -10,12 +10,35 @@ from typing import Any
 
 from impactid.errors import RigParameterError
 from impactid.rigs._toml import read_toml, write_text_atomic
+from impactid.rigs.base import RigModel
 from impactid.rigs.flat import FlatFollowerRig
 from impactid.rigs.pivoted import PivotedFollowerRig
 
-#: FORMAT.md rig ``model`` names and the dataclass of each.
+#: The registered rig models by FORMAT.md model name (:class:`~impactid.rigs.base.RigModel`).
+MODELS: dict[str, RigModel] = {}
+
+
+def register(model: RigModel) -> RigModel:
+    """Add a rig model to the registry (one line per rig, below)."""
+    if model.name in MODELS:
+        raise ValueError(f"rig model {model.name!r} is registered twice")
+    MODELS[model.name] = model
+    RIG_MODELS[model.name] = model.parameters
+    return model
+
+
+#: FORMAT.md rig ``model`` names and the parameter dataclass of each.
 RIG_MODELS: dict[str, type] = {PivotedFollowerRig.model: PivotedFollowerRig,
                                FlatFollowerRig.model: FlatFollowerRig}
+
+
+def rig_model(name: str) -> RigModel:
+    """The registered rig model named ``name``; unknown names raise ``KeyError`` listing the known ones."""
+    try:
+        return MODELS[name]
+    except KeyError:
+        raise KeyError(f"unknown rig model {name!r} (known: {', '.join(MODELS) or 'none'})") from None
+
 
 
 def rig_from_mapping(values: Mapping[str, Any], source: str = ""):
@@ -58,3 +81,6 @@ def load_rig_toml(path: str | os.PathLike[str]):
 def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, float] | None = None) -> Path:
     """Write a rig (and optional operating point) as a TOML rig file, atomically."""
     return write_text_atomic(path, rig.to_toml(operating))
+
+
+# ---- the registry: one line per rig (a rig's folder defines its MODEL; see impactid/rigs/base.py) ----
