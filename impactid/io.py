@@ -321,17 +321,32 @@ class Recording:
         return messages
 
 
+def channel_spec(channel: str) -> tuple[str, str] | None:
+    """``(SI unit, quantity)`` of a channel impactid interprets: the channels above, and those the
+    registered rig models declare (:attr:`impactid.rigs.base.RigModel.channels`); None otherwise."""
+    if channel in CHANNEL_UNITS:
+        return CHANNEL_UNITS[channel], CHANNEL_QUANTITY[channel]
+    from impactid.rigs.registry import MODELS
+
+    for model in MODELS.values():
+        spec = model.channels.get(channel)
+        if spec is not None:
+            return spec.unit, spec.quantity
+    return None
+
+
 def _to_si(where: str, channel: str, unit: str, data: np.ndarray) -> tuple[np.ndarray, str, str | None]:
     """Convert a channel to SI; returns (data, SI unit, provenance note or None).
 
     The unit string is parsed case-sensitively (:func:`impactid.units.si_factor`); a channel
     impactid does not interpret keeps its data and unit.
     """
-    si = CHANNEL_UNITS.get(channel)
-    if si is None:
+    spec = channel_spec(channel)
+    if spec is None:
         return data, unit, None  # a channel impactid does not interpret: kept as is
+    si, quantity = spec
     try:
-        factor = si_factor(unit, CHANNEL_QUANTITY[channel])
+        factor = si_factor(unit, quantity)
     except UnitError as exc:
         raise RecordingError(f"{where}: channel {channel!r} has units {unit!r}: {exc.reason}") from None
     if factor == 1.0:
@@ -363,7 +378,7 @@ def _calibrate(where: str, name: str, attrs, data: np.ndarray) -> tuple[np.ndarr
     scale = next((attrs[k] for k in SCALE_ATTRIBUTES if k in attrs), None)
     offset = next((attrs[k] for k in OFFSET_ATTRIBUTES if k in attrs), None)
     if scale is None and offset is None:
-        if data.dtype.kind in "iu" and CHANNEL_UNITS.get(name) not in (None, "rad"):
+        if data.dtype.kind in "iu" and (channel_spec(name) or ("rad",))[0] != "rad":
             warnings.warn(f"{where}: channel {name!r} holds integers ({data.dtype}) without a 'scale' attribute: "
                           f"read as values in its units, not as ADC codes", RecordingWarning, stacklevel=3)
         return data, None
@@ -718,7 +733,7 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     recording_rig, operating, rig_note = _resolve_rig(rig)
     channels, units, notes = {}, {}, []
     for name, data in columns.items():
-        data, unit, note = _to_si(where, name, CHANNEL_UNITS.get(name, ""), data)
+        data, unit, note = _to_si(where, name, (channel_spec(name) or ("",))[0], data)
         channels[name], units[name] = _frozen(data), unit
         if note:
             notes.append(note)
