@@ -271,7 +271,8 @@ def objective_landscape(sets: Sequence[EventSet], residual: str = "lambda1", *, 
 def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "lambda1", *,
                         fix_n: float | None = None, method: str = "optimise", grid: tuple[int, int] = (41, 21),
                         c_bounds: tuple[float, float] = C_BOUNDS, n_bounds: tuple[float, float] = N_BOUNDS,
-                        landscape: bool = False, progress: Progress | None = None) -> DampingEstimate:
+                        landscape: bool = False, progress: Progress | None = None,
+                        systematic: float = 0.0) -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -284,6 +285,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     c_bounds : bounds of ``c = beta delta_ref^n`` [N s/m]; n_bounds : bounds of ``n``.
     landscape : also compute the 41 x 41 objective landscape over the bounds (for plots).
     progress : callback ``(stage, fraction)`` for a progress display.
+    systematic : a known systematic uncertainty of the residual (e.g. half a calibrated pipeline
+        bias, :mod:`impactid.calibration`): the indifference level of the intervals is at least this.
 
     Raises
     ------
@@ -357,7 +360,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     finite = np.isfinite(per_event_hat)
     n_used = int(finite.sum())
     se = float(np.std(np.abs(per_event_hat[finite]), ddof=1) / math.sqrt(n_used)) if n_used > 1 else math.inf
-    indifference = max(2.0 * se, RESIDUAL_FLOOR[residual]) if math.isfinite(se) else math.inf
+    indifference = max(2.0 * se, RESIDUAL_FLOOR[residual], float(systematic)) if math.isfinite(se) else math.inf
     if fix_n is None:
         centre = interpolate.CubicSpline(n_rows, valley_c)(n_rows)
     else:
@@ -620,6 +623,9 @@ class Estimate:
     event_sets: tuple = field(default=(), repr=False)
     warnings: tuple[str, ...] = ()
     provenance: tuple[str, ...] = ()
+    #: per recording, the pipeline's alpha_m bias measured on the model's own recording
+    #: (:mod:`impactid.calibration`), when the estimate was calibrated
+    calibration: tuple[dict, ...] = ()
 
     def to_dict(self, per_impact: bool = True) -> dict:
         """The result as JSON-ready data: the keys of FORMAT.md (SI units) plus uncertainty and detail."""
@@ -649,6 +655,7 @@ class Estimate:
                 "va_spread": r.va_spread, "beta_equivalent_n1.5": r.beta_equivalent,
                 "impacts_used": r.impacts_used},
             "recordings": [dict(source=s, **op) for s, op in zip(self.sources, self.operating_points)],
+            "calibration": [dict(c) for c in self.calibration],
             "warnings": list(self.warnings),
             "provenance": list(self.provenance),
         }
@@ -659,10 +666,46 @@ class Estimate:
         return out
 
 
+#: Calibrated pipeline biases of alpha_m below this are left uncorrected (the noise-free pipeline's
+#: own level at 204.8 kHz, a few 1e-6; half the lambda1 residual floor).
+CALIBRATION_THRESHOLD = 0.5 * RESIDUAL_FLOOR["lambda1"]
+
+
+def _calibrated(damping, recons, sets, *, fix_n, method, grid, c_bounds, n_bounds, landscape, integration, anchor):
+    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.calibration`); where it
+    exceeds :data:`CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit again, with the
+    intervals' indifference at least half the largest correction."""
+    from impactid.calibration import pipeline_bias
+    from impactid.contact import HuntCrossley
+
+    law = HuntCrossley(beta=damping.beta, n=damping.n)
+    biases = [pipeline_bias(r._recording, law, integration=integration, anchor=anchor) for r in recons]
+    record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
+    applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
+    if not any(applied):
+        return damping, sets, record
+    corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
+    systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
+    again = fit_contact_damping(corrected, damping.residual, fix_n=fix_n, method=method, grid=grid, c_bounds=c_bounds,
+                                n_bounds=n_bounds, landscape=landscape, systematic=systematic)
+    note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
+            f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
+            + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
+                        if math.isfinite(b.alpha_m))
+            + "; alpha_m was corrected where the bias is significant and the fit repeated, with the intervals "
+              "widened by half the correction plus two standard errors")
+    from dataclasses import replace
+
+    again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
+                    seconds=again.seconds + damping.seconds)
+    warnings.warn(note, EstimationWarning, stacklevel=3)
+    return again, corrected, record
+
+
 def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = None, method: str = "optimise",
              grid: tuple[int, int] = (41, 21), rig=None, integration: str = "rk", anchor: str = "cam-phase",
              c_bounds=C_BOUNDS, n_bounds=N_BOUNDS, landscape: bool = False,
-             progress: Progress | None = None) -> Estimate:
+             progress: Progress | None = None, calibrate: bool = True) -> Estimate:
     """Read, segment and reconstruct recordings, then estimate ``beta, n`` and the restitution laws.
 
     Parameters
@@ -672,6 +715,9 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
         rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
+    calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first
+        estimate and, where it matters, correct it and fit again (:mod:`impactid.calibration`;
+        lambda1 only).
     """
     from impactid.events import EventWarning
     from impactid.io import Recording, read_recording
@@ -706,6 +752,11 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
         warnings.simplefilter("always", EstimationWarning)
         damping = fit_contact_damping(sets, residual, fix_n=fix_n, method=method, grid=grid, c_bounds=c_bounds,
                                       n_bounds=n_bounds, landscape=landscape, progress=progress)
+        calibration: list[dict] = []
+        if calibrate and residual_name(residual) == "lambda1":
+            damping, sets, calibration = _calibrated(damping, recons, sets, fix_n=fix_n, method=method, grid=grid,
+                                                     c_bounds=c_bounds, n_bounds=n_bounds, landscape=landscape,
+                                                     integration=integration, anchor=anchor)
         # a part of the job that cannot be done does not take the others with it: without a
         # determined xi the restitution law is missing from the result, with the reason
         try:
@@ -723,4 +774,4 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
         f"{damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",)
     return Estimate(damping=damping, restitution=restitution, sources=tuple(s.source for s in sets),
                     operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
-                    warnings=tuple(collected), provenance=prov)
+                    warnings=tuple(collected), provenance=prov, calibration=tuple(calibration))

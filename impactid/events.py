@@ -38,7 +38,8 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from impactid.io import Recording, RecordingError
+from impactid._scan import extreme_stats
+from impactid.io import CLIP_RUN, Recording, RecordingError
 
 #: Samples skipped between a baseline window and the pulse, and the baseline window length.
 BASELINE_GAP = 16
@@ -105,9 +106,31 @@ class EventTable:
 
 
 def noise_floor(x: np.ndarray) -> float:
-    """White-noise standard deviation from the median absolute second difference."""
+    """Noise standard deviation of a channel: the larger of the white-noise estimate from the median
+    absolute second difference and the quantisation noise ``lsb / sqrt(12)`` of its ADC.
+
+    A quantised channel whose noise is below one code (a 16-24 bit ADC on a clean signal) has most
+    second differences exactly zero, so their median says 0; the code size (the smallest non-zero
+    step between samples) then sets the floor, and a smooth signal is not mistaken for a pulse
+    edge where it merely changes code.
+    """
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    return float(1.4826 * np.median(np.abs(d2)) / math.sqrt(6.0))
+    white = float(1.4826 * np.median(np.abs(d2)) / math.sqrt(6.0))
+    return max(white, quantisation_step(x) / math.sqrt(12.0))
+
+
+def quantisation_step(x: np.ndarray, sample: int = 200_000) -> float:
+    """Code size of a quantised channel [its units]: the smallest non-zero step between consecutive
+    samples when every step is a whole multiple of it (0 for an unquantised channel)."""
+    steps = np.abs(np.diff(x[: min(x.size, sample)]))
+    steps = steps[steps > 0.0]
+    if steps.size < 16:
+        return 0.0
+    lsb = float(np.min(steps))
+    multiples = steps / lsb
+    if np.max(np.abs(multiples - np.round(multiples))) > 1e-6 * max(1.0, float(np.max(multiples))):
+        return 0.0
+    return lsb
 
 
 def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -268,6 +291,7 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         keep = np.concatenate(([True], starts[1:] - ends[:-1] > 3))
         ends = np.concatenate((ends[:-1][keep[1:]], ends[-1:]))
         starts = starts[keep]
+    saturated = _saturated_extremes(x, lo_x, hi_x)
     rows = []
     for cs, ce in zip(starts, ends):
         peak_index = cs + int(np.argmax(x[cs:ce]))
@@ -317,8 +341,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
             dev_i = x[k0:ka] - before(np.arange(k0, ka))
             if np.all(dev_i > 0):
                 t_on = t_sep = float(np.sum(np.arange(k0, ka) * dev_i) / np.sum(dev_i))
-        at_extreme = (x[k0:ka] == hi_x) | (x[k0:ka] == lo_x)
-        flags["clipped"] = bool(at_extreme.sum() >= 3)
+        at_extreme = np.isin(x[k0:ka], saturated)
+        flags["clipped"] = bool(at_extreme.sum() >= CLIP_RUN)
         rows.append(dict(onset_index=k0, t_onset=recording.start_time_s + t_on / rate, separation_index=ka,
                          t_separation=recording.start_time_s + t_sep / rate, peak=peak, contact_samples=ka - k0,
                          **flags))
@@ -352,6 +376,21 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         warnings=tuple(messages),
         provenance=recording.provenance + (
             f"find_events(channel={channel!r}, threshold={thr:.6g}, noise_sigma={sigma:.6g}): {len(table)} events",))
+
+
+def _saturated_extremes(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """The channel's extreme values at which it is saturated: a saturated ADC piles samples on its
+    end code (a run of :data:`CLIP_RUN` or more, and a spike in the histogram there), whereas a
+    quantised smooth peak also repeats its extreme code but the next code inwards is about as
+    populated (the criterion of :meth:`impactid.io.Recording.check`)."""
+    out = []
+    for extreme, upper in ((hi, True), (lo, False)):
+        if extreme == 0.0:
+            continue
+        count, run, neighbour = extreme_stats(x, extreme, upper)
+        if run >= CLIP_RUN and count > 3 * neighbour:
+            out.append(extreme)
+    return np.array(out)
 
 
 def _list(indices, limit: int = 12) -> str:

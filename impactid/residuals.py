@@ -124,11 +124,21 @@ class EventSet:
         t_end = (tab["t_next"] - tab["t_onset"]).to_numpy(dtype=float)
         alpha_m = tab["alpha_m"].to_numpy(dtype=float)
         ok = np.all(np.isfinite(states), axis=1) & np.isfinite(t_end) & (t_end > 0) & np.isfinite(alpha_m)
-        dropped = ()
+        dropped: tuple[str, ...] = ()
         if not np.all(ok):
             bad = tab.index[~ok].tolist()
-            dropped = (f"{source}: events {bad[:12]}{' ...' if len(bad) > 12 else ''} left out: their onset "
-                       "state (angle, rate or cam angle at the gap zero) could not be reconstructed",)
+            dropped += (f"{source}: events {bad[:12]}{' ...' if len(bad) > 12 else ''} left out: their onset "
+                        "state (angle, rate or cam angle at the gap zero) could not be reconstructed",)
+        consistent = (tab["contact_consistent"].to_numpy(dtype=bool) if "contact_consistent" in tab
+                      else np.ones(len(tab), dtype=bool))
+        if np.any(ok & ~consistent):
+            bad = tab.index[ok & ~consistent].tolist()
+            ratio = float(np.nanmedian(tab["hertz_ratio"].to_numpy(dtype=float)[ok & ~consistent]))
+            dropped += (f"{source}: events {bad[:12]}{' ...' if len(bad) > 12 else ''} left out: their reconstructed "
+                        f"contact disagrees with the rig's Hertz contact (the accelerometer's force at the deepest "
+                        f"indentation is {ratio:.3g} times k_H delta^1.5): the contact is not a short pulse followed "
+                        "by a free flight there (or the accelerometer's units are wrong)",)
+        ok &= consistent
         index = tab.index[ok]
         hist = [recon.contact[int(e)] for e in index]
         force = None
@@ -157,6 +167,13 @@ class EventSet:
                        t=pick(self.t), force=pick(self.force) if self.force is not None else None,
                        indentation=pick(self.indentation), alpha=pick(self.alpha), theta=pick(self.theta))
 
+    def scale_alpha_m(self, factor: float) -> EventSet:
+        """The same events with the measured ``alpha_m`` multiplied by ``factor`` (a bias correction,
+        :mod:`impactid.calibration`)."""
+        from dataclasses import replace
+
+        return replace(self, alpha_m=self.alpha_m * float(factor))
+
     def shift_phase(self, dphi: float) -> EventSet:
         """The same events with the recording's cam phase moved by ``dphi`` [rad] (cam-phase anchor).
 
@@ -184,6 +201,8 @@ class EventSet:
                                  "channels 'force_x' and 'force_y', which this recording does not have; "
                                  "use lambda1 (accelerometer only)")
         if len(self) == 0:
+            if self.dropped:
+                raise ImpactidError("no event can be used to estimate the contact law: " + "; ".join(self.dropped))
             raise ImpactidError(f"{self.source}: no event with a reconstructed onset state to simulate")
 
     def simulate(self, trials: np.ndarray, *, histories: bool = False,

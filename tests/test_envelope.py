@@ -29,9 +29,9 @@ CASES = [
     # independent generator (SciPy reference model, steady state by shooting)
     Case(id="reference", klass="noise-free", e_over_rc=0.086, cam_speed_hz=14.0, beta=2.3167e10, n=1.7703,
          generator="reference", adc_bits=23),
-    # 51.2 kHz after the anti-alias filter
-    Case(id="low-rate", klass="low-rate", e_over_rc=0.2, cam_speed_hz=16.0, beta=24.7e9, n=1.5, decimation=4,
-         sample_rate_hz=51_200.0, adc_bits=20),
+    # 102.4 kHz after the anti-alias filter
+    Case(id="low-rate", klass="low-rate", e_over_rc=0.2, cam_speed_hz=16.0, beta=24.7e9, n=1.5, decimation=2,
+         sample_rate_hz=102_400.0),
     # friction, at a cam speed where the onset angle meets the cam with a closing gap on both sides
     Case(id="two-roots-friction", klass="friction", e_over_rc=0.2408, cam_speed_hz=9.5, beta=6.2258e9, n=1.3547,
          mu=0.2),
