@@ -944,6 +944,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="write figures (data and fit, residuals, derivatives, order selection)")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.set_defaults(func=cmd_cam_fit)
+
+    from impactid.rigs.ball.cli import add_parser as add_bounces_parser  # restitution from bounce timing
+    add_bounces_parser(sub)
     return parser
 
 
