@@ -22,14 +22,21 @@ Steps (:func:`detect_onsets`):
    cancels in the intervals.
 6. **Refractory period from the physics**: the click's sound pressure grows with the impact speed
    (``A ~ v``, linear acoustics) and so does the flight that ends in it (``T = 2 v / g`` without
-   drag, the same ratio ``T / A`` along a drop), so the shortest flight the ball can have before its
-   click is lost in the noise is ``T_min = c * threshold`` with ``c`` the median of ``T_k / A_k``
-   over consecutive candidates (flight before the click over the click's peak). Candidates closer
-   than ``max(T_min / 2, ring-down)`` to a louder earlier one are the same impact's ring-down or
-   echo: the half allows for the click-to-click scatter of amplitude (spin, where the ball lands).
-   The ring-down is the median time a click stays above the threshold: no onset can be told apart
-   inside it. Echoes later than this survive and are left to the sequence cleaning
-   (:mod:`impactid.rigs.ball.sequence`), which knows the flights.
+   drag), so along a drop ``T / A`` is one number ``c``, measured as the median of ``T_k / A_k``
+   over the main sequence of clicks (each at least half as loud as the previous main click: a
+   bounce loses a few per cent of its speed, an echo is much weaker than its click). Hence:
+
+   * the shortest flight the ball can have before its click is lost in the noise is
+     ``T_min = c * threshold``; the refractory period is ``max(T_min / 2, ring-down)``, the half
+     allowing for the click-to-click scatter of loudness (spin, where the ball lands), the
+     ring-down being the median time a click stays above the threshold (no onset can be told apart
+     inside it);
+   * a click of peak ``A`` ends a flight of about ``c A``: a candidate that follows a louder click
+     sooner than ``c A / 2`` is too loud for so short a flight - an echo (a delayed, attenuated
+     copy) or the click's ring-down - and is suppressed.
+
+   Whatever survives (spurious sounds, echoes weaker than the noise would let us judge) is left
+   to the sequence cleaning (:mod:`impactid.rigs.ball.sequence`), which knows the flights.
 7. **Confidence**: ``1 - threshold / peak``, the fraction of the click's peak above the threshold
    (0 at the threshold, towards 1 for clear clicks).
 
@@ -167,13 +174,14 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     ring_down = float(np.median(durations)) if durations.size else 0.0
 
     shortest = math.nan
+    c = math.nan
+    if onset.size >= 3:
+        c = _flight_per_amplitude(onset, peak_values)
     if refractory is None:
-        if onset.size >= 3:
-            flights = np.diff(onset)
-            ratio = flights / peak_values[1:]  # flight before each click over that click's peak
-            shortest = float(np.median(ratio) * threshold)
+        if math.isfinite(c):
+            shortest = c * threshold
         refractory = max(0.5 * shortest if math.isfinite(shortest) else 0.0, ring_down)
-    keep, suppressed = _apply_refractory(onset, peak_values, float(refractory))
+    keep, suppressed = _suppress(onset, peak_values, float(refractory), c)
     times, peak_values = onset[keep], peak_values[keep]
     confidence = np.clip(1.0 - threshold / np.maximum(peak_values, 1e-300), 0.0, 1.0)
     if times.size and np.max(peak_values) < 4.0 * threshold:
@@ -217,20 +225,45 @@ def _constant_fraction(env: np.ndarray, start: int, peak: int, fraction: float) 
     return i + (level - a) / (b - a) if b != a else float(i)
 
 
-def _apply_refractory(times: np.ndarray, peaks: np.ndarray, refractory: float) -> tuple[np.ndarray, np.ndarray]:
-    """Indices kept and suppressed: within ``refractory`` of the first member of a group, keep the
-    earliest candidate whose peak is at least half the group's loudest (a louder direct click wins
-    over its echoes; a faint precursor does not win over the click)."""
-    keep, suppressed = [], []
-    i, n = 0, times.size
-    while i < n:
-        j = i
-        while j + 1 < n and times[j + 1] - times[i] < refractory:
-            j += 1
-        group = np.arange(i, j + 1)
-        loud = peaks[group].max()
-        chosen = int(group[np.flatnonzero(peaks[group] >= 0.5 * loud)[0]])
-        keep.append(chosen)
-        suppressed += [int(g) for g in group if g != chosen]
-        i = j + 1
-    return np.array(keep, dtype=int), np.array(suppressed, dtype=int)
+def _flight_per_amplitude(times: np.ndarray, peaks: np.ndarray) -> float:
+    """``c``: the median ratio of a flight to the peak of the click that ends it, along the main
+    sequence of clicks (each at least half as loud as the main click before it: a bounce loses a
+    few per cent of its speed, an echo or a spurious sound is much weaker than the click before it)."""
+    main = [0]
+    for j in range(1, times.size):
+        if peaks[j] >= 0.5 * peaks[main[-1]]:
+            main.append(j)
+    main = np.array(main)
+    if main.size < 3:
+        return math.nan
+    flights = np.diff(times[main])
+    return float(np.median(flights / peaks[main[1:]]))
+
+
+def _suppress(times: np.ndarray, peaks: np.ndarray, refractory: float, c: float) -> tuple[np.ndarray, np.ndarray]:
+    """Indices kept and suppressed. A candidate is suppressed when it follows a louder kept click
+    sooner than ``refractory``, or sooner than half the flight that would end in a click as loud as
+    itself (``0.5 c A``: too loud for so short a flight, so an echo or the click's ring-down), or
+    follows a louder suppressed sound (an echo) sooner than ``refractory`` (its ring-down); a
+    candidate more than twice as loud as every kept click within the refractory period before it
+    replaces them (they were a faint precursor)."""
+    keep: list[int] = []
+    suppressed: list[int] = []
+    for j in range(times.size):
+        shadow = refractory
+        if math.isfinite(c):
+            shadow = max(shadow, 0.5 * c * peaks[j])
+        recent = [i for i in keep[-8:] if times[j] - times[i] < shadow]
+        louder = [i for i in recent if peaks[i] >= peaks[j] or times[j] - times[i] < refractory and
+                  peaks[j] <= 2.0 * peaks[i]]
+        # the ring-down of a louder sound just before, even one suppressed as an echo, is no new click
+        ringing = [i for i in suppressed[-8:] if times[j] - times[i] < refractory and peaks[i] >= peaks[j]]
+        if louder or ringing:
+            suppressed.append(j)
+            continue
+        faint = [i for i in recent if times[j] - times[i] < refractory]
+        for i in faint:
+            keep.remove(i)
+            suppressed.append(i)
+        keep.append(j)
+    return np.array(keep, dtype=int), np.array(sorted(suppressed), dtype=int)

@@ -7,7 +7,9 @@ which is the coefficient of restitution without drag and stays a smooth function
 (the impact speed is ``v ~ g T / 2``, and ``e(v)`` and the drag vary smoothly with it). The cleaning
 therefore predicts **every flight from the one before**, ``T_(n+1) = r(T_n) T_n``, with a smooth
 ratio ``r(T) = a + b T`` measured on the sequence itself (a constant with fewer than five flight
-pairs). Two flights of a missed bounce are predicted as ``r(T) T + r(r(T) T) r(T) T``, and so on.
+pairs; a line that leaves (0, 1) over the flights seen falls back to a constant, because every
+flight is shorter than the one before). Two flights of a missed bounce are predicted as
+``r(T) T + r(r(T) T) r(T) T``, and so on.
 Because the prediction is local, a single genuinely odd bounce (the ball landing on a joint of
 the floor, a spin) upsets one ratio only, while a trigger at the wrong time upsets two: the two
 can be told apart.
@@ -26,16 +28,23 @@ measured scatter ``sigma`` of a predicted flight:
   keeping it costs more than a 4-sigma residual would (a genuine flight is rejected by chance
   about once in 16 000 under Gaussian timing noise);
 * an *anomalous bounce*, a flight whose ratio to the previous one is off but whose successor
-  continues the sequence, costs ``C_out + C_miss = 20``: more than dropping one event, so that a
-  lone odd first interval is rather called a release artefact, less than dropping two.
+  continues the sequence, costs ``C_out + C_miss + 2 ln(1 + z^2 / C_out)``, about 20: more than
+  dropping one event, so that a lone odd first interval is rather called a release artefact, less
+  than dropping two. The logarithm makes the deviations of odd bounces heavy-tailed (a Cauchy
+  law beyond ``z_reject``) rather than free, so that no sequence of echoes can pass for a
+  sequence of odd bounces.
 
 No ratio or interval threshold is fixed: ``r(T)`` and ``sigma`` are measured from the sequence,
 robustly at first, then by least squares on the accepted flights, alternating with the labelling
-until it no longer changes. Two robust starts are tried: a repeated-median line through the ratios
-of consecutive intervals that lie in (0, 1) (the only range a pair of flights can have), and their
-median as a constant; MAD scatter. When they end in different labellings, the one whose model
-explains the events at the lower cost (both scored at the smaller of their two noise levels) wins. ``sigma`` is never
-taken below the time resolution of the recording (``0.7 x`` a 1/48000 s grid) nor below 1 us.
+until it no longer changes. Several robust starts are tried, all from the ratios of consecutive
+intervals that lie in (0, 1) (the only range a pair of flights can have): a repeated-median line
+through them, their median, and the centres of their densest clusters (up to four: one of them is
+the bounces' even when echoes make most of the pairs); the scatter from the best quarter of the
+pairs (their lower quartile of absolute residuals over 0.3186, its Gaussian value). When the starts
+end in different labellings, the most probable one wins: each is scored by the -2 log-likelihood
+of a mixture in which a heard impact has a Gaussian residual of the run's own scatter and a
+rejected event a density common to all runs. ``sigma`` is never taken below the time resolution of
+the recording (``0.7 x`` a 1/48000 s grid) nor below 1 us.
 
 What the labels mean (each event and each interval carries its reason):
 
@@ -148,9 +157,10 @@ def _predict(model, prev: float, k: int) -> tuple[float, float]:
     """Sum of the ``k`` flights after a flight ``prev`` and the last of them (NaN if not physical)."""
     total, f = 0.0, prev
     for _ in range(k):
-        f = _horner(model, f) * f
-        if not f > 0.0:
+        r = _horner(model, f)
+        if not 0.0 < r < 1.0:  # every flight is shorter than the one before: e < 1, drag only slows
             return math.nan, math.nan
+        f = r * f
         total += f
     return total, f
 
@@ -222,8 +232,9 @@ def _label(times: np.ndarray, model, sigma: float, z_reject: float, max_span: in
                     z = (gap - total) / spread
                     new = base + z * z + MISS_COST * (k - 1)
                     anomalous = False
-                    if k == 1 and base + c_anom < new:
-                        new, anomalous = base + c_anom, True
+                    odd = base + c_anom + 2.0 * math.log1p(z * z / c_out)
+                    if k == 1 and odd < new:
+                        new, anomalous = odd, True
                     target = (j, n, k)
                     if target not in states or new < states[target][0]:
                         if target not in states:
@@ -261,9 +272,12 @@ def _pairs(times: np.ndarray, chain):
 def _fit_ratio(prev: np.ndarray, nxt: np.ndarray):
     """Least squares ``T_next = r(T_prev) T_prev`` with ``r(T) = a + b T`` (a constant with fewer
     than five pairs), and the residual scale."""
-    degree = 1 if prev.size >= 5 else 0
-    X = np.column_stack([prev ** (p + 1) for p in range(degree, -1, -1)])
-    coef, *_ = np.linalg.lstsq(X, nxt, rcond=None)
+    for degree in ((1, 0) if prev.size >= 5 else (0,)):
+        X = np.column_stack([prev ** (p + 1) for p in range(degree, -1, -1)])
+        coef, *_ = np.linalg.lstsq(X, nxt, rcond=None)
+        ends = np.polyval(coef, [prev.min(), prev.max()])
+        if np.all((ends > 0.0) & (ends < 1.0)):  # physical over the flights seen, else one degree less
+            break
     resid = nxt - X @ coef
     dof = max(prev.size - degree - 1, 1)
     return coef, math.sqrt(float(resid @ resid) / dof)
@@ -301,22 +315,38 @@ def clean_sequence(times, *, resolution: float = math.nan, z_reject: float = 4.0
     where = f"{name}: " if name else ""
     if plausible.sum() == 0:
         return _refusal(t, f"{where}no two consecutive intervals shrink: not a ball bouncing on a floor")
-    starts = [np.array([float(np.median(ratios[plausible]))])]
+    r_ok = ratios[plausible]
+    starts = [np.array([float(np.median(r_ok))])]
+    if r_ok.size >= 3:  # the clusters of ratios: one of them is the bounces' even when echoes dominate
+        grid = np.linspace(0.0, 1.0, 401)
+        density = np.exp(-0.5 * ((grid[:, None] - r_ok[None, :]) / 0.01) ** 2).sum(axis=1)
+        peaks = [i for i in range(1, grid.size - 1) if density[i] >= density[i - 1] and density[i] > density[i + 1]
+                 and density[i] >= 0.2 * density.max()]
+        for i in sorted(peaks, key=lambda i: -density[i])[:4]:
+            starts.append(np.array([float(grid[i])]))
     if plausible.sum() >= 5:
         slope, intercept = siegelslopes(ratios[plausible], d[:-1][plausible])
         starts.insert(0, np.array([slope, intercept]))
     runs = []
     for model in starts:
         resid = d[1:][plausible] - np.polyval(model, d[:-1][plausible]) * d[:-1][plausible]
-        sigma = max(1.4826 * float(np.median(np.abs(resid - np.median(resid)))), floor)
+        # scale from the best quarter of the pairs (for Gaussian residuals, |r| has its lower quartile at
+        # 0.3186 sigma): with echoes or other faults in most pairs, the median would be theirs
+        sigma = max(float(np.quantile(np.abs(resid), 0.25)) / 0.3186, floor)
         runs.append(_iterate(t, model, sigma, floor, z_reject, max_span, max_skip, max_iter))
     chain, model, sigma, iterations = runs[0]
-    if len(runs) > 1 and runs[1][0] != chain:
-        # different labellings from the two starts: keep the one whose model explains the events at
-        # less cost, both scored at the same noise level
-        common = min(runs[0][2], runs[1][2])
-        costs = [_label(t, run[1], common, z_reject, max_span, max_skip)[1] for run in runs]
-        chain, model, sigma, iterations = runs[int(np.argmin(costs))]
+    if any(run[0] != chain for run in runs[1:]):
+        # different labellings from the starts: keep the most probable one. Each is scored with its
+        # own model and scatter, as -2 log-likelihood of a mixture in which a heard impact has a
+        # Gaussian residual and a rejected event a density that is the same for every run (that of
+        # the widest scatter): z^2 + ln(sigma^2 / sigma_ref^2) per flight, C_out per rejected event
+        reference = max(run[2] for run in runs)
+        scores = []
+        for run_chain, run_model, run_sigma, _ in runs:
+            cost = _label(t, run_model, run_sigma, z_reject, max_span, max_skip)[1]
+            flights = max(len(run_chain) - 2, 0)
+            scores.append(cost + flights * 2.0 * math.log(run_sigma / reference))
+        chain, model, sigma, iterations = runs[int(np.argmin(scores))]
     return _result(t, chain or [], model, sigma, iterations, name)
 
 
