@@ -427,7 +427,8 @@ def analyse_bounces(sources: Sequence, *, ball: Ball | None = None, drag: bool =
                      "selection": selection, "criterion": criterion, "ball": ball.to_dict() if ball else None,
                      "flight": constants.to_dict(), "files": [r.source for r in recordings], "refused": refused,
                      "sequences": [{"file": n, "sigma_s": s.sigma, "ratio_model": list(s.ratio_model),
-                                    "iterations": s.iterations, "counts": s.counts()} for n, s in zip(names, sequences)]}
+                                    "iterations": s.iterations, "counts": s.counts()}
+                                   for n, s in zip(names, sequences)]}
     lin = fits.get("linear")
     if compare_no_drag and constants.drag:
         table0 = pd.concat(vacuum_frames, ignore_index=True)

@@ -13,8 +13,10 @@ Steps (:func:`detect_onsets`):
    clicks occupy a few per cent of the recording, so both describe the background); the threshold
    is ``median + k * 1.4826 MAD`` with ``k = threshold_sigma`` (8), and never below
    ``k`` times the quantisation step of the file. No amplitude is fixed.
-4. **Candidates**: the stretches where the envelope exceeds the threshold (stretches closer than
-   one window are one); each has a peak.
+4. **Candidates**, with hysteresis (a Schmitt trigger): a click starts when the envelope exceeds
+   the threshold and lasts until it falls below a release level (``median + 3 x 1.4826 MAD``), so
+   that its ring-down, beating between resonances around the threshold, does not trigger again;
+   each candidate has a peak.
 5. **Onset time**: constant-fraction timing, as in nuclear-pulse electronics: the last upward
    crossing of ``fraction`` (20 %) of the peak before the peak, interpolated linearly between
    samples. For clicks of one shape this time is independent of the click's loudness; its offset
@@ -125,7 +127,8 @@ def envelope(samples: np.ndarray, sample_rate: float, band: tuple[float, float],
 
 
 def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float, float] | None = None,
-                  window: float = 0.25e-3, threshold_sigma: float = 8.0, fraction: float = 0.2,
+                  window: float = 0.25e-3, threshold_sigma: float = 8.0, release_sigma: float = 3.0,
+                  fraction: float = 0.2,
                   refractory: float | None = None, quantum: float = 2.0 ** -24,
                   envelope_rate: float = 2000.0) -> Onsets:
     """Find the impact clicks in an audio recording.
@@ -137,6 +140,8 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     band : band-pass edges [Hz]; default (800, min(12000, 0.45 fs)).
     window : envelope averaging window [s].
     threshold_sigma : threshold in robust standard deviations of the envelope above its median.
+    release_sigma : release level of the hysteresis, in the same units: a click lasts until the
+        envelope falls below it.
     fraction : constant-fraction level of the onset time (of the click's peak envelope).
     refractory : shortest separation of two onsets [s]; default from the physics (module notes).
     quantum : quantisation step of the samples (full scale 1): the threshold is at least
@@ -164,9 +169,14 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     threshold = max(median + threshold_sigma * 1.4826 * mad, threshold_sigma * quantum)
     notes: list[str] = []
 
-    above = env > threshold
+    # hysteresis (a Schmitt trigger): a click starts above the threshold and lasts until the envelope
+    # falls below the release level, so that its ring-down, beating between resonances, does not
+    # re-trigger
+    release = max(median + release_sigma * 1.4826 * mad, release_sigma * quantum)
     gap = max(3, int(round(window * fs)))
-    starts, ends = _runs(above, gap)
+    starts, ends = _runs(env > min(release, threshold), gap)
+    loud = np.array([bool(np.max(env[s:e]) > threshold) for s, e in zip(starts, ends)], dtype=bool)
+    starts, ends = starts[loud] if loud.size else starts, ends[loud] if loud.size else ends
     peaks = np.array([s + int(np.argmax(env[s:e])) for s, e in zip(starts, ends)], dtype=int)
     peak_values = env[peaks] if peaks.size else np.empty(0)
     onset = np.array([_constant_fraction(env, s, p, fraction) for s, p in zip(starts, peaks)]) / fs

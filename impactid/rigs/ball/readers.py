@@ -391,7 +391,10 @@ def _sniff_separator(lines: list[str]) -> str | None:
 
 def _split(lines: list[str], separator: str | None) -> list[list[str]]:
     if separator is None:
-        return [ln.split() for ln in lines]
+        rows = [ln.split() for ln in lines]
+        if all(len(r) == 1 for r in rows[1:]):  # one column: the header may hold spaces ("t [ms]")
+            return [[ln.strip()] for ln in lines]
+        return rows
     return [row for row in csv.reader(lines, delimiter=separator)]
 
 

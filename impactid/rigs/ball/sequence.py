@@ -6,9 +6,9 @@ Each flight of a bouncing ball is shorter than the one before by the ratio ``T_(
 which is the coefficient of restitution without drag and stays a smooth function of the flight
 (the impact speed is ``v ~ g T / 2``, and ``e(v)`` and the drag vary smoothly with it). The cleaning
 therefore predicts **every flight from the one before**, ``T_(n+1) = r(T_n) T_n``, with a smooth
-ratio ``r(T) = a + b T`` measured on the sequence itself (a constant with fewer than five flight
-pairs; a line that leaves (0, 1) over the flights seen falls back to a constant, because every
-flight is shorter than the one before). Two flights of a missed bounce are predicted as
+ratio ``r(T) = a + b T + c T^2`` measured on the sequence itself (a line with fewer than twelve
+flight pairs, a constant with fewer than five; a fit that leaves (0, 1) over the flights seen
+drops a degree, because every flight is shorter than the one before). Two flights of a missed bounce are predicted as
 ``r(T) T + r(r(T) T) r(T) T``, and so on.
 Because the prediction is local, a single genuinely odd bounce (the ball landing on a joint of
 the floor, a spin) upsets one ratio only, while a trigger at the wrong time upsets two: the two
@@ -44,7 +44,8 @@ pairs (their lower quartile of absolute residuals over 0.3186, its Gaussian valu
 end in different labellings, the most probable one wins: each is scored by the -2 log-likelihood
 of a mixture in which a heard impact has a Gaussian residual of the run's own scatter and a
 rejected event a density common to all runs. ``sigma`` is never taken below the time resolution of
-the recording (``0.7 x`` a 1/48000 s grid) nor below 1 us.
+the recording (``0.7 x`` a 1/48000 s grid), nor below 1 us, nor below the precision of the smooth
+model (:data:`MODEL_PRECISION` of the median interval).
 
 What the labels mean (each event and each interval carries its reason):
 
@@ -70,7 +71,8 @@ What the labels mean (each event and each interval carries its reason):
   flight of the sequence, which has no predecessor).
 
 The sequence is refused (``refused`` holds the reason) when fewer than two consecutive flights
-are found, or when the flights do not shrink.
+are found, when the flights do not shrink by more than the timing noise, or when they scatter by
+more than :data:`MAX_RELATIVE_SCATTER` of a flight around the smooth sequence (random triggers).
 """
 
 from __future__ import annotations
@@ -93,6 +95,14 @@ MISS_COST = 4.0
 MAX_SPAN = 2
 #: Most consecutive events skipped between two accepted impacts.
 MAX_SKIP = 8
+#: Relative precision of the smooth ratio model: a quadratic r(T) follows the flights of the laws of
+#: :mod:`~impactid.rigs.ball.laws`, with drag, to 2e-4 of the median flight (rms; 1.7e-3 at worst,
+#: for a 1 m drop; ``tests/rigs/ball/test_sequence.py``), so sigma is never taken below 5e-4 of it.
+MODEL_PRECISION = 5e-4
+#: Largest scatter of the flights around the smooth sequence, relative to the median flight, for
+#: which the triggers are taken as the impacts of a bouncing ball (measured: 0.5 % for the
+#: table-tennis recordings, 5 % for the worst rubber-ball drop; random triggers give 30 % and more).
+MAX_RELATIVE_SCATTER = 0.1
 
 
 @dataclass(frozen=True)
@@ -270,9 +280,10 @@ def _pairs(times: np.ndarray, chain):
 
 
 def _fit_ratio(prev: np.ndarray, nxt: np.ndarray):
-    """Least squares ``T_next = r(T_prev) T_prev`` with ``r(T) = a + b T`` (a constant with fewer
-    than five pairs), and the residual scale."""
-    for degree in ((1, 0) if prev.size >= 5 else (0,)):
+    """Least squares ``T_next = r(T_prev) T_prev`` with ``r(T) = a + b T + c T^2`` (a line with
+    fewer than twelve pairs, a constant with fewer than five; one degree less when ``r`` leaves
+    (0, 1) over the flights seen), and the residual scale."""
+    for degree in ((2, 1, 0) if prev.size >= 12 else (1, 0) if prev.size >= 5 else (0,)):
         X = np.column_stack([prev ** (p + 1) for p in range(degree, -1, -1)])
         coef, *_ = np.linalg.lstsq(X, nxt, rcond=None)
         ends = np.polyval(coef, [prev.min(), prev.max()])
@@ -308,8 +319,8 @@ def clean_sequence(times, *, resolution: float = math.nan, z_reject: float = 4.0
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise ValueError("times must be a 1-D strictly increasing finite array of at least 3 events")
-    floor = max(0.7 * resolution if math.isfinite(resolution) else 0.0, 1e-6)
     d = np.diff(t)
+    floor = max(0.7 * resolution if math.isfinite(resolution) else 0.0, 1e-6, MODEL_PRECISION * float(np.median(d)))
     ratios = d[1:] / d[:-1]
     plausible = (ratios > 0.0) & (ratios < 1.0)
     where = f"{name}: " if name else ""
@@ -497,10 +508,21 @@ def _result(t, chain, model, sigma, iterations, name) -> CleanedSequence:
         refused = (f"{where}no bouncing sequence: no two consecutive flights between heard impacts "
                    f"({len(accepted)} impacts accepted); at least two are needed for one coefficient of restitution")
     else:
-        r_mean = float(np.polyval(model, np.median(table.loc[np.array(singles), "interval_s"])))
-        if not r_mean < 1.0:
-            refused = (f"{where}the flights do not shrink (ratio of consecutive flights {r_mean:.3f} >= 1): "
-                       "not a ball bouncing on a floor")
+        durations = table.loc[np.array(singles), "interval_s"].to_numpy()
+        r_mean = float(np.polyval(model, np.median(durations)))
+        shrink = float(durations[0] - durations[-1])
+        if not r_mean < 1.0 or shrink < 3.0 * math.sqrt(2.0) * sigma:
+            refused = (f"{where}the flights do not shrink beyond the timing noise (first {1e3 * durations[0]:.1f} "
+                       f"ms, last {1e3 * durations[-1]:.1f} ms, scatter {1e3 * sigma:.2g} ms): not a ball bouncing on "
+                       "a floor")
+        elif sigma > MAX_RELATIVE_SCATTER * float(np.median(durations)):
+            refused = (f"{where}the flights scatter by {100 * sigma / np.median(durations):.0f} % around a smooth "
+                       f"sequence (more than {100 * MAX_RELATIVE_SCATTER:.0f} %): the triggers are not the impacts "
+                       "of a bouncing ball")
+    if refused:
+        table["reason"] = [f"not used: {refused} (cleaning said: {flag}, {reason})"
+                           for flag, reason in zip(table["flag"], table["reason"])]
+        table["flag"] = "refused"
     return CleanedSequence(times=t, status=tuple(status), impact_number=number, event_reasons=tuple(reasons),
                            intervals=table, flights=flights, sigma=float(sigma),
                            ratio_model=tuple(float(c) for c in model),
