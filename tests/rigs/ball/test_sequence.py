@@ -21,6 +21,7 @@ def test_clean_drops_have_no_rejections(clean_drops):
         assert sum(v for k, v in counts.items() if k not in ("ok", "first")) == 0
 
 
+@pytest.mark.slow
 def test_clean_drops_with_jitter_have_almost_no_rejections():
     rejected = total = 0
     for seed in range(20):
@@ -32,6 +33,7 @@ def test_clean_drops_with_jitter_have_almost_no_rejections():
     assert rejected / total < 0.01  # a 4-sigma rule: a few per thousand at most
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fault,label,status", [
     ("missed", None, None), ("echoes", "echo", "extra"), ("spurious", "spurious", "extra"),
     ("displaced", "displaced", "displaced"), ("release", "release", "release"), ("junk_end", "junk", "end")])
@@ -58,13 +60,13 @@ def test_each_fault_kind_is_found(fault, label, status):
 
 def test_all_faults_together():
     exact = 0
-    for seed in range(15):
+    for seed in range(6):
         d = synth_drop("linear", {"e0": 0.96, "gamma": 0.02}, seed=200 + seed, ball=TABLE_TENNIS, height=0.3,
                        jitter=3e-4, min_flight=0.08, **FAULTS)
         seq = clean_sequence(d.times, resolution=1 / 48000)
         got = np.where(np.isin(seq.status, ["echo", "spurious"]), "extra", np.array(seq.status))
         exact += np.array_equal(got, expected_status(d.labels))
-    assert exact >= 13
+    assert exact >= 5
 
 
 def test_reasons_and_table():
