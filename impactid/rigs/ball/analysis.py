@@ -47,6 +47,10 @@ from impactid.rigs.ball.sequence import CleanedSequence, clean_sequence
 
 __all__ = ["BounceAnalysis", "BounceAnalysisError", "analyse_bounces", "impacts_from_sequence"]
 
+#: Uncertainty of a typical drag coefficient at bouncing speeds (see :mod:`~impactid.rigs.ball.parameters`);
+#: the analysis reports how the speed dependence moves across it.
+DRAG_COEFFICIENT_UNCERTAINTY = 0.1
+
 #: Columns of the per-bounce table.
 BOUNCE_COLUMNS = ["file", "drop", "index", "start_s", "end_s", "interval_s", "flag", "reason", "flights", "z",
                   "flight_s", "impact_speed_m_s", "launch_speed_m_s", "e", "used", "e_note"]
@@ -445,6 +449,27 @@ def analyse_bounces(sources: Sequence, *, ball: Ball | None = None, drag: bool =
             elif abs(g0) > 2 * s0:
                 text += f": drag accounts for {100 * (g0 - g1) / g0:.0f} % of the apparent slope"
             notes.append(text)
+    if compare_no_drag and constants.drag and ball is not None and lin is not None:
+        sensitivity = {}
+        for cd in (max(ball.drag_coefficient - DRAG_COEFFICIENT_UNCERTAINTY, 0.0),
+                   ball.drag_coefficient + DRAG_COEFFICIENT_UNCERTAINTY):
+            other = flight_constants(ball.with_(drag_coefficient=cd), True, gravity)
+            parts = [impacts_from_sequence(sq, other, file=n, drop=d)
+                     for d, (sq, n) in enumerate(zip(sequences, names))]
+            rows_cd = pd.concat([p[0] for p in parts], ignore_index=True)
+            fits_cd, _, _ = _fit_all(rows_cd, [p[1] for p in parts], confidence, f"Cd = {cd:g}")
+            g = fits_cd["linear"]["gamma"]
+            sensitivity[f"{cd:g}"] = {"gamma": g.value, "gamma_stderr": g.stderr,
+                                      "e0": fits_cd["linear"]["e0"].value, "e": fits_cd["constant"]["e"].value}
+        details["drag_sensitivity"] = sensitivity
+        (lo_cd, lo), (hi_cd, hi) = sorted(sensitivity.items(), key=lambda kv: float(kv[0]))
+        g1 = lin["gamma"]
+        if (lo["gamma"] > 0) != (hi["gamma"] > 0) or abs(lo["gamma"] - hi["gamma"]) > 2 * g1.stderr:
+            notes.append(f"gamma depends on the drag coefficient more than on the data: {lo['gamma']:.3g} s/m at "
+                         f"Cd = {lo_cd}, {g1.value:.3g} at Cd = {ball.drag_coefficient:g}, {hi['gamma']:.3g} at Cd = "
+                         f"{hi_cd} (+/-{DRAG_COEFFICIENT_UNCERTAINTY:g}, the uncertainty of a typical Cd at bouncing "
+                         "speeds): the contact's own speed dependence is not determined beyond that; measure Cd to "
+                         "tell it")
     elif not constants.drag:
         why = "no ball given" if ball is None else "air switched off"
         text = f"{why}: the flights are analysed without air (drag not corrected)"

@@ -17,28 +17,27 @@ problem with an exact solution):
 
 Uncertainty and the shared intervals
 ------------------------------------
+Each coefficient has the variance ``tau^2 + sigma_t^2 |de/dt|^2`` (:func:`variance_model`): a
+bounce-to-bounce scatter of the restitution and the timing noise of the events, which reaches
+``e_k`` through the exact derivative of the flight inversion. Its inverse weights the least-squares
+fits (the analysis estimates it once, under the linear law, and uses it for every law).
+
 Consecutive coefficients of one drop share a flight (``e_k = T_k / T_(k-1)`` and
 ``e_(k+1) = T_(k+1) / T_k`` both contain ``T_k``), and every flight shares its end events with its
-neighbours, so the coefficients of a drop are correlated (negatively, for neighbours). The fits
-handle it in two layers:
+neighbours, so the coefficients of a drop are correlated (negatively, for neighbours). The errors
+are **cluster-robust by drop** (the sandwich of Liang & Zeger 1986 with the CR1 small-sample
+factor ``G / (G - 1) (n - 1) / (n - p)`` and Student-t intervals with ``G - 1`` degrees of freedom;
+Cameron & Miller 2015): each drop is a cluster, so any correlation within a drop (the shared
+flights, a drop-to-drop change of spin or floor spot) is allowed for, and only the independence of
+different drops is assumed. With few drops the cluster-robust variance is itself noisy and tends
+to be too small, so each standard error is raised, if needed, to the model-based one, computed
+with the full noise covariance ``tau^2 I + sigma_t^2 J J^T`` (``J = de/dt``, which holds the shared
+intervals exactly). With fewer than :data:`MIN_CLUSTERS` drops the errors come from a Newey-West
+sandwich within each drop (lag 2), again never below the model-based ones, and a note says so.
 
-1. **Generalised least squares** with the covariance the timing noise implies: with independent
-   event-time errors of scatter ``sigma_t``, ``cov(e) = sigma_t^2 J J^T`` where ``J = de/dt`` is
-   computed exactly through the flight model (drag included). The fit whitens by the Cholesky
-   factor of ``J J^T``; ``sigma_t`` [s] comes out as the residual scale.
-2. **Cluster-robust standard errors by drop** (the sandwich of Liang & Zeger 1986 with the CR1
-   small-sample factor ``G / (G - 1) (n - 1) / (n - p)`` and Student-t intervals with ``G - 1``
-   degrees of freedom, Cameron & Miller 2015): each drop is a cluster, so any correlation within a
-   drop (the shared flights, a drop-to-drop variation of the ball's spin, the floor spot) is
-   allowed for, and only the independence of different drops is assumed. With few drops the
-   cluster-robust variance is itself noisy and tends to be too small, so the reported standard
-   error is never below the model-based GLS one (each diagonal element is raised to it, keeping
-   the cluster correlation). With fewer than :data:`MIN_CLUSTERS` drops only the model-based
-   errors (t with ``n - p`` degrees of freedom) are given, and a note says so.
-
-Model selection by the Gaussian GLS likelihood: AIC and BIC (the scale counted as a parameter);
-the law with the smallest criterion is selected, except that a simpler law within 2 of the best
-is preferred ("not worth more parameters").
+Model selection by the Gaussian likelihood with the fitted variances: AIC and BIC (the scale
+counted as a parameter); the law with the smallest criterion is selected, except that a simpler
+law within 2 of the best is preferred ("not worth more parameters").
 
 The chained trajectory fit (:func:`fit_chained`) predicts every accepted event time of a drop from
 the drop's first impact time and first launch speed, flight by flight with the law (missed
@@ -126,7 +125,8 @@ def get_law(law: str | Law) -> Law:
 
 
 class LawFit(FitResult):
-    """A restitution law fitted to per-impact coefficients (GLS, cluster-robust errors by drop).
+    """A restitution law fitted to per-impact coefficients (weighted least squares, errors
+    cluster-robust by drop).
 
     ``details`` holds ``law`` (name), ``formula``, ``covariance`` (of the parameters, as used for
     the errors), ``covariance_method``, ``dof`` (of the t intervals) and ``speed_range`` [m/s].

@@ -485,7 +485,13 @@ def _result(t, chain, model, sigma, iterations, name) -> CleanedSequence:
             row.update(flag="end", reason=reasons[i + 1])
         else:
             culprit = i if status[i] != "impact" else i + 1
-            row.update(flag=status[culprit], reason=f"touches a rejected trigger: {reasons[culprit]}")
+            reason = f"touches a rejected trigger: {reasons[culprit]}"
+            left = max(a for a in accepted if a <= i)
+            span = step.get(left)
+            if span is not None and span[1] > 1:
+                reason += (f"; the span from {t[left]:.5f} s to {t[span[0]]:.5f} s holds {span[1]} flights "
+                           f"({span[1] - 1} bounce(s) not triggered)")
+            row.update(flag=status[culprit], reason=reason)
         rows.append(row)
     table = pd.DataFrame(rows, columns=["index", "start_s", "end_s", "interval_s", "flights", "predicted_s", "z",
                                         "flag", "reason"])

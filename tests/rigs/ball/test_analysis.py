@@ -36,6 +36,7 @@ def test_drag_note_and_no_drag_slope(result):
     assert any("without drag" in n for n in result.notes)
 
 
+@pytest.mark.slow
 def test_light_ball_constant_law_drag_explains_the_slope():
     from impactid.rigs.ball.synth import simulate_drop
 

@@ -79,6 +79,7 @@ def test_output_checked_before_computing(files, capsys):
     assert code == 2 and "is an input of this command" in err
 
 
+@pytest.mark.slow
 def test_wav_end_to_end(tmp_path, capsys):
     from impactid.rigs.ball import TABLE_TENNIS
     from impactid.rigs.ball.synth import simulate_drop, synth_audio, write_wav
