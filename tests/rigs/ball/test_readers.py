@@ -176,3 +176,18 @@ def test_bad_files_raise_one_line_naming_the_file(tmp_path, case):
     assert "\n" not in message
     assert str(path) in message
     assert token in message
+
+
+@pytest.mark.parametrize("case", BAD_FILES, ids=[c[0] for c in BAD_FILES])
+def test_bad_files_on_the_command_line(tmp_path, case, capsys):
+    """The CLI contract for each bad file: exit status 2 and one line naming the file."""
+    from impactid.cli import main
+
+    _, build, token = case
+    path = build(tmp_path)
+    code = main(["bounces", str(path)])
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2
+    assert len(lines) == 1 and lines[0].startswith("impactid: error: ") and str(path) in lines[0]
+    assert "Traceback" not in err
