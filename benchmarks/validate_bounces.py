@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from impactid._files import StagedFiles, atomic_write
+from impactid._files import StagedFiles
 from impactid.rigs.ball import TABLE_TENNIS, analyse_bounces, clean_sequence
 from impactid.rigs.ball.synth import synth_drop
 
@@ -140,7 +140,8 @@ def real(folder: Path, figures: Path, staged) -> list[str]:
                          f"{fit.statistics['bic']:.1f} |")
         lines += ["", f"Selected: **{result.selected}** ({result.details['selection']}).", ""]
         if ball is not None:
-            lines += ["Sensitivity to the drag coefficient (linear law):", "", "| Cd | e0 | gamma [s/m] |", "|---|---|---|"]
+            lines += ["Sensitivity to the drag coefficient (linear law):", "",
+                      "| Cd | e0 | gamma [s/m] |", "|---|---|---|"]
             for cd in (0.32, 0.42, 0.52):
                 r = analyse_bounces(files, ball=ball.with_(drag_coefficient=cd), chained=False, compare_no_drag=False)
                 f = r.law_fits["linear"]

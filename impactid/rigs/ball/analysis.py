@@ -60,6 +60,7 @@ class BounceAnalysisError(ImpactidError, ValueError):
     """No file could be analysed (each one's reason is in the message)."""
 
 
+@dataclass(frozen=True)
 class BounceAnalysis(FitResult):
     """Restitution of a ball on a floor from bounce timings.
 
@@ -145,12 +146,6 @@ class BounceAnalysis(FitResult):
         from impactid.rigs.ball.figures import plot_intervals
 
         return plot_intervals(self, **kwargs)
-
-
-@dataclass(frozen=True)
-class _DropImpacts:
-    rows: pd.DataFrame
-    jacobian: np.ndarray  # (n_used, n_events)
 
 
 def impacts_from_sequence(seq: CleanedSequence, constants: FlightConstants, *, file: str = "",

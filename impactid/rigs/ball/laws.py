@@ -124,6 +124,7 @@ def get_law(law: str | Law) -> Law:
     return LAWS[law]
 
 
+@dataclass(frozen=True)
 class LawFit(FitResult):
     """A restitution law fitted to per-impact coefficients (weighted least squares, errors
     cluster-robust by drop).
@@ -320,6 +321,7 @@ def select_law(fits: Mapping[str, LawFit], criterion: str = "bic", margin: float
 # ---- chained trajectory fit ---------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
 class ChainedFit(FitResult):
     """A law fitted to every accepted event time of every drop by chaining flights.
 
