@@ -21,9 +21,11 @@ misses) is included in the page.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import platform
+import subprocess
 import sys
 import time
 from dataclasses import asdict
@@ -150,6 +152,23 @@ def summarise(frame: pd.DataFrame) -> tuple[list[str], dict[str, bool]]:
     return head + [""] + lines, met
 
 
+def _source_version() -> str:
+    """The commit (and ``+dirty``) of the sources the rows were computed with, recorded with each row."""
+    try:
+        head = subprocess.run(["git", "-C", str(ROOT), "describe", "--always", "--dirty"], capture_output=True,
+                              text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        head = "unknown"
+    return head
+
+
+def _plain(value):
+    """JSON fallback for numpy scalars in the per-case rows."""
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value).__name__}")
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--hc", type=int, default=60, help="Hunt-Crossley cases (default 60)")
@@ -157,6 +176,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=2026)
     parser.add_argument("--out", type=Path, default=ROOT / "docs" / "validation_envelope.md")
     parser.add_argument("--redraw", action="store_true", help="draw the cases again (ignore the cache)")
+    parser.add_argument("--fresh", action="store_true", help="recompute every case (ignore finished rows)")
     parser.add_argument("--no-joint", action="store_true", help="skip the joint fits (quick look)")
     args = parser.parse_args(argv)
     started = time.perf_counter()
@@ -170,10 +190,33 @@ def main(argv=None) -> int:
                              progress=lambda k, n: print(f"\rdrawing cases {k}/{n}", end="", flush=True))
         print(flush=True)
         cache.write_text(json.dumps({"seed": args.seed, "cases": [asdict(c) for c in cases]}, indent=1) + "\n")
+    # per-case rows are appended as they finish, so an interrupted run resumes where it stopped; a row
+    # is reused for the same case and options (each row records the commit it was computed with; after a
+    # change to the estimator, run with --fresh)
+    done_path = args.out.with_name("validation_envelope_rows.jsonl")
+    version = _source_version()
+    done = {}
+    if done_path.exists() and not (args.redraw or args.fresh):
+        for line in done_path.read_text().splitlines():
+            with contextlib.suppress(ValueError, KeyError):
+                entry = json.loads(line)
+                if entry["joint"] == (not args.no_joint):
+                    done[entry["case"]["id"]] = entry
     rows = []
+    versions = set()
     for k, case in enumerate(cases):
         t0 = time.perf_counter()
+        entry = done.get(case.id)
+        if entry is not None and entry["case"] == json.loads(json.dumps(asdict(case))):
+            rows.append(entry["row"])
+            versions.add(entry["source"])
+            print(f"[{k + 1}/{len(cases)}] {case.id}: done in an earlier run", flush=True)
+            continue
         rows.append(E.run_case(case, joint=not args.no_joint))
+        versions.add(version)
+        with done_path.open("a") as handle:
+            handle.write(json.dumps({"source": version, "joint": not args.no_joint, "case": asdict(case),
+                                     "row": rows[-1]}, default=_plain) + "\n")
         brief = ", ".join(f"{o['fit']} {o['status']}" for o in rows[-1]["outcomes"]) or rows[-1]["generation"]
         print(f"[{k + 1}/{len(cases)}] {case.id} {case.klass} ({case.generator}): {brief} "
               f"({time.perf_counter() - t0:.0f} s)", flush=True)
@@ -189,7 +232,8 @@ def main(argv=None) -> int:
         f"{len(cases)} cases (seed {args.seed}): {sum(c.klass != 'S3' for c in cases)} Hunt-Crossley cases in four "
         f"classes and {sum(c.klass == 'S3' for c in cases)} restitution (S3) cases; {n_ref} of them "
         f"({100 * n_ref / max(len(cases), 1):.0f} %) recorded by the independent SciPy reference model, the others by "
-        "impactid's generator. Per-case results: `validation_envelope.csv`.", "",
+        "impactid's generator. Per-case results: `validation_envelope.csv`; computed at commit(s) "
+        f"{', '.join(sorted(versions))}.", "",
         "How the cases are drawn: e/r_c uniform in [0.05, 0.30]; a cam speed from 6-24 Hz (0.5 Hz steps) where "
         "impactid's regime classification, for the case's own law and friction, finds period-1 motion with one "
         "impact per revolution; beta log-uniform in [5e9, 1e11] N s m^-(n+1), n uniform in [1.2, 1.8]; the joint "

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import json
 import math
 import signal
 import sys
@@ -36,6 +35,39 @@ from impactid._files import (
     request_termination,
     termination_requested,
 )
+from impactid.commandline import (
+    UsageError,
+)
+from impactid.commandline import (
+    exponent as _exponent,
+)
+from impactid.commandline import (
+    fraction as _fraction,
+)
+from impactid.commandline import (
+    integer_in as _integer,
+)
+from impactid.commandline import (
+    json_text as _json_text,
+)
+from impactid.commandline import (
+    nonnegative as _nonnegative,
+)
+from impactid.commandline import (
+    num as _num,
+)
+from impactid.commandline import (
+    number as _number,
+)
+from impactid.commandline import (
+    pair as _pair,
+)
+from impactid.commandline import (
+    positive as _positive,
+)
+from impactid.commandline import (
+    print_json as _print_json,
+)
 from impactid.contact import HuntCrossley
 from impactid.errors import ImpactidError
 
@@ -50,10 +82,6 @@ MAX_SWEEP_POINTS = 10_000
 MAX_SYNTH_SAMPLES = 200_000_000
 
 
-class UsageError(ImpactidError, ValueError):
-    """A command-line argument that cannot be used (parsed by argparse or checked by a command)."""
-
-
 class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (``impactid: error: argument --x: ...``) raised, not printed."""
 
@@ -62,64 +90,6 @@ class _Parser(argparse.ArgumentParser):
 
 
 # ---- argument types ---------------------------------------------------------------------------
-
-
-def _number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return value
-
-
-def _positive(text: str) -> float:
-    value = _number(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
-    return value
-
-
-def _nonnegative(text: str) -> float:
-    value = _number(text)
-    if value < 0.0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
-    return value
-
-
-def _fraction(text: str) -> float:
-    value = _nonnegative(text)
-    if value > 1.0:
-        raise argparse.ArgumentTypeError(f"must lie in [0, 1], got {text!r}")
-    return value
-
-
-def _exponent(text: str) -> float:
-    value = _nonnegative(text)
-    if value > 10.0:
-        raise argparse.ArgumentTypeError(f"must lie in [0, 10], got {text!r}")
-    return value
-
-
-def _integer(lo: int, hi: int):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"must lie in [{lo}, {hi}], got {text!r}")
-        return value
-
-    return parse
-
-
-def _pair(text: str) -> tuple[float, float]:
-    parts = text.split(",")
-    if len(parts) != 2:
-        raise argparse.ArgumentTypeError(f"expected A,B (two numbers separated by a comma), got {text!r}")
-    return _number(parts[0]), _number(parts[1])
 
 
 def _range(text: str) -> list[float]:
@@ -159,47 +129,6 @@ def _grid_counts(text: str) -> tuple[int, int]:
 
 
 # ---- shared plumbing --------------------------------------------------------------------------
-
-
-def _json_ready(value, path: str, undetermined: list[str]):
-    """``value`` with non-finite floats as None (their JSON paths collected), numpy types as Python."""
-    if isinstance(value, dict):
-        return {str(k): _json_ready(v, f"{path}.{k}" if path else str(k), undetermined) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_ready(v, f"{path}[{i}]", undetermined) for i, v in enumerate(value)]
-    if isinstance(value, np.ndarray):
-        return _json_ready(value.tolist(), path, undetermined)
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        undetermined.append(path)
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
-def _json_text(data: dict) -> str:
-    """JSON text of a result: non-finite numbers are written as null and listed in ``warnings``."""
-    undetermined: list[str] = []
-    clean = _json_ready(data, "", undetermined)
-    shown = [p for p in undetermined if not p.startswith("per_impact")]
-    if shown and isinstance(clean, dict):
-        note = (f"undetermined (not a finite number, written as null): {', '.join(shown[:20])}"
-                f"{' ...' if len(shown) > 20 else ''}")
-        clean.setdefault("warnings", []).append(note)
-    return json.dumps(clean, indent=2, allow_nan=False) + "\n"
-
-
-def _print_json(data) -> None:
-    sys.stdout.write(_json_text(data))
-
-
-def _num(value, fmt: str = ".5g") -> str:
-    """A number for the text report; ``undetermined`` when it is None or not finite."""
-    if value is None or not math.isfinite(float(value)):
-        return "undetermined"
-    return format(float(value), fmt)
 
 
 def _rig_presets() -> dict:
@@ -970,10 +899,11 @@ def _add_rig_commands(sub) -> None:
             target = groups[group]
         else:
             target = sub
-        p = target.add_parser(name, help=entries[0][1].help)
+        p = target.add_parser(name, help=entries[0][1].help, description=entries[0][1].description or None)
         names = [m.name for m, _ in entries]
-        p.add_argument("--rig", choices=names, default=names[0] if len(names) == 1 else None,
-                       required=len(names) > 1, help=f"rig model ({', '.join(names)})")
+        if group or len(names) > 1:  # a top-level command of one rig (``impactid bounces``) needs no --rig
+            p.add_argument("--rig", choices=names, default=names[0] if len(names) == 1 else None,
+                           required=len(names) > 1, help=f"rig model ({', '.join(names)})")
         for _, spec in entries:
             for argument in spec.arguments:
                 argument.add_to(p)
@@ -983,8 +913,9 @@ def _add_rig_commands(sub) -> None:
 def _run_rig_command(args) -> int:
     from impactid.rigs.registry import rig_model
 
-    spec = args.rig_commands[args.rig]
-    return int(spec.run(args, rig_model(args.rig)) or 0)
+    name = getattr(args, "rig", None) or next(iter(args.rig_commands))
+    spec = args.rig_commands[name]
+    return int(spec.run(args, rig_model(name)) or 0)
 
 
 # ---- entry point ------------------------------------------------------------------------------

@@ -59,7 +59,8 @@ class CommandSpec:
     ``group`` is the command group (``"valvetrain"`` gives ``impactid valvetrain NAME``; ``""`` a
     top-level command). Several rigs may contribute the same ``(group, name)``: the command then
     takes ``--rig MODEL`` and runs the chosen rig's ``run``; its arguments are the union of theirs.
-    ``run(args, model)`` returns the exit code; errors the user caused raise
+    ``description`` is the longer text of ``impactid ... NAME --help``. ``run(args, model)`` returns
+    the exit code; errors the user caused raise
     :class:`~impactid.errors.ImpactidError`.
     """
 
@@ -68,6 +69,7 @@ class CommandSpec:
     help: str
     arguments: Sequence[Argument]
     run: Callable[[argparse.Namespace, RigModel], int]
+    description: str = ""
 
 
 @dataclass(frozen=True)

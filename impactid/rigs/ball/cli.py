@@ -1,0 +1,182 @@
+"""``impactid bounces``: restitution from bounce timings (phyphox exports, CSV of times, WAV).
+
+Thin: parses arguments, calls :func:`impactid.rigs.ball.analyse_bounces`, prints, writes. Follows
+the conventions of :mod:`impactid.cli`: arguments that are not finite or not positive are
+usage errors (``argument --x: ...``), output paths are checked before any computation, outputs
+are written as transactions (the JSON first, then the figures), and every failure is one line
+``impactid: error: ...`` with exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+from impactid.commandline import UsageError
+from impactid.commandline import json_text as _json_text
+from impactid.commandline import nonnegative as _nonnegative
+from impactid.commandline import positive as _positive
+from impactid.commandline import print_json as _print_json
+from impactid.rigs.base import Argument, CommandSpec
+
+__all__ = ["command", "run"]
+
+
+def _ball_name(text: str) -> str:
+    from impactid.rigs.ball.parameters import ball_preset
+
+    try:
+        return ball_preset(text).name
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _drag_coefficient(text: str) -> float:
+    value = _nonnegative(text)
+    if value > 10.0:
+        raise argparse.ArgumentTypeError(f"must lie in [0, 10], got {text!r}")
+    return value
+
+
+def _arguments() -> tuple[Argument, ...]:
+    """The arguments of ``impactid bounces``."""
+    from impactid.rigs.ball.laws import LAWS
+
+    return (
+        Argument(("files",), dict(metavar="FILE", nargs="+", help="one drop per file")),
+        Argument(("--ball",), dict(type=_ball_name, default=None, metavar="NAME",
+                                   help="preset ball: pingpong (table-tennis), golf, tennis")),
+        Argument(("--mass",), dict(type=_positive, default=None, metavar="KG", help="mass of a custom ball [kg]")),
+        Argument(("--diameter",), dict(type=_positive, default=None, metavar="M",
+                                       help="diameter of a custom ball [m]")),
+        Argument(("--drag-coefficient",), dict(type=_drag_coefficient, default=None, metavar="CD",
+                                               help="drag coefficient (default: the preset's; 0.42 custom)")),
+        Argument(("--air-density",), dict(type=_nonnegative, default=None, metavar="KG/M3",
+                                          help="air density [kg/m^3] (default 1.204)")),
+        Argument(("--gravity",), dict(type=_positive, default=None, metavar="M/S2",
+                                      help="gravitational acceleration [m/s^2] (default 9.80665)")),
+        Argument(("--no-drag",), dict(action="store_true",
+                                      help="analyse the flights without air even for a known ball")),
+        Argument(("--law",), dict(choices=["auto", *LAWS], default="auto",
+                                  help="law to report: auto (selected by --criterion) or one by name")),
+        Argument(("--criterion",), dict(choices=["bic", "aic"], default="bic",
+                                        help="model selection criterion (default bic)")),
+        Argument(("--no-chained",), dict(action="store_true", help="skip the chained trajectory fits (faster)")),
+        Argument(("--out",), dict(metavar="RESULT.json", help="write the result as JSON (atomically)")),
+        Argument(("--plots",), dict(metavar="DIR", help="write figures (restitution, intervals, audio onsets)")),
+        Argument(("--json",), dict(action="store_true", help="print the result as JSON")),
+    )
+
+
+def command() -> CommandSpec:
+    """``impactid bounces``: the command the bouncing-ball rig contributes to the command line."""
+    return CommandSpec(
+        group="", name="bounces",
+        help="restitution e(v) of a ball on a floor from bounce timings (phyphox exports, CSV, WAV)",
+        description="Restitution of a ball on a floor from the times of its bounces: phyphox 'Acoustic "
+                    "stopwatch' exports (.xlsx, .xls, CSV, zip), a CSV of event times, or WAV audio. Several "
+                    "files are several drops of one ball on one surface.",
+        arguments=_arguments(), run=lambda args, model: run(args))
+
+
+def _ball(args):
+    """The ball of the arguments (None when unknown); usage errors for inconsistent ones."""
+    from impactid.rigs.ball.parameters import AIR_DENSITY, STANDARD_GRAVITY, Ball, BallParameterError, ball_preset
+
+    custom = args.mass is not None or args.diameter is not None
+    if args.ball is not None and custom:
+        raise UsageError("argument --ball: give either --ball or --mass with --diameter, not both")
+    if custom and (args.mass is None or args.diameter is None):
+        missing = "--diameter" if args.diameter is None else "--mass"
+        given = "--mass" if args.diameter is None else "--diameter"
+        raise UsageError(f"argument {given}: a custom ball needs {missing} too")
+    extras = [name for name, value in (("--drag-coefficient", args.drag_coefficient),
+                                        ("--air-density", args.air_density)) if value is not None]
+    if args.ball is None and not custom:
+        if extras:
+            raise UsageError(f"argument {extras[0]}: needs a ball (--ball NAME, or --mass and --diameter)")
+        return None
+    changes = {}
+    if args.drag_coefficient is not None:
+        changes["drag_coefficient"] = args.drag_coefficient
+    if args.air_density is not None:
+        changes["air_density"] = args.air_density
+    try:
+        if args.ball is not None:
+            return ball_preset(args.ball).with_(**changes)
+        return Ball("custom", mass=args.mass, diameter=args.diameter,
+                    drag_coefficient=changes.get("drag_coefficient", 0.42),
+                    air_density=changes.get("air_density", AIR_DENSITY),
+                    gravity=changes.get("gravity", STANDARD_GRAVITY))
+    except BallParameterError as exc:
+        raise UsageError(f"argument --mass: {exc}") from None
+
+
+def _num(value, fmt=".5g") -> str:
+    return "undetermined" if value is None or not math.isfinite(float(value)) else format(float(value), fmt)
+
+
+def run(args) -> int:
+    """Run ``impactid bounces``; returns the exit code."""
+    from impactid._files import StagedFiles, check_output
+    from impactid.rigs.ball.analysis import analyse_bounces
+    from impactid.rigs.ball.figures import figure_names, write_figures
+    from impactid.rigs.ball.flight import flight_constants
+    from impactid.rigs.ball.readers import read_bounces
+
+    ball = _ball(args)
+    inputs = list(args.files)
+    if args.out:
+        check_output(args.out, option="--out", inputs=inputs)
+    if args.plots:
+        check_output(args.plots, option="--plots", inputs=inputs, directory=True)
+    recordings = [read_bounces(f) for f in args.files]
+    result = analyse_bounces(recordings, ball=ball, drag=not args.no_drag, gravity=args.gravity, law=args.law,
+                             criterion=args.criterion, chained=not args.no_chained)
+    constants = flight_constants(ball, not args.no_drag, args.gravity)
+    data = {"command": "bounces", "files": [str(f) for f in args.files],
+            "ball": ball.to_dict() if ball is not None else None, "drag": constants.drag,
+            "flight": constants.to_dict()}
+    data.update(result.summary())
+    data["notes"] = list(result.notes)
+    data["statistics"] = dict(result.statistics)
+    data["provenance"] = list(result.provenance)
+    data["result"] = result.to_dict()
+    if args.plots:
+        from pathlib import Path
+
+        data["plots"] = [str(Path(args.plots) / n) for n in figure_names(result, recordings)]
+    if args.out:
+        with StagedFiles(protect=inputs) as staged:
+            staged.write_text(args.out, _json_text(data))
+    if args.plots:
+        with StagedFiles(protect=inputs) as staged:
+            write_figures(result, args.plots, staged, recordings)
+    if args.json:
+        _print_json(data)
+        return 0
+    _print_report(result, args)
+    return 0
+
+
+def _print_report(result, args) -> None:
+    s = result.statistics
+    fits = result.law_fits
+    print(f"impactid bounces: {s['files']} file(s), {s['drops_analysed']} drop(s) analysed, "
+          f"{s['impacts_used']} coefficients used, {s['intervals_rejected']} of {s['intervals']} intervals rejected "
+          f"({s['flight_model']})")
+    for name, fit in fits.items():
+        mark = "*" if name == result.selected else " "
+        text = ", ".join(f"{p.name} = {_num(p.value)} +/- {_num(p.stderr, '.2g')} {p.unit}".rstrip()
+                         for p in fit.params.values())
+        print(f" {mark} {name:<13} {text}   BIC {_num(fit.statistics['bic'], '.1f')}")
+    print(f"  selected: {result.selected} ({result.details.get('selection', '')})")
+    print(f"  impact speeds {_num(s['speed_min_m_s'], '.3g')}-{_num(s['speed_max_m_s'], '.3g')} m/s; "
+          f"scatter of e {_num(s['intrinsic_scatter'], '.2g')}, "
+          f"timing noise {_num(1e3 * s['timing_sigma_s'], '.2g')} ms")
+    for note in result.notes:
+        print(f"  note: {note}")
+    if args.out:
+        print(f"  result written to {args.out}")
+    if args.plots:
+        print(f"  figures written to {args.plots}")
