@@ -26,7 +26,7 @@ sys.path.insert(0, str(ROOT))
 
 import numba  # noqa: E402
 
-from impactid.rigs.flat import SEED000_TABLE5  # noqa: E402
+from impactid.rigs.flat import ALZATE2007  # noqa: E402
 from impactid.simulate.flat import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
 from tests.simulate import flat_reference as ref  # noqa: E402
 
@@ -39,7 +39,7 @@ def main(argv=None) -> int:
     parser.add_argument("--reference-revolutions", type=int, default=10,
                         help="revolutions per reference speed (scaled to --revolutions)")
     args = parser.parse_args(argv)
-    rig = SEED000_TABLE5
+    rig = ALZATE2007
     speeds = np.linspace(110.0, 165.0, args.speeds) / 60.0
     bifurcation(rig, speeds[:2], revolutions=2)  # compile (or load the cache) outside the timing
 

@@ -28,13 +28,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from data_synth import synth_pivoted  # noqa: E402
-from impactid import SEED001_TABLE1, HuntCrossley  # noqa: E402
+from impactid import SUNDAR2016, HuntCrossley  # noqa: E402
 from impactid.estimates import C_BOUNDS, _Objective, estimate, reference_indentation  # noqa: E402
 
 
 def main() -> int:
     warnings.simplefilter("ignore")
-    s = synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, HuntCrossley(24.7e9, 1.5), 2.0)
+    s = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, HuntCrossley(24.7e9, 1.5), 2.0)
     with tempfile.TemporaryDirectory() as tmp:
         path = s.write(Path(tmp) / "s2_2s.h5")
         estimate(path, fix_n=1.5)  # warm the numba cache and imports

@@ -20,7 +20,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from impactid import SEED001_TABLE1
+from impactid import SUNDAR2016
 from impactid.io import Recording, read_recording, write_hdf5
 
 CHANNELS = {"accel_tangential": "m/s^2", "force_x": "N", "force_y": "N", "cam_angle": "rad"}
@@ -37,7 +37,7 @@ def main() -> None:
     t = np.arange(n) / rate
     data = {"accel_tangential": rng.normal(0, 50, n), "force_x": rng.normal(0, 5, n),
             "force_y": rng.normal(0, 5, n), "cam_angle": 2 * np.pi * 16 * t}
-    rec = Recording(channels=data, sample_rate_hz=rate, units=CHANNELS, rig=SEED001_TABLE1,
+    rec = Recording(channels=data, sample_rate_hz=rate, units=CHANNELS, rig=SUNDAR2016,
                     operating={"cam_speed_hz": 16.0})
     with tempfile.TemporaryDirectory() as tmp:
         path = write_hdf5(rec, Path(tmp) / "bench.h5")

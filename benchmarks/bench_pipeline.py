@@ -21,7 +21,7 @@ import warnings
 import numpy as np
 
 from data_synth import SensorModel, synth_pivoted
-from impactid import SEED001_TABLE1, HuntCrossley
+from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import find_events
 from impactid.reconstruct import ANCHORS, reconstruct
 from impactid.signal import INTEGRATORS
@@ -30,7 +30,7 @@ LAW = HuntCrossley(24.7e9, 1.5)
 
 
 def speed() -> None:
-    syn = synth_pivoted(SEED001_TABLE1, 16.0, LAW, 60.0)
+    syn = synth_pivoted(SUNDAR2016, 16.0, LAW, 60.0)
     rec = syn.recording
     t0 = time.perf_counter()
     events = find_events(rec)
@@ -44,7 +44,7 @@ def speed() -> None:
 
 
 def accuracy(noise: float) -> None:
-    syn = synth_pivoted(SEED001_TABLE1, 16.0, LAW, 1.0, sensors=SensorModel(noise=noise, seed=1))
+    syn = synth_pivoted(SUNDAR2016, 16.0, LAW, 1.0, sensors=SensorModel(noise=noise, seed=1))
     rec, truth = syn.recording, syn.truth
     dt = 1 / rec.sample_rate_hz
     with warnings.catch_warnings():

@@ -35,7 +35,7 @@ sys.path.insert(0, str(ROOT))
 
 import numba  # noqa: E402
 
-from impactid import SEED001_TABLE1, HuntCrossley, Tolerances, simulate, simulate_event, simulate_events  # noqa: E402
+from impactid import SUNDAR2016, HuntCrossley, Tolerances, simulate, simulate_event, simulate_events  # noqa: E402
 from impactid.simulate import DEFAULT_TOLERANCES  # noqa: E402
 from tests import reference_rigp as ref  # noqa: E402
 
@@ -79,7 +79,7 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     repeat = 2 if args.quick else 5
 
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     law = HuntCrossley(24.7e9, 1.5)
     hz = 16.0
     settled = simulate(rig, hz, law, 40.0)
@@ -168,8 +168,8 @@ def main(argv=None) -> int:
 
     print("\n== start-up: fresh process, one S1 event ==")
     code = ("import time; t=time.perf_counter(); import impactid as I; "
-            "I.simulate_event(I.SEED001_TABLE1, 16.0, I.HuntCrossley(24.7e9), 0.07, -4.0, 0.3, 0.0625); "
-            "I.simulate(I.SEED001_TABLE1, 16.0, I.HuntCrossley(24.7e9), 0.1); print(time.perf_counter()-t)")
+            "I.simulate_event(I.SUNDAR2016, 16.0, I.HuntCrossley(24.7e9), 0.07, -4.0, 0.3, 0.0625); "
+            "I.simulate(I.SUNDAR2016, 16.0, I.HuntCrossley(24.7e9), 0.1); print(time.perf_counter()-t)")
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         for label in ("cold (empty numba cache)", "warm (cached)"):

@@ -1,14 +1,14 @@
-"""Contact-point kinematics (seed 003): follower acceleration from analytic derivatives vs a differentiated spline.
+"""Contact-point kinematics (Lee 2005): follower acceleration from analytic derivatives vs a differentiated spline.
 
 For rig F's eccentric cam (A-17, Table 5) and a sharper profile (the same cam with its nose pulled in
 over a few degrees, :func:`impactid.cam_kinematics.revised_nose_profile`), a periodic cubic spline
 is fitted through the follower displacement at N uniform nodes per revolution and differentiated;
 its velocity and acceleration are compared with the analytic ones on a dense grid between the nodes.
-Relative errors are divided by the largest analytic magnitude over a revolution (seed 003's
+Relative errors are divided by the largest analytic magnitude over a revolution (Lee's (2005)
 definition), so they do not depend on the cam speed.
 
 Writes ``kinematics_spline_study.csv`` (one row per profile and N) and
-``kinematics_spline_study.png`` (log-log error against N, as Figs. 5 and 7 of seed 003) into
+``kinematics_spline_study.png`` (log-log error against N, as Figs. 5 and 7 of Lee (2005)) into
 ``--out``, prints the table, the observed convergence orders, and the time to get the follower
 acceleration at one cam angle either way (analytic vs building and differentiating the spline).
 
@@ -34,7 +34,7 @@ from impactid.cam_kinematics import (
     spline_follower_kinematics,
 )
 from impactid.reports import plot_kinematics_spline_study, save_figure_atomic, write_csv_atomic
-from impactid.rigs.flat import SEED000_TABLE5
+from impactid.rigs.flat import ALZATE2007
 
 COLUMNS = ["nodes", "node_spacing_deg", "max_rel_error_velocity", "rms_rel_error_velocity",
            "max_rel_error_acceleration", "rms_rel_error_acceleration", "theta_c_max_error_acceleration"]
@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> None:
                         help="evaluation points per node interval (default: %(default)s)")
     args = parser.parse_args(argv)
 
-    rig = SEED000_TABLE5
+    rig = ALZATE2007
     profiles = {"eccentric cam (rig F, A-17)": rig.contact_angle,
                 "revised nose (sharper)": revised_nose_profile(rig)}
     studies = {label: spline_error_study(p, nodes=args.nodes, points_per_interval=args.points_per_interval)

@@ -1,5 +1,5 @@
-"""Rerun the rig F results of seed 000 (cam profile, detachment, bifurcations, r(omega)) and the
-contact-kinematics comparison of seed 003 on the project's synthetic data; write
+"""Rerun the rig F results of Alzate et al. (2007) (cam profile, detachment, bifurcations, r(omega)) and the
+contact-kinematics comparison of Lee (2005) on the project's synthetic data; write
 ``docs/validation_rig_f.md``.
 
 Run: ``python benchmarks/validate_rig_f.py [--out docs/validation_rig_f.md]`` (about a minute).
@@ -25,9 +25,9 @@ sys.path.insert(0, str(ROOT))
 from data_synth.flat import synth_flat_encoders  # noqa: E402
 from data_synth.flat_impacts import synth_flat_impacting  # noqa: E402
 from impactid.cam_kinematics import revised_nose_profile, spline_error_study  # noqa: E402
-from impactid.camprofile import SEED000_TABLE3, compare_profiles, fit_cam_profile  # noqa: E402
+from impactid.camprofile import ALZATE2007_CAM, compare_profiles, fit_cam_profile  # noqa: E402
 from impactid.encoder_impacts import fit_speed_law, restitution_at_speed  # noqa: E402
-from impactid.rigs.flat import SEED000_TABLE5 as RIG  # noqa: E402
+from impactid.rigs.flat import ALZATE2007 as RIG  # noqa: E402
 from impactid.simulate.flat import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
 
 SPEEDS_RPM = (130.0, 135.0, 140.0, 145.0, 150.0)
@@ -39,9 +39,9 @@ def cam_profile(lines):
     fit = fit_cam_profile(rec.recording, terms=7)
     seconds = time.perf_counter() - t0
     ours = compare_profiles(fit.profile, RIG.contact_angle, directions=(1,))
-    table3 = compare_profiles(SEED000_TABLE3, RIG.contact_angle)
-    table3_level = compare_profiles(SEED000_TABLE3, RIG.contact_angle, fit_level=True)
-    lines += ["## Cam profile (seed 000 eq. 1, Table 3)", "",
+    table3 = compare_profiles(ALZATE2007_CAM, RIG.contact_angle)
+    table3_level = compare_profiles(ALZATE2007_CAM, RIG.contact_angle, fit_level=True)
+    lines += ["## Cam profile (Alzate et al. (2007) eq. 1, Table 3)", "",
               "Synthetic permanent-contact recording at 110 rpm, 3 s (5.5 revolutions), encoders 5000/10000 ppr, "
               "cam zero 2.0 rad; 7-term periodic Gaussian sum fitted with `fit_cam_profile`, compared with the "
               "analytic contact angle A-17 under the best cam-angle offset (`compare_profiles`).", "",
@@ -68,7 +68,7 @@ def detachment_and_bifurcation(lines):
     tr = result.transitions()
     counts = result.table["regime"].value_counts().to_dict()
     law = DEFAULT_RESTITUTION.to_dict()
-    lines += ["## Detachment and bifurcation diagram (seed 000 Figs. 8, 16)", "",
+    lines += ["## Detachment and bifurcation diagram (Alzate et al. (2007) Figs. 8, 16)", "",
               f"Restitution law (our stand-in for the seed's Fig. 12, whose values are not printed): "
               f"r = {law['a']:.4g} {law['b_per_rpm']:+.4g} * rpm.", "",
               "| quantity | ours | paper |", "|---|---|---|",
@@ -94,7 +94,7 @@ def restitution(lines, fit):
             rows["impact-law"].append(restitution_at_speed(s.recording))
             rows["first-bounce"].append(restitution_at_speed(s.recording, method="first-bounce"))
             rows["impact-law, fitted profile"].append(restitution_at_speed(s.recording, profile=fit.profile))
-    lines += ["## Restitution against cam speed (seed 000 section 5.1, Fig. 12)", "",
+    lines += ["## Restitution against cam speed (Alzate et al. (2007) section 5.1, Fig. 12)", "",
               "Impacting recordings (4 s after 30 settling revolutions) made with the default law; `impact-law` "
               "fits the free flight either side of each first impact (analytic A-17 profile, or the 7-term profile "
               "fitted at 110 rpm in another encoder convention), `first-bounce` finds the model's r that reproduces "
@@ -121,7 +121,7 @@ def kinematics(lines):
     nodes = (100, 1000, 10_000)
     studies = {"eccentric cam (A-17)": spline_error_study(RIG.contact_angle, nodes=nodes),
                "sharper profile (nose pulled in)": spline_error_study(revised_nose_profile(), nodes=nodes)}
-    lines += ["## Contact-point kinematics (seed 003 Figs. 5, 7)", "",
+    lines += ["## Contact-point kinematics (Lee (2005) Figs. 5, 7)", "",
               "Largest acceleration error of a periodic cubic spline through N nodes of the displacement per "
               "revolution, relative to the largest analytic acceleration (`benchmarks/kinematics_spline_study.py` "
               "draws the full figure).", "", "| profile | N = 100 | N = 1000 | N = 10 000 |", "|---|---|---|---|"]
@@ -136,7 +136,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=str(ROOT / "docs" / "validation_rig_f.md"))
     args = parser.parse_args(argv)
-    lines = ["# Rig F validation (seed 000) and contact kinematics (seed 003)", "",
+    lines = ["# Rig F validation (Alzate et al. 2007) and contact kinematics (Lee 2005)", "",
              "Written by `python benchmarks/validate_rig_f.py`; every number below was measured by that run.", ""]
     fit = cam_profile(lines)
     detachment_and_bifurcation(lines)

@@ -21,7 +21,7 @@ from pathlib import Path
 from data_synth.pivoted import synth_pivoted
 from data_synth.sensors import SensorModel
 from impactid.contact import HuntCrossley
-from impactid.rigs.pivoted import SEED001_TABLE1
+from impactid.rigs.pivoted import SUNDAR2016
 
 #: What the two example recordings share; its hash and each point name the cached files.
 EXAMPLE_RECIPE = {
@@ -59,7 +59,7 @@ def _example_path(k: int, refresh: bool) -> Path:
         return path
     r = recipe
     synthetic = synth_pivoted(
-        SEED001_TABLE1.with_eccentricity_ratio(e_over_rc), cam_speed_hz, HuntCrossley(r["beta"], r["n"]),
+        SUNDAR2016.with_eccentricity_ratio(e_over_rc), cam_speed_hz, HuntCrossley(r["beta"], r["n"]),
         r["duration"], settle_s=r["settle_s"], sample_rate_hz=r["sample_rate_hz"],
         sensors=SensorModel(noise=r["noise"], adc_bits=r["adc_bits"], seed=r["seed"] + k))
     synthetic.truth["recipe"] = json.dumps(r)

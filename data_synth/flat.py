@@ -1,4 +1,4 @@
-"""Synthetic encoder recordings of rig F (seed 000) in permanent contact, for cam-profile fitting.
+"""Synthetic encoder recordings of rig F (Alzate et al. 2007) in permanent contact, for cam-profile fitting.
 
 Below the detachment speed the follower rides on the cam, so its angle is the contact angle
 ``theta_hat(theta_c)`` of (A-17) exactly; no integration is needed. The two incremental encoders

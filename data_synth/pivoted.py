@@ -1,5 +1,5 @@
 """Synthetic recordings of rig P: the S2 (Hunt–Crossley) and S3 (restitution) simulations of
-seed 001 sampled as an acquisition system would (MODEL.md 1.4 and 1.9).
+Sundar, Dreyer & Singh (2016) sampled as an acquisition system would (MODEL.md 1.4 and 1.9).
 
 The simulator runs from static equilibrium (cam at ``theta_ref``), the first ``settle_s`` seconds
 are discarded, and the exact dense output is sampled at the sample instants

@@ -1,4 +1,4 @@
-"""Follower kinematics in permanent contact: analytic derivatives against a differentiated spline (seed 003).
+"""Follower kinematics in permanent contact: analytic derivatives against a differentiated spline (Lee 2005).
 
 In permanent contact the follower angle is a function of the cam angle, ``theta_f = theta_hat(theta_c)``
 [rad]. At constant cam speed ``omega`` [rad/s] the chain rule gives the follower's angular velocity
@@ -7,7 +7,7 @@ and acceleration exactly from the profile's derivatives with respect to the cam 
     theta_f_dot  = omega   theta_hat'(theta_c)          [rad/s]
     theta_f_ddot = omega^2 theta_hat''(theta_c)         [rad/s^2]
 
-Lee (2005, seed 003) argues for computing the contact-point acceleration from the local geometry
+Lee (2005, Lee (2005)) argues for computing the contact-point acceleration from the local geometry
 in this way rather than, as is common in cam design, by differentiating a cubic spline fitted
 through the displacement at ``N`` nodes per revolution: the spline needs the whole revolution, and
 its second derivative is much less accurate than the displacement (his Figs. 5 and 7; 0.05 % maximum
@@ -19,7 +19,7 @@ angle, ``k = 1, 2`` a tuple up to that derivative), e.g. ``FlatFollowerRig.conta
 eccentric cam, A-17) and :class:`impactid.camprofile.GaussianSumProfile`; they must be
 ``2 pi``-periodic.
 
-Errors are relative, as seed 003 defines them: the error divided by the largest magnitude of the
+Errors are relative, as Lee (2005) defines them: the error divided by the largest magnitude of the
 analytic quantity over a revolution. Because both methods scale the same way with ``omega``
 (velocity ``~ omega``, acceleration ``~ omega^2``), the relative errors do not depend on the cam speed.
 
@@ -45,7 +45,7 @@ from scipy import optimize
 from scipy.interpolate import CubicSpline
 
 from impactid.camprofile import GaussianSumProfile
-from impactid.rigs.flat import SEED000_TABLE5, FlatFollowerRig
+from impactid.rigs.flat import ALZATE2007, FlatFollowerRig
 
 __all__ = [
     "DEFAULT_NODES",
@@ -100,14 +100,14 @@ class ProfileSum:
         return total[0] if derivatives == 0 else total
 
 
-def revised_nose_profile(rig: FlatFollowerRig = SEED000_TABLE5, depth: float = 4e-4,
+def revised_nose_profile(rig: FlatFollowerRig = ALZATE2007, depth: float = 4e-4,
                          width: float = 0.05) -> ProfileSum:
     """Rig F's eccentric cam (A-17) with its nose locally pulled in: the study's sharper profile.
 
     ``theta_hat(theta_c) + GaussianSumProfile(a=-depth, b=theta_nose, c=width)``, where
     ``theta_nose`` is the cam angle of largest follower lift.
 
-    Why it is a fair analogue of seed 003's revised cam: Lee revises one node of his nine-node
+    Why it is a fair analogue of Lee's (2005) revised cam: Lee revises one node of his nine-node
     spline cam contour, moving the extreme point of the nose inwards (5 cm to 4.2 cm), and his
     acceleration then peaks higher and its interpolation error concentrates in a window about five
     degrees wide (his Figs. 6 and 7). Here, too, the nose is pulled in locally: with the defaults
@@ -208,7 +208,7 @@ def spline_follower_kinematics(profile: Profile, theta_c, omega: float, nodes: i
     """Follower angle, angular velocity and acceleration from a differentiated periodic cubic spline.
 
     The displacement is interpolated by :func:`displacement_spline` through ``nodes`` uniform nodes
-    per revolution and differentiated once and twice (the practice seed 003 compares against).
+    per revolution and differentiated once and twice (the practice Lee (2005) compares against).
 
     Parameters
     ----------
@@ -239,7 +239,7 @@ def spline_error_study(profile: Profile, nodes: Sequence[int] = DEFAULT_NODES, p
     For each ``N`` in ``nodes`` the spline of :func:`displacement_spline` is differentiated and
     compared with the analytic derivatives on a dense grid of ``points_per_interval`` uniformly
     spaced cam angles in each node interval (nodes included). Errors are divided by the largest
-    magnitude of the analytic quantity over the revolution (seed 003's definition), taken on a fixed
+    magnitude of the analytic quantity over the revolution (Lee's (2005) definition), taken on a fixed
     grid of ``scale_samples`` angles so that the scale does not change with ``N``. The cam speed
     cancels out of these ratios.
 

@@ -1,4 +1,4 @@
-"""Cam profiles as sums of Gaussians of the cam angle (seed 000, eq. 1 / A-1), and their fit.
+"""Cam profiles as sums of Gaussians of the cam angle (Alzate et al. 2007, eq. 1 / A-1), and their fit.
 
 ``theta_hat(theta_c) = sum_i a_i exp(-((theta_c - b_i) / c_i)^2)`` gives the follower angle in
 permanent contact [rad] as a function of the cam angle [rad]. A cam profile is periodic in the cam
@@ -92,7 +92,7 @@ C_MAX = math.pi
 #: Narrowest Gaussian a fit may use by default [rad] (about 3 degrees: finer features are not what
 #: a cam profile is made of; fitted to samples instead of edges, such terms chase count plateaus).
 C_MIN = 0.05
-#: Default number of Gaussian terms (seed 000 uses seven).
+#: Default number of Gaussian terms (Alzate et al. (2007) uses seven).
 DEFAULT_TERMS = 7
 #: Highest order tried by ``terms="auto"``.
 MAX_TERMS = 9
@@ -210,7 +210,7 @@ def _basis(theta: np.ndarray, b, c, jacobian: bool = False):
 
 @dataclass(frozen=True)
 class GaussianSumProfile:
-    """A cam profile ``theta_hat(theta_c)`` as a sum of Gaussians (eq. 1 of seed 000).
+    """A cam profile ``theta_hat(theta_c)`` as a sum of Gaussians (eq. 1 of Alzate et al. (2007)).
 
     Attributes
     ----------
@@ -298,7 +298,7 @@ def load_profile_json(path: str | os.PathLike[str]) -> GaussianSumProfile:
 
 
 #: The seed's Table 3 model (7 terms, three decimals as printed, evaluated un-wrapped as in eq. 1).
-SEED000_TABLE3 = GaussianSumProfile(
+ALZATE2007_CAM = GaussianSumProfile(
     a=(0.307, 0.0, 0.304, 0.013, 0.0, 0.095, 0.036),
     b=(6.311, -0.19, -0.753, 5.208, 4.339, 1.932, 4.418),
     c=(2.777, 0.349, 2.613, 1.268, 0.067, 2.251, 1.743),
@@ -803,7 +803,7 @@ class CamProfileFit:
         theta, value = self.profile.sample(samples)
         data = self.data
         return {
-            "model": "gaussian-sum cam profile (seed 000 eq. 1), periodic",
+            "model": "gaussian-sum cam profile (Alzate et al. (2007) eq. 1), periodic",
             "source": data.source,
             "window": list(data.window) if data.window else None,
             "terms": self.terms,
@@ -1029,7 +1029,7 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
                     starts: int = DEFAULT_STARTS, window: tuple[float, float] | None = None,
                     speed_tolerance: float = SPEED_TOLERANCE, departure_tolerance: float | None = None,
                     detachment_speed_hz: float | None = None, counter: str = "floor") -> CamProfileFit:
-    """Fit a periodic Gaussian-sum cam profile (seed 000, eq. 1) to encoder data by least squares.
+    """Fit a periodic Gaussian-sum cam profile (Alzate et al. 2007, eq. 1) to encoder data by least squares.
 
     Parameters
     ----------

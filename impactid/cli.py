@@ -132,9 +132,9 @@ def _grid_counts(text: str) -> tuple[int, int]:
 
 
 def _rig_presets() -> dict:
-    from impactid.rigs import SEED000_TABLE5, SEED001_TABLE1
+    from impactid.rigs import ALZATE2007, SUNDAR2016
 
-    return {"pivoted-follower": SEED001_TABLE1, "flat-follower": SEED000_TABLE5}
+    return {"pivoted-follower": SUNDAR2016, "flat-follower": ALZATE2007}
 
 
 def _is_rig_file(spec: str | None) -> bool:
@@ -157,9 +157,9 @@ def resolve_rig(spec: str | None, default=None) -> tuple[object, dict]:
 
 def _pivoted(args, command: str):
     """Rig P for a simulation command (``--rig``, then ``--e-over-rc``), and the rig file's operating point."""
-    from impactid.rigs import SEED001_TABLE1, PivotedFollowerRig
+    from impactid.rigs import SUNDAR2016, PivotedFollowerRig
 
-    rig, operating = resolve_rig(getattr(args, "rig", None), SEED001_TABLE1)
+    rig, operating = resolve_rig(getattr(args, "rig", None), SUNDAR2016)
     if not isinstance(rig, PivotedFollowerRig):
         raise UsageError(f"argument --rig: '{command}' simulates the 'pivoted-follower' rig only, "
                          f"got a {rig.model!r} rig")
@@ -294,10 +294,10 @@ def cmd_regime(args) -> int:
 
 
 def cmd_detachment(args) -> int:
-    from impactid.rigs import SEED001_TABLE1, FlatFollowerRig
+    from impactid.rigs import SUNDAR2016, FlatFollowerRig
     from impactid.simulate.regimes import detachment_speed
 
-    rig, _ = resolve_rig(args.rig, SEED001_TABLE1)
+    rig, _ = resolve_rig(args.rig, SUNDAR2016)
     if isinstance(rig, FlatFollowerRig):
         if args.e_over_rc is not None or args.mu is not None:
             raise UsageError("arguments --e-over-rc and --mu apply to the pivoted-follower rig only")
@@ -332,10 +332,10 @@ def _restitution_law(args):
 
 
 def cmd_bifurcation(args) -> int:
-    from impactid.rigs import SEED000_TABLE5, FlatFollowerRig
+    from impactid.rigs import ALZATE2007, FlatFollowerRig
     from impactid.simulate.flat import bifurcation
 
-    rig, _ = resolve_rig(args.rig, SEED000_TABLE5)
+    rig, _ = resolve_rig(args.rig, ALZATE2007)
     if not isinstance(rig, FlatFollowerRig):
         raise UsageError(f"argument --rig: the bifurcation diagram is implemented for the 'flat-follower' rig only, "
                          f"got {rig.model!r} (use impactid regime-map for the pivoted follower)")
@@ -474,9 +474,9 @@ def cmd_simulate(args) -> int:
 def cmd_synth(args) -> int:
     from data_synth import SensorModel, synth_flat_encoders, synth_pivoted
     from impactid.contact import Restitution
-    from impactid.rigs import SEED001_TABLE1, FlatFollowerRig
+    from impactid.rigs import SUNDAR2016, FlatFollowerRig
 
-    rig, operating = resolve_rig(args.rig, SEED001_TABLE1)
+    rig, operating = resolve_rig(args.rig, SUNDAR2016)
     noise = {}
     for item in args.noise_channel or []:
         name, _, value = item.partition("=")

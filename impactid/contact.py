@@ -69,7 +69,7 @@ def beta_from_gamma(gamma, k_H):
     """Hunt–Crossley damping ``beta = 1.5 gamma k_H`` [N s m^-2.5] for n = 1.5 (MODEL.md 1.7).
 
     ``gamma`` [s/m], ``k_H`` [N m^-1.5]. With the seed rig's k_H (about 8.0e9) gamma = 0.758 s/m gives
-    about 9.1e9 N s m^-2.5, as in section 8.3 of seed 001.
+    about 9.1e9 N s m^-2.5, as in section 8.3 of Sundar, Dreyer & Singh (2016).
     """
     return 1.5 * np.asarray(gamma, dtype=float) * k_H
 

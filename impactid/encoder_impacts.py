@@ -1,6 +1,6 @@
 """Impacts of rig F seen by its encoders, and the coefficient of restitution against cam speed.
 
-Seed 000 (section 5.1) takes ``r`` as a linear function of the cam speed, each value estimated
+Alzate et al. (2007) (section 5.1) takes ``r`` as a linear function of the cam speed, each value estimated
 from impacting runs between 130 and 155 rpm. This module measures it from encoder recordings
 (``cam_angle``, ``follower_angle``) in two ways and fits ``r = a + b omega``.
 

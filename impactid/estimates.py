@@ -1,4 +1,4 @@
-"""Estimates: Hunt–Crossley damping ``beta, n`` and restitution laws (seed 001, sections 5.2, 6-8).
+"""Estimates: Hunt–Crossley damping ``beta, n`` and restitution laws (Sundar, Dreyer & Singh 2016, sections 5.2, 6-8).
 
 Contact damping
 ---------------

@@ -1,4 +1,4 @@
-"""Impact detection and segmentation (section 5.1 of seed 001).
+"""Impact detection and segmentation (section 5.1 of Sundar, Dreyer & Singh (2016)).
 
 A contact of rig P shows on the accelerometer as a pulse three orders of magnitude above the
 smooth free-flight acceleration. :func:`find_events` finds the pulses, then refines each one

@@ -1,4 +1,4 @@
-"""Per-impact kinematics and contact quantities (sections 5.1 and 8.2 of seed 001).
+"""Per-impact kinematics and contact quantities (sections 5.1 and 8.2 of Sundar, Dreyer & Singh (2016)).
 
 For every usable event of an :class:`~impactid.events.EventTable` (one cam revolution from a
 contact onset to the next):

@@ -44,7 +44,7 @@ def save_figure_atomic(fig, path: str | os.PathLike[str], staged: StagedFiles | 
 
 
 def plot_regime_map(frame: pd.DataFrame):
-    """Regime map figure (cam speed versus e/r_c, as Fig. 3 of seed 001)."""
+    """Regime map figure (cam speed versus e/r_c, as Fig. 3 of Sundar, Dreyer & Singh (2016))."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -82,7 +82,7 @@ def write_regime_map(frame: pd.DataFrame, out_dir: str | os.PathLike[str],
 
 
 def plot_bifurcation(result, transitions: dict | None = None):
-    """Stroboscopic follower angle against cam speed (Fig. 16 of seed 000), coloured by regime."""
+    """Stroboscopic follower angle against cam speed (Fig. 16 of Alzate et al. (2007)), coloured by regime."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -159,7 +159,7 @@ def estimate_figures(result, out_dir: str | os.PathLike[str], staged: StagedFile
     """Write the figures of an :class:`impactid.estimates.Estimate` to ``out_dir`` (PNG), atomically.
 
     ``hysteresis.png``: contact force against indentation of the median-speed impact, measured
-    (S-21, when the recording has pivot forces) and simulated at the estimate (Fig. 7 of seed 001);
+    (S-21, when the recording has pivot forces) and simulated at the estimate (Fig. 7 of Sundar, Dreyer & Singh (2016));
     ``restitution.png``: ``xi`` against ``v_a`` with the fitted laws (Fig. 10);
     ``landscape.png``: mean residual over (n, beta) with the valley and the estimate;
     ``residuals.png``: per-impact residual at the estimate.
@@ -203,7 +203,7 @@ def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) 
         ax.plot(v, 1.0 - r.gamma * v, "-", label=f"xi = 1 - gamma v_a, gamma = {r.gamma:.4g} s/m")
         ax.axhline(r.r_constant, ls="--", color="0.5", label=f"constant r = {r.r_constant:.4g}")
         ax.set(xlabel="approach speed v_a [m/s]", ylabel="xi", ylim=(0, 1.05),
-               title="restitution (Fig. 10 of seed 001)")
+               title="restitution (Fig. 10 of Sundar, Dreyer & Singh (2016))")
         ax.legend()
         written.append(save_figure_atomic(fig, out / "restitution.png", st, dpi=120))
         plt.close(fig)
@@ -231,13 +231,13 @@ def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) 
 
 
 # ---------------------------------------------------------------------------------------------
-# contact-point kinematics: analytic derivatives against a differentiated spline (seed 003)
+# contact-point kinematics: analytic derivatives against a differentiated spline (Lee 2005)
 # ---------------------------------------------------------------------------------------------
 
 
 def plot_kinematics_spline_study(studies: dict[str, pd.DataFrame]):
     """Relative error of the spline-differentiated follower acceleration and velocity against the
-    number of nodes per revolution, log-log (as Figs. 5 and 7 of seed 003).
+    number of nodes per revolution, log-log (as Figs. 5 and 7 of Lee (2005)).
 
     ``studies`` maps a profile label to a table of :func:`impactid.cam_kinematics.spline_error_study`.
     Solid lines: maximum relative error; dashed: RMS relative error; dotted grey: slopes N^-2

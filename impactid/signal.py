@@ -1,4 +1,4 @@
-"""Detrending and double integration of sampled acceleration (section 5.1 of seed 001).
+"""Detrending and double integration of sampled acceleration (section 5.1 of Sundar, Dreyer & Singh (2016)).
 
 Pure functions on arrays with the sample spacing ``dt`` [s] passed explicitly. The integration
 method is chosen by name from :data:`INTEGRATORS` (or given as a callable ``f(y, dt) -> cumulative
@@ -197,7 +197,7 @@ class EventSpan:
 
 def detrend_integrate(acceleration: np.ndarray, dt: float, method="rk", *, span: EventSpan | None = None,
                       edges: Sequence[PowerLawEdge] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Section 5.1 of seed 001 on one event: remove the mean of the acceleration, integrate,
+    """Section 5.1 of Sundar, Dreyer & Singh (2016) on one event: remove the mean of the acceleration, integrate,
     remove the mean of the velocity, integrate again.
 
     Parameters

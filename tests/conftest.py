@@ -4,18 +4,18 @@ from __future__ import annotations
 
 import pytest
 
-from impactid import SEED001_TABLE1, HuntCrossley
+from impactid import SUNDAR2016, HuntCrossley
 
 #: the seed's S2 contact law (Table 2): beta = 24.7 GN s m^-2.5, n = 1.5
 SEED_LAW = HuntCrossley(beta=24.7e9, n=1.5)
 
-#: Table 2 operating points of seed 001: (e/r_c, cam speed [Hz])
+#: Table 2 operating points of Sundar, Dreyer & Singh (2016): (e/r_c, cam speed [Hz])
 TABLE2_POINTS = [(0.05, 23.0), (0.10, 18.0), (0.15, 17.0), (0.20, 16.0), (0.25, 15.0)]
 
 
 @pytest.fixture(scope="session")
 def rig():
-    return SEED001_TABLE1
+    return SUNDAR2016
 
 
 @pytest.fixture(scope="session")
@@ -28,7 +28,7 @@ def s2_synthetic():
     """Noise-free S2 recording at the seed's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
     from data_synth import synth_pivoted
 
-    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 1.0)
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 1.0)
 
 
 @pytest.fixture(scope="session")
@@ -43,7 +43,7 @@ def s3_synthetic():
     from data_synth import synth_pivoted
     from impactid import Restitution
 
-    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)
 
 
 @pytest.fixture(scope="session")
@@ -51,7 +51,7 @@ def s2_second_point():
     """Noise-free S2 recording at the other fast-settling period-1 point (e/r_c 0.25, 15 Hz), 1 s."""
     from data_synth import synth_pivoted
 
-    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.25), 15.0, SEED_LAW, 1.0)
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.25), 15.0, SEED_LAW, 1.0)
 
 
 @pytest.fixture(scope="session")
@@ -59,5 +59,5 @@ def s2_noisy():
     """S2 at e/r_c 0.2, 16 Hz, 4 s, with 0.5 % noise on every channel (seed 3)."""
     from data_synth import SensorModel, synth_pivoted
 
-    return synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 4.0,
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 4.0,
                          sensors=SensorModel(noise=0.005, seed=3))

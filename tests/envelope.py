@@ -30,7 +30,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 from data_synth import SensorModel, synth_pivoted
-from impactid import SEED001_TABLE1, HuntCrossley, Restitution
+from impactid import SUNDAR2016, HuntCrossley, Restitution
 from impactid.errors import ImpactidError
 
 try:
@@ -92,7 +92,7 @@ def _period1(e_over_rc: float, cam_speed_hz: float, law, mu: float) -> bool:
     from impactid.simulate.regimes import classify_regime
 
     try:
-        r = classify_regime(SEED001_TABLE1.with_eccentricity_ratio(e_over_rc), cam_speed_hz, law, mu=mu,
+        r = classify_regime(SUNDAR2016.with_eccentricity_ratio(e_over_rc), cam_speed_hz, law, mu=mu,
                             max_revolutions=1500)
     except ImpactidError:
         return False
@@ -103,7 +103,7 @@ def _approach_speed(e_over_rc: float, cam_speed_hz: float, law, mu: float) -> fl
     """Approach speed [m/s] of the settled period-1 motion (impactid's simulator; case selection only)."""
     from impactid.simulate import simulate
 
-    run = simulate(SEED001_TABLE1.with_eccentricity_ratio(e_over_rc), cam_speed_hz, law, SETTLE_S + 0.3, mu=mu)
+    run = simulate(SUNDAR2016.with_eccentricity_ratio(e_over_rc), cam_speed_hz, law, SETTLE_S + 0.3, mu=mu)
     rows = run.contacts[run.contacts["kind"] != "stick"]
     return float(-rows["gap_rate_start"].to_numpy()[-1])
 
@@ -195,7 +195,7 @@ def make_recording(case: Case, point: tuple[float, float] | None = None):
                                             sample_rate_hz=case.sample_rate_hz, sensors=sensors,
                                             start_time_s=SETTLE_S, orbit=orbit)
         return rec, truth
-    synthetic = synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(e_over_rc), cam_speed, case.law, case.duration,
+    synthetic = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(e_over_rc), cam_speed, case.law, case.duration,
                               settle_s=SETTLE_S, sample_rate_hz=case.sample_rate_hz, sensors=sensors, mu=case.mu)
     return synthetic.recording, synthetic.truth
 

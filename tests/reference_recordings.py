@@ -16,7 +16,7 @@ What is shared with impactid, and what is not
 ---------------------------------------------
 * Shared: only the container and the acquisition chain: :class:`impactid.io.Recording`,
   :func:`impactid.io.write_hdf5` (with the ``/truth`` group), the rig dataclass that describes the
-  rig in the file (``impactid.rigs.SEED001_TABLE1``; its parameters are checked to equal
+  rig in the file (``impactid.rigs.SUNDAR2016``; its parameters are checked to equal
   ``reference_params``), and the sensor chain of ``data_synth.sensors`` (noise, ADC, accelerometer
   offset/drift, anti-alias decimation, encoder counts), which is not physics.
 * Not shared: the equations of motion, the contact and restitution laws, the event handling, the
@@ -60,7 +60,7 @@ from scipy.optimize import brentq
 
 from data_synth.sensors import SensorModel, antialias_decimate, apply_sensors, encoder_counts
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
-from impactid.rigs import SEED001_TABLE1
+from impactid.rigs import SUNDAR2016
 
 try:  # imported as part of the ``tests`` package (pytest, PYTHONPATH=repository root)
     from . import reference_rigp as R
@@ -496,7 +496,7 @@ def _check_rig(rig, p):
     derived = {"k_H": rig.k_H, "h_p": rig.h_p}
     bad += [k for k, v in derived.items() if not math.isclose(v, p[k], rel_tol=1e-14)]
     if bad:
-        raise AssertionError("impactid's SEED001_TABLE1 and reference_params disagree on "
+        raise AssertionError("impactid's SUNDAR2016 and reference_params disagree on "
                              + ", ".join(f"{k} ({rd.get(k, derived.get(k))!r} vs {p[k]!r})" for k in bad))
 
 
@@ -544,7 +544,7 @@ def reference_recording(e_over_rc: float, cam_speed_hz: float, law: dict, *, mu:
     mu = float(mu)
     p = R.reference_params(e_over_rc)
     p["mu"] = mu
-    rig = SEED001_TABLE1.with_eccentricity_ratio(e_over_rc)
+    rig = SUNDAR2016.with_eccentricity_ratio(e_over_rc)
     if rig.mu != mu:
         rig = rig.replace(mu=mu)
     _check_rig(rig, p)

@@ -1,7 +1,7 @@
 """Independent plain-Python/SciPy reference implementation of "Rig P".
 
 Rig P is the eccentric cylindrical cam on a pivoted follower with point contact,
-from Sundar, Dreyer & Singh (2016) (seed 001). This module follows
+from Sundar, Dreyer & Singh (2016) (Sundar, Dreyer & Singh 2016). This module follows
 ``shared/spec/MODEL.md`` section 1 (1.1-1.3, 1.7, 1.9). It is meant for cross-checking
 the compiled simulator, so it favours clarity and accuracy over speed.
 
@@ -68,7 +68,7 @@ TWO_PI = 2.0 * math.pi
 # Parameters
 # ---------------------------------------------------------------------------------------------
 def reference_params(e_over_rc: float) -> dict:
-    """Table 1 of seed 001 with labels repaired (MODEL.md 1.2), SI units, plus derived keys."""
+    """Table 1 of Sundar, Dreyer & Singh (2016) with labels repaired (MODEL.md 1.2), SI units, plus derived keys."""
     p = dict(
         m_b=0.257,
         I_b=3.3e-3,

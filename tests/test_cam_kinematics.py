@@ -1,4 +1,4 @@
-"""Contact-point kinematics study (seed 003): analytic derivatives, spline convergence, sharper profile."""
+"""Contact-point kinematics study (Lee 2005): analytic derivatives, spline convergence, sharper profile."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ from impactid.cam_kinematics import (
     spline_follower_kinematics,
 )
 from impactid.camprofile import GaussianSumProfile
-from impactid.rigs.flat import SEED000_TABLE5 as RIG
+from impactid.rigs.flat import ALZATE2007 as RIG
 
 OMEGA = 130.0 * 2.0 * math.pi / 60.0  # [rad/s]
 ANGLES = np.linspace(0.0, 2.0 * math.pi, 97)
@@ -152,7 +152,7 @@ def test_spline_error_of_the_eccentric_cam_falls_at_the_expected_orders():
     assert convergence_order(frame, "max_rel_error_acceleration") == pytest.approx(2.0, abs=0.1)
     assert convergence_order(frame, "rms_rel_error_acceleration") == pytest.approx(2.0, abs=0.1)
     assert convergence_order(frame, "max_rel_error_velocity") == pytest.approx(3.0, abs=0.15)
-    # seed 003: with 1000 nodes the spline acceleration "almost agrees" with the analytic one
+    # Lee (2005): with 1000 nodes the spline acceleration "almost agrees" with the analytic one
     assert spline_error_study(RIG.contact_angle, nodes=[1000])["max_rel_error_acceleration"].iloc[0] < 1e-5
 
 
@@ -169,7 +169,7 @@ def test_sharper_profile_needs_many_more_nodes():
     at_1000 = (sharp.set_index("nodes").loc[1000, "max_rel_error_acceleration"]
                / smooth.set_index("nodes").loc[1000, "max_rel_error_acceleration"])
     assert at_1000 > 100.0
-    # the error of the sharper profile sits at the revised nose (as seed 003's Fig. 7 window)
+    # the error of the sharper profile sits at the revised nose (as Lee's (2005) Fig. 7 window)
     assert np.all(np.abs(sharp["theta_c_max_error_acceleration"].iloc[3:] - SHARP.terms[1].b[0]) < 0.05)
     # once the nodes resolve the lobe, the same second order appears
     assert convergence_order(sharp, "max_rel_error_acceleration", nodes_min=1000) == pytest.approx(2.0, abs=0.15)

@@ -1,6 +1,6 @@
-"""Gaussian-sum cam profiles (seed 000, eq. 1): model, data selection, fit, validation and CLI.
+"""Gaussian-sum cam profiles (Alzate et al. 2007, eq. 1): model, data selection, fit, validation and CLI.
 
-Tolerances and why (rig F of seed 000 at 110 rpm, encoders 5000 / 10 000 counts per revolution,
+Tolerances and why (rig F of Alzate et al. (2007) at 110 rpm, encoders 5000 / 10 000 counts per revolution,
 20 kHz sampling):
 
 * the follower encoder's count step is ``q = 2 pi / 10000 = 0.63 mrad``; a floor counter reads
@@ -22,8 +22,8 @@ import pytest
 
 from data_synth import synth_flat_encoders
 from impactid.camprofile import (
+    ALZATE2007_CAM,
     C_MAX,
-    SEED000_TABLE3,
     CamProfileError,
     GaussianSumProfile,
     compare_profiles,
@@ -37,9 +37,9 @@ from impactid.camprofile import (
 from impactid.cli import main
 from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
-from impactid.rigs.flat import SEED000_TABLE5
+from impactid.rigs.flat import ALZATE2007
 
-RIG = SEED000_TABLE5
+RIG = ALZATE2007
 SPEED_HZ = 110.0 / 60.0
 Q_FOLLOWER = 2.0 * math.pi / 10_000
 #: issue 6 target for the 7-term fit against the analytic profile [rad]
@@ -84,14 +84,14 @@ def test_seam_continuity_value_and_derivatives(fit7):
         for v0, v1 in zip(at0, at2pi, strict=True):
             assert abs(float(v0[0]) - float(v1[0])) < 1e-12
     # the seed's unwrapped Table 3 model jumps at the seam (a term centred at 6.311 is cut there)
-    assert abs(SEED000_TABLE3(2 * math.pi) - SEED000_TABLE3(0.0)) > 1e-4
+    assert abs(ALZATE2007_CAM(2 * math.pi) - ALZATE2007_CAM(0.0)) > 1e-4
 
 
 def test_derivatives_match_finite_differences(fit7):
     narrow = GaussianSumProfile(a=(0.1, 0.3), b=(6.2, 1.0), c=(0.2, 2.0))
     theta = np.linspace(0.0, 2 * math.pi, 257)
     h = 1e-4
-    for profile in (narrow, fit7.profile, SEED000_TABLE3):
+    for profile in (narrow, fit7.profile, ALZATE2007_CAM):
         _, d1, d2 = profile(theta, 2)
         fd1 = (profile(theta + h) - profile(theta - h)) / (2 * h)
         fd2 = (profile(theta + h) - 2 * profile(theta) + profile(theta - h)) / h**2
@@ -338,12 +338,12 @@ def test_compare_profiles_recovers_a_known_offset_and_direction():
 
 
 def test_seed_table3_against_the_analytic_profile():
-    cmp = compare_profiles(SEED000_TABLE3, _analytic)
+    cmp = compare_profiles(ALZATE2007_CAM, _analytic)
     # measured: 0.796 mrad RMS, 0.955 mrad max, reversed direction, offset 1.5015 rad
     assert cmp.direction == -1 and cmp.offset == pytest.approx(1.5015, abs=1e-3)
     assert 0.75e-3 < cmp.rms < 0.85e-3 and cmp.max_abs < 1e-3
     # almost all of it is a constant follower offset of 0.79 mrad
-    level = compare_profiles(SEED000_TABLE3, _analytic, fit_level=True)
+    level = compare_profiles(ALZATE2007_CAM, _analytic, fit_level=True)
     assert level.level == pytest.approx(0.79e-3, abs=0.02e-3) and level.rms < 0.15e-3
 
 

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from impactid import SEED001_TABLE1, save_rig_toml
+from impactid import SUNDAR2016, save_rig_toml
 from impactid.cli import main
 
 
@@ -19,7 +19,7 @@ def test_regime_json(capsys):
 
 
 def test_detachment_json_with_rig_file(tmp_path, capsys):
-    rig_file = save_rig_toml(SEED001_TABLE1.with_eccentricity_ratio(0.1), tmp_path / "rig.toml")
+    rig_file = save_rig_toml(SUNDAR2016.with_eccentricity_ratio(0.1), tmp_path / "rig.toml")
     assert main(["detachment", "--rig", str(rig_file), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["cam_speed_rpm"] == pytest.approx(60 * data["cam_speed_hz"])
@@ -59,7 +59,7 @@ def test_bad_input_exits_2_with_message(argv, message, capsys):
 
 def test_bad_rig_parameter_names_file_and_parameter(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
-    text = SEED001_TABLE1.to_toml().replace("k_s = 3319.0", "k_s = -5.0")
+    text = SUNDAR2016.to_toml().replace("k_s = 3319.0", "k_s = -5.0")
     bad.write_text(text)
     assert main(["detachment", "--rig", str(bad)]) == 2
     err = capsys.readouterr().err

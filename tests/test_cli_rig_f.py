@@ -10,12 +10,12 @@ import pytest
 from data_synth.flat_impacts import synth_flat_impacting
 from impactid import save_rig_toml
 from impactid.cli import main
-from impactid.rigs import SEED000_TABLE5
+from impactid.rigs import ALZATE2007
 from impactid.simulate.flat import DEFAULT_RESTITUTION
 
 
 def test_detachment_flat_rig_file(tmp_path, capsys):
-    rig_file = save_rig_toml(SEED000_TABLE5, tmp_path / "rigF.toml")
+    rig_file = save_rig_toml(ALZATE2007, tmp_path / "rigF.toml")
     assert main(["detachment", "--rig", str(rig_file), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["rig"] == "flat-follower"
@@ -25,7 +25,7 @@ def test_detachment_flat_rig_file(tmp_path, capsys):
 
 def test_bifurcation_writes_csv_png_and_transitions(tmp_path, capsys):
     out = tmp_path / "bif"
-    rig_file = save_rig_toml(SEED000_TABLE5, tmp_path / "rigF.toml")
+    rig_file = save_rig_toml(ALZATE2007, tmp_path / "rigF.toml")
     assert main(["bifurcation", "--rig", str(rig_file), "--from", "110", "--to", "165", "--unit", "rpm",
                  "--speeds", "23", "--revolutions", "60", "--out", str(out), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
@@ -52,7 +52,7 @@ def impacting_files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("rigF")
     paths = []
     for rpm in (132.0, 146.0):
-        s = synth_flat_impacting(SEED000_TABLE5, rpm / 60.0, 3.0, cam_zero_offset=1.0 + rpm / 100)
+        s = synth_flat_impacting(ALZATE2007, rpm / 60.0, 3.0, cam_zero_offset=1.0 + rpm / 100)
         paths.append(str(s.write(folder / f"impacting_{rpm:.0f}.h5")))
     return paths
 

@@ -22,11 +22,11 @@ import h5py
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, HuntCrossley, save_rig_toml
+from impactid import SUNDAR2016, HuntCrossley, save_rig_toml
 from impactid.cli import main
 from impactid.io import write_csv, write_hdf5
 
-RIG = SEED001_TABLE1.with_eccentricity_ratio(0.25)
+RIG = SUNDAR2016.with_eccentricity_ratio(0.25)
 LAW = HuntCrossley(24.7e9, 1.5)
 
 

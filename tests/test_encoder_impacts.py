@@ -19,7 +19,7 @@ from impactid.encoder_impacts import (
     relative_motion,
     restitution_at_speed,
 )
-from impactid.rigs.flat import SEED000_TABLE5 as RIG
+from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.simulate.flat import SpeedRestitution
 
 LAW = SpeedRestitution.from_rpm(0.65 + 130 * 0.004, -0.004)  # r = 0.65 at 130 rpm, 0.57 at 150 rpm

@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, save_rig_toml
+from impactid import SUNDAR2016, save_rig_toml
 from impactid.cli import main
 from impactid.errors import ImpactidError
 from impactid.io import (
@@ -24,7 +24,7 @@ from impactid.io import (
     write_hdf5,
 )
 
-RIG = SEED001_TABLE1
+RIG = SUNDAR2016
 
 
 def small_recording(n=2000, rate=204_800.0, **changes) -> Recording:

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from impactid import SEED001_TABLE1, save_rig_toml
+from impactid import SUNDAR2016, save_rig_toml
 from impactid.errors import ImpactidError
 from impactid.io import Recording, read_recording, write_hdf5
 
@@ -25,7 +25,7 @@ SETTINGS = settings(max_examples=150, deadline=None, derandomize=True,
 def _valid_bytes() -> bytes:
     n = 300
     rec = Recording(channels={"accel_tangential": np.sin(np.arange(n) * 0.1), "force_x": np.cos(np.arange(n) * 0.1)},
-                    sample_rate_hz=1000.0, units={"accel_tangential": "m/s^2", "force_x": "N"}, rig=SEED001_TABLE1,
+                    sample_rate_hz=1000.0, units={"accel_tangential": "m/s^2", "force_x": "N"}, rig=SUNDAR2016,
                     operating={"cam_speed_hz": 16.0})
     with tempfile.TemporaryDirectory() as tmp:
         path = write_hdf5(rec, Path(tmp) / "v.h5")
@@ -52,7 +52,7 @@ def _read(path: Path):
 def folder():
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        save_rig_toml(SEED001_TABLE1, tmp / "f.toml", operating={"cam_speed_hz": 16.0})
+        save_rig_toml(SUNDAR2016, tmp / "f.toml", operating={"cam_speed_hz": 16.0})
         yield tmp
 
 
@@ -115,7 +115,7 @@ def test_random_structure(folder, rate, start, units, rig_value, rig_key, op_val
         good.attrs["units"] = "m/s^2"
         rig = fh.create_group("rig")
         rig.attrs["model"] = "pivoted-follower"
-        for key, value in SEED001_TABLE1.to_dict().items():
+        for key, value in SUNDAR2016.to_dict().items():
             rig.attrs[key] = value
         rig.attrs[rig_key] = rig_value
         fh.create_group("operating").attrs["cam_speed_hz"] = op_value

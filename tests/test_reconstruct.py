@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from data_synth import SensorModel, synth_pivoted
-from impactid import SEED001_TABLE1, HuntCrossley
+from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import EventWarning, find_events
 from impactid.io import RecordingError
 from impactid.reconstruct import ANCHORS, reconstruct
@@ -149,11 +149,11 @@ def test_unknown_names_and_missing_channels(s2_synthetic):
 
 
 def test_period2_and_irregular_recordings_warn_naming_events():
-    period2 = synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.15), 17.0, HuntCrossley(24.7e9, 1.5), 0.5)
+    period2 = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.15), 17.0, HuntCrossley(24.7e9, 1.5), 0.5)
     with pytest.warns(EventWarning, match=r"not period-1 .* at events 0, 1, 2"):
         events = find_events(period2.recording)
     assert events.table["not_period1"].sum() >= 8
-    irregular = synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.05), 23.0, HuntCrossley(24.7e9, 1.5), 0.5)
+    irregular = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.05), 23.0, HuntCrossley(24.7e9, 1.5), 0.5)
     with pytest.warns(EventWarning, match="chattering"):
         find_events(irregular.recording)
 
@@ -162,7 +162,7 @@ def test_noisy_recording_degrades_gracefully():
     """0.5 % noise on every analogue channel: onsets stay within 2 samples; the angle degrades to
     about 3 % of its peak-to-peak (double integration of white noise over a revolution) and the
     reconstruction says where xi cannot be determined."""
-    noisy = synth_pivoted(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9, 1.5), 1.0,
+    noisy = synth_pivoted(SUNDAR2016, 16.0, HuntCrossley(24.7e9, 1.5), 1.0,
                           sensors=SensorModel(noise=0.005, seed=1))
     events = find_events(noisy.recording)
     dt = 1 / noisy.recording.sample_rate_hz

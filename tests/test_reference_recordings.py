@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from data_synth import SensorModel, synth_pivoted
-from impactid import SEED001_TABLE1, HuntCrossley
+from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import find_events
 from impactid.io import read_recording, read_truth
 from tests import reference_recordings as RR
@@ -132,7 +132,7 @@ def test_agrees_with_impactid_generator_at_025_15(orbit_025_15):
     settle, duration = 5.0, 0.5
     ours, truth = RR.reference_recording(0.25, 15.0, HC, mu=MU, duration=duration, start_time_s=settle,
                                          orbit=orbit_025_15)
-    theirs = synth_pivoted(SEED001_TABLE1.with_eccentricity_ratio(0.25), 15.0, HuntCrossley(24.7e9, 1.5),
+    theirs = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.25), 15.0, HuntCrossley(24.7e9, 1.5),
                            duration, settle_s=settle)
     a, b = theirs.truth["impacts"], truth["impacts"]
     assert a["t_start"].size == b["t_start"].size == 8
@@ -207,7 +207,7 @@ def test_clock_and_cam_angle_are_consistent(orbit_025_15):
 
 def test_rig_and_operating_point(orbit_025_15):
     rec, truth = RR.reference_recording(0.25, 15.0, HC, duration=0.02, orbit=orbit_025_15)
-    assert rec.rig == SEED001_TABLE1.with_eccentricity_ratio(0.25)
+    assert rec.rig == SUNDAR2016.with_eccentricity_ratio(0.25)
     assert dict(rec.operating) == {"cam_speed_hz": 15.0, "eccentricity_m": 0.25 * 0.0175}
     assert truth["generator"] == RR.GENERATOR and truth["law"] == "hunt-crossley"
     assert truth["beta"] == 24.7e9 and truth["n"] == 1.5 and truth["mu"] == MU and truth["e_over_rc"] == 0.25
@@ -218,7 +218,7 @@ def test_rig_check_catches_a_parameter_mismatch():
     p = R.reference_params(0.25)
     p["l_g"] = 0.173  # the swapped label of the paper's Table 1
     with pytest.raises(AssertionError, match="l_g"):
-        RR._check_rig(SEED001_TABLE1.with_eccentricity_ratio(0.25), p)
+        RR._check_rig(SUNDAR2016.with_eccentricity_ratio(0.25), p)
 
 
 def test_file_round_trip_and_events(tmp_path, orbit_025_15):

@@ -1,4 +1,4 @@
-"""Rig P: eccentric cylindrical cam on a pivoted follower with point contact (seed 001).
+"""Rig P: eccentric cylindrical cam on a pivoted follower with point contact (Sundar, Dreyer & Singh 2016).
 
 Frame (MODEL.md 1.1): origin at the follower pivot P, ``e_x`` horizontal towards the cam, ``e_y`` up.
 ``alpha`` is the follower angle from ``e_x``, clockwise positive (tip moving down); the bar's unit
@@ -363,8 +363,8 @@ class PivotedFollowerRig(RigParameters):
     # ---- TOML ---------------------------------------------------------------------------------
 
 
-#: Table 1 of seed 001 with its labels repaired (MODEL.md 1.2); ``e`` for e/r_c = 0.2.
-SEED001_TABLE1 = PivotedFollowerRig(
+#: Table 1 of Sundar, Dreyer & Singh (2016) with its labels repaired (MODEL.md 1.2); ``e`` for e/r_c = 0.2.
+SUNDAR2016 = PivotedFollowerRig(
     m_b=0.257, I_b=3.3e-3, l_g=0.086, l_a=0.063, w_b=0.0127, r_d=0.0032, r_c=0.0175,
     e=0.2 * 0.0175, k_s=3319.0, L_s_u=0.053, d_x=0.035, d_y=0.058, PE_x=0.089, PE_y=0.027,
     Y_c=210e9, Y_b=210e9, nu_c=0.3, nu_b=0.3, mu=0.2, g=9.81,

@@ -1,4 +1,4 @@
-"""Rig F (seed 000): impacting motion with a restitution law, and the bifurcation diagram.
+"""Rig F (Alzate et al. 2007): impacting motion with a restitution law, and the bifurcation diagram.
 
 :func:`simulate_flat` runs the compiled event-driven model of :mod:`impactid.simulate._flat_kernel`
 (free flight A-10, riding the cam A-11/A-17, impacts A-12..A-16, chattering accumulated into
@@ -263,7 +263,7 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
                 kept: int | None = None, strobe_phase: float | None = None, v_stick: float = V_STICK,
                 periodicity_tol: float = 1e-4,
                 max_period: int = 12, tolerances: Tolerances = DEFAULT_TOLERANCES) -> BifurcationResult:
-    """Bifurcation diagram of rig F (Fig. 16 of seed 000).
+    """Bifurcation diagram of rig F (Fig. 16 of Alzate et al. (2007)).
 
     Each speed is run from permanent contact at ``theta_c = 0`` for ``revolutions`` cam revolutions
     (the speeds in parallel on all cores); the follower is sampled once per revolution at the cam angle

@@ -42,7 +42,7 @@ from impactid.simulate.runs import DEFAULT_TOLERANCES, Tolerances, simulate
 
 Law = HuntCrossley | Restitution
 
-#: the seed's S2 contact law (Table 2 of seed 001), the default of every regime computation
+#: the seed's S2 contact law (Table 2 of Sundar, Dreyer & Singh (2016)), the default of every regime computation
 SEED_S2_LAW = HuntCrossley(beta=24.7e9, n=1.5)
 
 
@@ -294,7 +294,7 @@ def detachment_speed(rig: PivotedFollowerRig, mu: float | None = None, n_angles:
 
 def regime_map(rig: PivotedFollowerRig, e_over_rc, cam_speeds_hz, law: Law | None = None, *,
                mu: float | None = None, progress=None, **classify_kwargs):
-    """Classify the motion over a grid of (e/r_c, cam speed) — Fig. 3 of seed 001.
+    """Classify the motion over a grid of (e/r_c, cam speed) — Fig. 3 of Sundar, Dreyer & Singh (2016).
 
     Returns a pandas DataFrame with one row per grid point: the :class:`RegimeResult` fields plus
     ``detachment_hz`` (inverse kinematics) for that eccentricity. ``progress`` is an optional

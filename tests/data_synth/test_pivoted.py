@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from data_synth import SensorModel, synth_pivoted
-from impactid import SEED001_TABLE1, HuntCrossley, simulate
+from impactid import SUNDAR2016, HuntCrossley, simulate
 from impactid.rigs.pivoted import spring_force
 
-RIG = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+RIG = SUNDAR2016.with_eccentricity_ratio(0.2)
 
 
 def force_balance(rig, rec, alpha):

@@ -9,10 +9,10 @@ import pytest
 
 from data_synth import SensorModel, synth_pivoted
 from data_synth.sensors import antialias_decimate, apply_sensors, encoder_counts, quantise
-from impactid import SEED001_TABLE1, HuntCrossley
+from impactid import SUNDAR2016, HuntCrossley
 from impactid.io import RecordingWarning
 
-RIG = SEED001_TABLE1.with_eccentricity_ratio(0.25)
+RIG = SUNDAR2016.with_eccentricity_ratio(0.25)
 LAW = HuntCrossley(24.7e9, 1.5)
 
 

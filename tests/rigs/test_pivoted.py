@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, PivotedFollowerRig, RigParameterError, load_rig_toml, save_rig_toml
+from impactid import SUNDAR2016, PivotedFollowerRig, RigParameterError, load_rig_toml, save_rig_toml
 from impactid.rigs import pivoted as geo
 
 #: agreement "to round-off" for lengths built from terms of about 0.1 m: ~10 ulp of 0.1 m [m]
@@ -34,7 +34,7 @@ def test_toml_round_trip(tmp_path, rig):
 
 
 def _write_rig(tmp_path, **changes):
-    values = SEED001_TABLE1.to_dict() | changes
+    values = SUNDAR2016.to_dict() | changes
     lines = ["[rig]", 'model = "pivoted-follower"']
     for key, value in values.items():
         if value is not None:
@@ -161,6 +161,6 @@ def test_spring_force_formula(rig):
 
 def test_direct_construction_validation():
     with pytest.raises(RigParameterError, match="'m_b' must be a number"):
-        PivotedFollowerRig(**(SEED001_TABLE1.to_dict() | {"m_b": "heavy"}))
+        PivotedFollowerRig(**(SUNDAR2016.to_dict() | {"m_b": "heavy"}))
     with pytest.raises(RigParameterError, match="e/r_c must be a finite number"):
-        SEED001_TABLE1.with_eccentricity_ratio(float("nan"))
+        SUNDAR2016.with_eccentricity_ratio(float("nan"))

@@ -1,4 +1,4 @@
-"""Independent SciPy reference of the rig F impacting model (seed 000, MODEL.md section 2).
+"""Independent SciPy reference of the rig F impacting model (Alzate et al. 2007, MODEL.md section 2).
 
 A plain ``solve_ivp`` implementation, written for cross-checking the compiled simulator: it favours
 clarity and accuracy over speed. From the rig it uses only the contact angle ``theta_hat`` (A-17)
@@ -353,12 +353,12 @@ def run_flat_reference(rig, omega: float, r: float | Callable[[float], float], t
 
 def _print_reference_run(rpm: float = 130.0, r: float = 0.8, revolutions: int = 5) -> None:
     """Print the events of a run started in contact at theta_c0 = 0 (``python -m tests.simulate.flat_reference``)."""
-    from impactid.rigs.flat import SEED000_TABLE5
+    from impactid.rigs.flat import ALZATE2007
 
     omega = rpm * TWO_PI / 60.0
     period = TWO_PI / omega
-    run = run_flat_reference(SEED000_TABLE5, omega, r, revolutions * period)
-    print(f"rig F (SEED000_TABLE5), {rpm:g} rpm (omega = {omega:.15g} rad/s), r = {r:g}, "
+    run = run_flat_reference(ALZATE2007, omega, r, revolutions * period)
+    print(f"rig F (ALZATE2007), {rpm:g} rpm (omega = {omega:.15g} rad/s), r = {r:g}, "
           f"v_stick = {run.v_stick:g} m/s, start in contact at theta_c0 = 0, {revolutions} revolutions "
           f"(T = {period:.15g} s)")
     print(f"{'#':>4s} {'kind':8s} {'rev':>3s} {'time [s]':>19s} {'theta_c [rad]':>19s} {'theta_f [rad]':>19s} "

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, HuntCrossley, Restitution, simulate_event
+from impactid import SUNDAR2016, HuntCrossley, Restitution, simulate_event
 from impactid.simulate.runs import simulate
 from tests import reference_rigp as ref
 
@@ -30,7 +30,7 @@ def _start_state(rig, theta0, rate):
 @pytest.mark.parametrize(("e_over_rc", "hz"), [(0.05, 23.0), (0.15, 17.0), (0.25, 15.0)])
 @pytest.mark.parametrize(("n", "beta"), LAWS)
 def test_event_matches_solve_ivp(e_over_rc, hz, n, beta):
-    rig = SEED001_TABLE1.with_eccentricity_ratio(e_over_rc)
+    rig = SUNDAR2016.with_eccentricity_ratio(e_over_rc)
     p = ref.reference_params(e_over_rc)
     theta0 = 1.3
     a0, ad0 = _start_state(rig, theta0, -4.0)
@@ -59,7 +59,7 @@ def test_event_matches_solve_ivp(e_over_rc, hz, n, beta):
 
 def test_long_run_matches_solve_ivp(seed_law):
     """S2 from static equilibrium: every contact of a 0.5 s run (several impacts) agrees."""
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     p = ref.reference_params(0.2)
     alpha_star = rig.static_equilibrium(0.0)
     assert alpha_star == pytest.approx(ref.static_equilibrium(0.0, p), abs=1e-14)
@@ -75,7 +75,7 @@ def test_long_run_matches_solve_ivp(seed_law):
 
 def test_dense_output_matches_solve_ivp(seed_law):
     """States on a 204.8 kHz grid through a contact agree with the reference's dense output."""
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     p = ref.reference_params(0.2)
     a0, ad0 = _start_state(rig, 0.7, -4.5)
     grid = np.arange(0.0, 0.01, 1 / 204800)
@@ -90,7 +90,7 @@ def test_dense_output_matches_solve_ivp(seed_law):
 
 
 def test_restitution_matches_solve_ivp():
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.1)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.1)
     p = ref.reference_params(0.1)
     a0, ad0 = _start_state(rig, 2.0, -4.0)
     law = Restitution(gamma=0.8)

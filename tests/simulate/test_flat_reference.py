@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid.rigs.flat import SEED000_TABLE5 as RIG
+from impactid.rigs.flat import ALZATE2007 as RIG
 from tests.simulate import flat_reference as ref
 
 RPM130 = 130.0 * 2.0 * math.pi / 60.0  # [rad/s]

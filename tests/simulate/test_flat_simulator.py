@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from impactid.errors import SimulationInputError
-from impactid.rigs.flat import SEED000_TABLE5 as RIG
+from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.simulate.flat import SpeedRestitution, bifurcation, simulate_flat
 from tests.simulate import flat_reference as ref
 

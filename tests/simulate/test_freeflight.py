@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from impactid import SEED001_TABLE1
+from impactid import SUNDAR2016
 from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, free_flight, return_time_anchors
 from impactid.simulate.runs import pack_rig
 
-RIG = SEED001_TABLE1
+RIG = SUNDAR2016
 P = pack_rig(RIG)
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, HuntCrossley, contact
+from impactid import SUNDAR2016, HuntCrossley, contact
 from impactid.simulate import _kernel as K
 from impactid.simulate.runs import pack_law, pack_rig
 
@@ -30,7 +30,7 @@ def _reference_acceleration(rig, law, mode, t, a, ad, theta_ref, omega):
 @pytest.mark.parametrize("law", [HuntCrossley(24.7e9, 1.5), HuntCrossley(1470.0, 0.0), HuntCrossley(3e11, 2.0),
                                  HuntCrossley(5e10, 1.2, clip=True), HuntCrossley(2e5, 0.0, stiffness_exponent=1.0)])
 def test_fused_acceleration_equals_public_formulas(law):
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.15)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.15)
     p, lv = pack_rig(rig), pack_law(law)
     rng = np.random.default_rng(7)
     omega = 2 * math.pi * 17
@@ -55,7 +55,7 @@ def test_force_rate_is_the_time_derivative_of_the_force():
     """dF/dt of the snapshot against a central difference along a simulated contact."""
     from impactid import simulate_event
 
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     law = HuntCrossley(24.7e9, 1.5)
     a_c = rig.contact_angle(1.0)
     ev = simulate_event(rig, 16.0, law, a_c + 1e-9, -4.0, 1.0, 2e-4)
@@ -93,7 +93,7 @@ def test_shifted_sine_and_cosine_match_the_library():
     assert max(small) < 4e-16
     # a free-flight stage evaluated through the shortcut equals the direct right-hand side
     x, dx = 0.1234, 0.0123
-    compiled = K.acceleration(K.FREE, 0.0, x + dx, 0.0, pack_rig(SEED001_TABLE1), pack_law(HuntCrossley(1e9)), 0.0, 1.0)
+    compiled = K.acceleration(K.FREE, 0.0, x + dx, 0.0, pack_rig(SUNDAR2016), pack_law(HuntCrossley(1e9)), 0.0, 1.0)
     sa, ca = shifted(x, math.sin(x), math.cos(x), dx)
-    via_shift = K._free_torque_of.py_func(sa, ca, pack_rig(SEED001_TABLE1)) / SEED001_TABLE1.I_b
+    via_shift = K._free_torque_of.py_func(sa, ca, pack_rig(SUNDAR2016)) / SUNDAR2016.I_b
     assert via_shift == pytest.approx(compiled, rel=1e-14)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from impactid import SEED001_TABLE1, HuntCrossley, simulate
+from impactid import SUNDAR2016, HuntCrossley, simulate
 from impactid.simulate.regimes import (
     classify_regime,
     detachment_speed,
@@ -16,7 +16,7 @@ from impactid.simulate.regimes import (
 
 
 def test_follower_kinematics_derivatives():
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     theta = np.linspace(0, 2 * np.pi, 37)
     h = 1e-5
     a, d1, d2 = follower_kinematics(rig, theta)
@@ -28,7 +28,7 @@ def test_follower_kinematics_derivatives():
 
 
 def test_detachment_speed_is_where_required_force_vanishes():
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     det = detachment_speed(rig, mu=0.0)
     theta = np.linspace(0, 2 * np.pi, 20000)
     assert np.min(required_contact_force(rig, det.cam_speed_hz * 0.999, theta, mu=0.0)) > 0
@@ -40,7 +40,7 @@ def test_detachment_speed_is_where_required_force_vanishes():
 
 def test_detachment_agrees_with_the_dynamic_simulation():
     """Just below detachment the settled motion keeps contact; just above it loses it."""
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     det = detachment_speed(rig).cam_speed_hz
     law = HuntCrossley(24.7e9, 1.5)
     below = classify_regime(rig, 0.97 * det, law, settle_revolutions=100, window=24)
@@ -52,14 +52,14 @@ def test_detachment_agrees_with_the_dynamic_simulation():
 @pytest.mark.parametrize(("e_over_rc", "hz", "expected", "period"),
                          [(0.25, 15.0, "period-1", 1), (0.15, 17.0, "period-k", 2), (0.2, 4.0, "contact", 1)])
 def test_classification_of_known_points(e_over_rc, hz, expected, period):
-    res = classify_regime(SEED001_TABLE1.with_eccentricity_ratio(e_over_rc), hz)
+    res = classify_regime(SUNDAR2016.with_eccentricity_ratio(e_over_rc), hz)
     assert res.regime == expected
     assert res.period_revolutions == period
 
 
 def test_slow_transient_is_not_mistaken_for_period_two():
     """At e/r_c = 0.2, 16 Hz the run alternates for tens of seconds before settling to period-1."""
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.2)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
     run = simulate(rig, 16.0, HuntCrossley(24.7e9, 1.5), 3.0)
     gaps = np.diff(run.contacts["t_start"].to_numpy())
     assert np.ptp(gaps[-6:]) > 1e-4  # still alternating after 3 s
@@ -69,6 +69,6 @@ def test_slow_transient_is_not_mistaken_for_period_two():
 
 
 def test_regime_map_small_grid():
-    frame = regime_map(SEED001_TABLE1, [0.2, 0.25], [5.0, 15.0])
+    frame = regime_map(SUNDAR2016, [0.2, 0.25], [5.0, 15.0])
     assert list(frame["regime"]) == ["contact", "period-1", "contact", "period-1"]
     assert {"detachment_hz", "simulated", "period_revolutions"} <= set(frame.columns)

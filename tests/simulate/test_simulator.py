@@ -10,7 +10,7 @@ import pytest
 from scipy import special
 
 from impactid import (
-    SEED001_TABLE1,
+    SUNDAR2016,
     HuntCrossley,
     Restitution,
     RigParameterError,
@@ -33,7 +33,7 @@ def _point_mass_parameters(mass, stiffness, arm=1000.0, contact_radius=0.03):
     sin(alpha) = alpha to 1e-19 and chi = L to 1e-12 relative: the gap is L alpha, the effective
     mass I / chi^2 = m, so the contact is the textbook 1-DOF impact.
     """
-    p = pack_rig(SEED001_TABLE1, mu=0.0).copy()
+    p = pack_rig(SUNDAR2016, mu=0.0).copy()
     p[K.PE_X], p[K.PE_Y], p[K.ECC], p[K.RSUM] = arm, contact_radius, 0.0, contact_radius
     p[K.K_S], p[K.GRAV] = 0.0, 0.0
     p[K.I_B], p[K.K_H] = mass * arm**2, stiffness
@@ -99,7 +99,7 @@ def _free_energy(rig, alpha, alpha_dot):
 
 
 def test_free_flight_conserves_energy():
-    rig = SEED001_TABLE1
+    rig = SUNDAR2016
     p = pack_rig(rig).copy()
     p[K.PE_Y] = 1.0  # move the cam out of reach: pure free flight of the real follower dynamics
     law = pack_law(HuntCrossley(24.7e9, 1.5))
@@ -114,7 +114,7 @@ def test_free_flight_conserves_energy():
 
 
 def test_restitution_reset_follows_the_law():
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.25)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
     law = Restitution(gamma=0.8)
     run = simulate(rig, 15.0, law, 3.0)
     impacts = run.contacts[run.contacts["kind"] == "impact"]
@@ -132,7 +132,7 @@ def test_restitution_reset_follows_the_law():
 
 
 def test_restitution_out_of_range_is_reported_not_clamped():
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.25)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
     with pytest.raises(SimulationError, match="xi < 0"):
         simulate(rig, 15.0, Restitution(gamma=5.0), 1.0)
 
@@ -147,7 +147,7 @@ def _period1_onset(rig, hz, law):
 
 def test_s1_event_reproduces_the_s2_event_it_starts_from(seed_law):
     """An S1 event started at an S2 onset state reproduces that S2 contact and the next onset."""
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.25)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
     (a0, ad0, th0), t_e, row = _period1_onset(rig, 15.0, seed_law)
     ev = simulate_event(rig, 15.0, seed_law, a0, ad0, th0, t_e * 0.999, t_eval=np.linspace(0, 4e-4, 82))
     assert ev.contact_duration == pytest.approx(row["duration"], rel=1e-7)
@@ -160,7 +160,7 @@ def test_s1_event_reproduces_the_s2_event_it_starts_from(seed_law):
 
 
 def test_batch_equals_single_events(seed_law):
-    rig = SEED001_TABLE1.with_eccentricity_ratio(0.25)
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
     (a0, ad0, th0), t_e, _ = _period1_onset(rig, 15.0, seed_law)
     states = np.array([[a0, ad0, th0], [a0, ad0 * 1.05, th0], [a0, ad0 * 0.9, th0 + 0.01]])
     t_end = np.full(3, t_e)
@@ -182,20 +182,20 @@ def test_batch_equals_single_events(seed_law):
 @pytest.mark.parametrize(
     ("call", "error", "message"),
     [
-        (lambda: simulate(SEED001_TABLE1, 0.0, HuntCrossley(24.7e9), 1.0), SimulationInputError,
+        (lambda: simulate(SUNDAR2016, 0.0, HuntCrossley(24.7e9), 1.0), SimulationInputError,
          "cam speed must be positive"),
-        (lambda: simulate(SEED001_TABLE1, float("nan"), HuntCrossley(24.7e9), 1.0), SimulationInputError, "finite"),
-        (lambda: simulate(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9), 1.0, initial_state=(float("nan"), 0.0)),
+        (lambda: simulate(SUNDAR2016, float("nan"), HuntCrossley(24.7e9), 1.0), SimulationInputError, "finite"),
+        (lambda: simulate(SUNDAR2016, 16.0, HuntCrossley(24.7e9), 1.0, initial_state=(float("nan"), 0.0)),
          SimulationInputError, "initial alpha must be finite"),
-        (lambda: simulate_event(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9), 0.04, float("inf"), 0.0, 0.06),
+        (lambda: simulate_event(SUNDAR2016, 16.0, HuntCrossley(24.7e9), 0.04, float("inf"), 0.0, 0.06),
          SimulationInputError, "alpha_dot0 must be finite"),
-        (lambda: simulate(SEED001_TABLE1.replace(k_s=-3319.0), 16.0, HuntCrossley(24.7e9), 1.0),
+        (lambda: simulate(SUNDAR2016.replace(k_s=-3319.0), 16.0, HuntCrossley(24.7e9), 1.0),
          RigParameterError, "'k_s' must be positive"),
-        (lambda: SEED001_TABLE1.with_eccentricity_ratio(1.0), RigParameterError, "smaller than the cam radius"),
-        (lambda: simulate(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9), -1.0), SimulationInputError, "duration"),
-        (lambda: simulate_events(SEED001_TABLE1, 16.0, [[0.04, 0.0, 0.0]], [0.06], [[1e9, -1.0]]),
+        (lambda: SUNDAR2016.with_eccentricity_ratio(1.0), RigParameterError, "smaller than the cam radius"),
+        (lambda: simulate(SUNDAR2016, 16.0, HuntCrossley(24.7e9), -1.0), SimulationInputError, "duration"),
+        (lambda: simulate_events(SUNDAR2016, 16.0, [[0.04, 0.0, 0.0]], [0.06], [[1e9, -1.0]]),
          SimulationInputError, "trial beta and n"),
-        (lambda: simulate(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9), 1.0, mu=-0.2), SimulationInputError, "mu"),
+        (lambda: simulate(SUNDAR2016, 16.0, HuntCrossley(24.7e9), 1.0, mu=-0.2), SimulationInputError, "mu"),
     ],
 )
 def test_non_physical_inputs_raise_clear_errors(call, error, message):
@@ -205,7 +205,7 @@ def test_non_physical_inputs_raise_clear_errors(call, error, message):
 
 def test_solver_failure_raises():
     with pytest.raises(SimulationError, match="maximum number of integration steps"):
-        simulate(SEED001_TABLE1, 16.0, HuntCrossley(24.7e9), 1.0, tolerances=Tolerances(max_steps=50))
+        simulate(SUNDAR2016, 16.0, HuntCrossley(24.7e9), 1.0, tolerances=Tolerances(max_steps=50))
     with pytest.raises(SimulationError, match="S1 batch: event 0"):
-        simulate_events(SEED001_TABLE1, 16.0, [[0.04, -3.0, 0.0]], [0.06], [[24.7e9, 1.5]],
+        simulate_events(SUNDAR2016, 16.0, [[0.04, -3.0, 0.0]], [0.06], [[24.7e9, 1.5]],
                         tolerances=Tolerances(max_steps=20))
