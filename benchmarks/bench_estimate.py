@@ -27,9 +27,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from data_synth import synth_pivoted  # noqa: E402
 from impactid import SUNDAR2016, HuntCrossley  # noqa: E402
 from impactid.estimates import C_BOUNDS, _Objective, estimate, reference_indentation  # noqa: E402
+from impactid.synth import synth_pivoted  # noqa: E402
 
 
 def main() -> int:

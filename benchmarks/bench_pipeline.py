@@ -20,11 +20,11 @@ import warnings
 
 import numpy as np
 
-from data_synth import SensorModel, synth_pivoted
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import find_events
 from impactid.reconstruct import ANCHORS, reconstruct
 from impactid.signal import INTEGRATORS
+from impactid.synth import SensorModel, synth_pivoted
 
 LAW = HuntCrossley(24.7e9, 1.5)
 

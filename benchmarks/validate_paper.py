@@ -3,7 +3,7 @@ project's own S2/S3 recordings, print them beside the paper's, and write ``docs/
 
 Run: ``python benchmarks/validate_paper.py [--out docs/validation.md] [--seeds 10]`` (about 3-5 min).
 
-All recordings come from ``data_synth`` (1 s after 40 s of settling, 204.8 kHz, noise-free unless
+All recordings come from ``impactid.synth`` (1 s after 40 s of settling, 204.8 kHz, noise-free unless
 stated); the pipeline is the one ``impactid estimate`` runs (events, rk integration, cam-phase
 anchor unless stated, S1 replays). Nothing reads ``/truth`` except to score the result.
 """
@@ -22,12 +22,12 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from data_synth import SensorModel, synth_pivoted  # noqa: E402
 from impactid import SUNDAR2016, HuntCrossley, Restitution  # noqa: E402
 from impactid.estimates import estimate, fit_restitution  # noqa: E402
 from impactid.reconstruct import reconstruct  # noqa: E402
 from impactid.residuals import EventSet  # noqa: E402
 from impactid.simulate.regimes import classify_regime  # noqa: E402
+from impactid.synth import SensorModel, synth_pivoted  # noqa: E402
 
 BETA, N = 24.7e9, 1.5
 LAW = HuntCrossley(BETA, N)

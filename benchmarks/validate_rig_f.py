@@ -4,7 +4,7 @@ contact-kinematics comparison of Lee (2005) on the project's synthetic data; wri
 
 Run: ``python benchmarks/validate_rig_f.py [--out docs/validation_rig_f.md]`` (about a minute).
 
-Recordings come from ``data_synth`` (20 kHz, cam encoder 5000 and follower encoder 10 000 pulses
+Recordings come from ``impactid.synth`` (20 kHz, cam encoder 5000 and follower encoder 10 000 pulses
 per revolution, floor quantisation, an unknown cam-encoder zero). Nothing reads ``/truth`` except to
 score a result.
 """
@@ -22,13 +22,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from data_synth.flat import synth_flat_encoders  # noqa: E402
-from data_synth.flat_impacts import synth_flat_impacting  # noqa: E402
 from impactid.cam_kinematics import revised_nose_profile, spline_error_study  # noqa: E402
 from impactid.camprofile import ALZATE2007_CAM, compare_profiles, fit_cam_profile  # noqa: E402
 from impactid.encoder_impacts import fit_speed_law, restitution_at_speed  # noqa: E402
 from impactid.rigs.flat import ALZATE2007 as RIG  # noqa: E402
 from impactid.simulate.flat import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
+from impactid.synth.flat import synth_flat_encoders  # noqa: E402
+from impactid.synth.flat_impacts import synth_flat_impacting  # noqa: E402
 
 SPEEDS_RPM = (130.0, 135.0, 140.0, 145.0, 150.0)
 

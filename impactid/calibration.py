@@ -72,9 +72,9 @@ def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase"
     integration, anchor : the reconstruction's methods (the same as the estimate's).
     seed : seed of the simulated noise.
     """
-    from data_synth import SensorModel, synth_pivoted
     from impactid.events import find_events, noise_floor
     from impactid.reconstruct import reconstruct
+    from impactid.synth import SensorModel, synth_pivoted
 
     accel = recording["accel_tangential"]
     fraction = noise_floor(accel) / max(float(np.max(np.abs(accel))), 1e-300)

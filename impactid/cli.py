@@ -472,9 +472,9 @@ def cmd_simulate(args) -> int:
 
 
 def cmd_synth(args) -> int:
-    from data_synth import SensorModel, synth_flat_encoders, synth_pivoted
     from impactid.contact import Restitution
     from impactid.rigs import SUNDAR2016, FlatFollowerRig
+    from impactid.synth import SensorModel, synth_flat_encoders, synth_pivoted
 
     rig, operating = resolve_rig(args.rig, SUNDAR2016)
     noise = {}

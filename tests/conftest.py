@@ -26,7 +26,7 @@ def seed_law():
 @pytest.fixture(scope="session")
 def s2_synthetic():
     """Noise-free S2 recording at the seed's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
-    from data_synth import synth_pivoted
+    from impactid.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 1.0)
 
@@ -40,8 +40,8 @@ def s2_file(s2_synthetic, tmp_path_factory):
 @pytest.fixture(scope="session")
 def s3_synthetic():
     """Noise-free S3 recording (restitution law, gamma = 0.8 s/m) at e/r_c 0.2, 16 Hz, 1 s."""
-    from data_synth import synth_pivoted
     from impactid import Restitution
+    from impactid.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)
 
@@ -49,7 +49,7 @@ def s3_synthetic():
 @pytest.fixture(scope="session")
 def s2_second_point():
     """Noise-free S2 recording at the other fast-settling period-1 point (e/r_c 0.25, 15 Hz), 1 s."""
-    from data_synth import synth_pivoted
+    from impactid.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.25), 15.0, SEED_LAW, 1.0)
 
@@ -57,7 +57,7 @@ def s2_second_point():
 @pytest.fixture(scope="session")
 def s2_noisy():
     """S2 at e/r_c 0.2, 16 Hz, 4 s, with 0.5 % noise on every channel (seed 3)."""
-    from data_synth import SensorModel, synth_pivoted
+    from impactid.synth import SensorModel, synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 4.0,
                          sensors=SensorModel(noise=0.005, seed=3))

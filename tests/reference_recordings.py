@@ -17,13 +17,13 @@ What is shared with impactid, and what is not
 * Shared: only the container and the acquisition chain: :class:`impactid.io.Recording`,
   :func:`impactid.io.write_hdf5` (with the ``/truth`` group), the rig dataclass that describes the
   rig in the file (``impactid.rigs.SUNDAR2016``; its parameters are checked to equal
-  ``reference_params``), and the sensor chain of ``data_synth.sensors`` (noise, ADC, accelerometer
+  ``reference_params``), and the sensor chain of ``impactid.synth.sensors`` (noise, ADC, accelerometer
   offset/drift, anti-alias decimation, encoder counts), which is not physics.
 * Not shared: the equations of motion, the contact and restitution laws, the event handling, the
   integrator, the steady-state search and the formulas of the channels. The accelerometer signal
   ``l_a * alpha_ddot`` uses ``reference_rigp.angular_acceleration``, and the pivot reaction (MODEL.md
   1.4 with the friction term of 1.9) is written out in this module. Nothing here imports
-  ``impactid.simulate``, the geometry functions of ``impactid.rigs`` or ``data_synth.pivoted``.
+  ``impactid.simulate``, the geometry functions of ``impactid.rigs`` or ``impactid.synth.pivoted``.
 
 Steady state by shooting, not by settling
 -----------------------------------------
@@ -58,9 +58,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from data_synth.sensors import SensorModel, antialias_decimate, apply_sensors, encoder_counts
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.rigs import SUNDAR2016
+from impactid.synth.sensors import SensorModel, antialias_decimate, apply_sensors, encoder_counts
 
 try:  # imported as part of the ``tests`` package (pytest, PYTHONPATH=repository root)
     from . import reference_rigp as R
@@ -514,13 +514,13 @@ def reference_recording(e_over_rc: float, cam_speed_hz: float, law: dict, *, mu:
         ``{"kind": "restitution", "gamma": ..., "xi0": 1.0}`` (S3).
     mu : Coulomb friction coefficient at the contact (also written into the recording's rig).
     duration, sample_rate_hz : recorded time [s] and sample rate [Hz]; ``round(duration * rate)`` samples.
-    sensors : :class:`data_synth.sensors.SensorModel` (default: none, exact signals at the sample instants).
+    sensors : :class:`impactid.synth.sensors.SensorModel` (default: none, exact signals at the sample instants).
     theta_ref, start_time_s : the recording's clock: ``Theta(t) = theta_ref + 2 pi f t``; the first
         sample is at ``start_time_s``.
     channels : which of ``accel_tangential``, ``force_x``, ``force_y``, ``cam_angle`` to write.
     orbit : a :class:`PeriodicOrbit` found before (skips the search); else :func:`periodic_orbit`.
 
-    Returns ``(recording, truth)``. ``truth`` has the layout of ``data_synth.synth_pivoted``'s
+    Returns ``(recording, truth)``. ``truth`` has the layout of ``impactid.synth.synth_pivoted``'s
     (law, beta/n or gamma/xi0, mu, e_over_rc, cam_speed_hz, theta_ref, sample_rate_hz, sensors, applied,
     exact ``t, alpha, alpha_dot, mode, contact_force, gap, alpha_ddot`` at the samples, ``impacts``
     with ``t_start, t_end, gap_rate_start, gap_rate_end, peak_force, peak_indentation, alpha_*,

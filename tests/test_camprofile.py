@@ -20,7 +20,6 @@ import math
 import numpy as np
 import pytest
 
-from data_synth import synth_flat_encoders
 from impactid.camprofile import (
     ALZATE2007_CAM,
     C_MAX,
@@ -38,6 +37,7 @@ from impactid.cli import main
 from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.rigs.flat import ALZATE2007
+from impactid.synth import synth_flat_encoders
 
 RIG = ALZATE2007
 SPEED_HZ = 110.0 / 60.0

@@ -7,11 +7,11 @@ import json
 import numpy as np
 import pytest
 
-from data_synth.flat_impacts import synth_flat_impacting
 from impactid import save_rig_toml
 from impactid.cli import main
 from impactid.rigs import ALZATE2007
 from impactid.simulate.flat import DEFAULT_RESTITUTION
+from impactid.synth.flat_impacts import synth_flat_impacting
 
 
 def test_detachment_flat_rig_file(tmp_path, capsys):

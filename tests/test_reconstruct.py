@@ -12,12 +12,12 @@ import warnings
 import numpy as np
 import pytest
 
-from data_synth import SensorModel, synth_pivoted
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import EventWarning, find_events
 from impactid.io import RecordingError
 from impactid.reconstruct import ANCHORS, reconstruct
 from impactid.signal import INTEGRATORS
+from impactid.synth import SensorModel, synth_pivoted
 
 COMBOS = list(itertools.product(INTEGRATORS, ANCHORS))
 

@@ -2,7 +2,7 @@
 
 The period-1 orbits come from shooting on the one-revolution Poincaré map of the SciPy reference
 model. The recordings built on them are compared with impactid's own generator
-(``data_synth.synth_pivoted``) once both are on the same steady orbit. Total runtime is about
+(``impactid.synth.synth_pivoted``) once both are on the same steady orbit. Total runtime is about
 45 s; the three ``slow`` tests take about 20 s of it.
 """
 
@@ -13,10 +13,10 @@ import math
 import numpy as np
 import pytest
 
-from data_synth import SensorModel, synth_pivoted
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import find_events
 from impactid.io import read_recording, read_truth
+from impactid.synth import SensorModel, synth_pivoted
 from tests import reference_recordings as RR
 from tests import reference_rigp as R
 

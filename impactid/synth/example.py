@@ -18,10 +18,10 @@ import json
 import os
 from pathlib import Path
 
-from data_synth.pivoted import synth_pivoted
-from data_synth.sensors import SensorModel
 from impactid.contact import HuntCrossley
 from impactid.rigs.pivoted import SUNDAR2016
+from impactid.synth.pivoted import synth_pivoted
+from impactid.synth.sensors import SensorModel
 
 #: What the two example recordings share; its hash and each point name the cached files.
 EXAMPLE_RECIPE = {

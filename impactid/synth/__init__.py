@@ -9,10 +9,10 @@ Everything that generated a file is written to its ``/truth`` group, which impac
 never read.
 """
 
-from data_synth.example import example_recording_path, example_recording_paths
-from data_synth.flat import synth_flat_encoders
-from data_synth.pivoted import SyntheticRecording, pivot_reaction, synth_pivoted
-from data_synth.sensors import SensorModel
+from impactid.synth.example import example_recording_path, example_recording_paths
+from impactid.synth.flat import synth_flat_encoders
+from impactid.synth.pivoted import SyntheticRecording, pivot_reaction, synth_pivoted
+from impactid.synth.sensors import SensorModel
 
-__all__ = ["SensorModel", "SyntheticRecording", "example_recording_path", "example_recording_paths", "pivot_reaction", "synth_flat_encoders",
-           "synth_pivoted"]
+__all__ = ["SensorModel", "SyntheticRecording", "example_recording_path", "example_recording_paths", "pivot_reaction",
+           "synth_flat_encoders", "synth_pivoted"]

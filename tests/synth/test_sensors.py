@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from data_synth import SensorModel, synth_pivoted
-from data_synth.sensors import antialias_decimate, apply_sensors, encoder_counts, quantise
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.io import RecordingWarning
+from impactid.synth import SensorModel, synth_pivoted
+from impactid.synth.sensors import antialias_decimate, apply_sensors, encoder_counts, quantise
 
 RIG = SUNDAR2016.with_eccentricity_ratio(0.25)
 LAW = HuntCrossley(24.7e9, 1.5)

@@ -17,13 +17,13 @@ from typing import Any
 import numpy as np
 
 import impactid
-from data_synth.sensors import NO_SENSOR_ERRORS, SensorModel, antialias_decimate, apply_sensors, encoder_counts
 from impactid.contact import HuntCrossley, Restitution
 from impactid.errors import SimulationInputError
 from impactid.io import CHANNEL_UNITS, Recording
 from impactid.rigs.pivoted import PivotedFollowerRig, spring_force
 from impactid.simulate import simulate
 from impactid.simulate.runs import DEFAULT_TOLERANCES, observables
+from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, antialias_decimate, apply_sensors, encoder_counts
 
 DEFAULT_SAMPLE_RATE_HZ = 204_800.0
 #: Default settling time [s]: the slowest Table 2 transient (e/r_c = 0.2, 16 Hz) needs about 35 s
@@ -174,13 +174,13 @@ def synth_pivoted(rig: PivotedFollowerRig, cam_speed_hz: float, law: HuntCrossle
         rig=rig if mu == rig.mu else rig.replace(mu=mu),  # the file describes the rig that was simulated
         operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e},
         start_time_s=settle_s,
-        provenance=(f"data_synth.synth_pivoted: {type(law).__name__} at {cam_speed_hz} Hz, e/r_c = "
+        provenance=(f"impactid.synth.synth_pivoted: {type(law).__name__} at {cam_speed_hz} Hz, e/r_c = "
                     f"{rig.e / rig.r_c:.6g}, settle {settle_s} s",))
     in_window = (contacts["t_start"] >= t_samples[0]) & (contacts["t_start"] < t_samples[0] + duration)
     window = contacts[in_window]
     apexes = run.apexes[(run.apexes["t"] >= t_samples[0]) & (run.apexes["t"] < t_samples[0] + duration)]
     truth: dict[str, Any] = {
-        "generator": "data_synth.synth_pivoted",
+        "generator": "impactid.synth.synth_pivoted",
         "impactid_version": impactid.__version__,
         "model": "S2" if isinstance(law, HuntCrossley) else "S3",
         "cam_speed_hz": float(cam_speed_hz),

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from data_synth import SensorModel, synth_pivoted
 from impactid import SUNDAR2016, HuntCrossley, simulate
 from impactid.rigs.pivoted import spring_force
+from impactid.synth import SensorModel, synth_pivoted
 
 RIG = SUNDAR2016.with_eccentricity_ratio(0.2)
 
