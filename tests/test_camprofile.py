@@ -38,6 +38,7 @@ from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.rigs.flat import ALZATE2007
 from impactid.synth import synth_flat_encoders
+from tests.golden import assert_matches_golden
 
 RIG = ALZATE2007
 SPEED_HZ = 110.0 / 60.0
@@ -369,6 +370,7 @@ def test_cam_fit_cli_round_trip(rec110, tmp_path, capsys):
     assert compare_profiles(profile, _analytic, directions=(1,)).rms <= PROFILE_RMS
     assert (plots / "cam_fit.png").stat().st_size > 10_000
     assert not list(tmp_path.glob("**/*.tmp"))
+    assert_matches_golden(data, "cam_fit.json")
     # the input file is never overwritten; bad input exits 2 with one clear line
     before = path.read_bytes()
     assert main(["cam-fit", str(path), "--out", str(path)]) == 2

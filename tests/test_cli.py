@@ -8,6 +8,7 @@ import pytest
 
 from impactid import SUNDAR2016, save_rig_toml
 from impactid.cli import main
+from tests.golden import assert_matches_golden
 
 
 def test_regime_json(capsys):
@@ -122,7 +123,9 @@ def test_estimate_example_fixed_n_writes_the_format_keys(tmp_path, capsys):
     for key in ("beta", "n", "gamma", "xi_mean", "va_mean", "impacts_used", "residual", "objective"):
         assert key in data
     assert data["n"] == 1.5 and data["residual"] == "lambda1" and data["impacts_used"] >= 10
-    assert data["uncertainty"]["beta_interval"][0] <= data["beta"] <= data["uncertainty"]["beta_interval"][1]
+    # the example was made with beta = 24.7e9: the interval must hold it (the estimate lies inside by construction)
+    assert data["uncertainty"]["beta_interval"][0] <= 24.7e9 <= data["uncertainty"]["beta_interval"][1]
+    assert_matches_golden(data, "estimate_example_fix_n.json")
     assert {p.name for p in (tmp_path / "fig").iterdir()} == {"hysteresis.png", "restitution.png", "landscape.png",
                                                              "residuals.png"}
     assert "beta" in capsys.readouterr().out

@@ -12,6 +12,7 @@ from impactid.cli import main
 from impactid.rigs import ALZATE2007
 from impactid.simulate.flat import DEFAULT_RESTITUTION
 from impactid.synth.flat_impacts import synth_flat_impacting
+from tests.golden import assert_matches_golden
 
 
 def test_detachment_flat_rig_file(tmp_path, capsys):
@@ -69,6 +70,7 @@ def test_restitution_command_recovers_law(impacting_files, tmp_path, capsys):
     rpm = np.array([132.0, 146.0])
     fitted = fit["a"] + fit["b_per_rpm"] * rpm
     np.testing.assert_allclose(fitted, [DEFAULT_RESTITUTION(r / 60.0) for r in rpm], rtol=0.02)
+    assert_matches_golden(data, "restitution.json")
 
 
 def test_restitution_command_errors(impacting_files, tmp_path, capsys):
