@@ -27,7 +27,7 @@ sys.path.insert(0, str(ROOT))
 import numba  # noqa: E402
 
 from impactid.rigs.flat import ALZATE2007  # noqa: E402
-from impactid.simulate.flat import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
+from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
 from tests.simulate import flat_reference as ref  # noqa: E402
 
 

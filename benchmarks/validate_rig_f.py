@@ -26,7 +26,7 @@ from impactid.cam_kinematics import revised_nose_profile, spline_error_study  # 
 from impactid.camprofile import ALZATE2007_CAM, compare_profiles, fit_cam_profile  # noqa: E402
 from impactid.encoder_impacts import fit_speed_law, restitution_at_speed  # noqa: E402
 from impactid.rigs.flat import ALZATE2007 as RIG  # noqa: E402
-from impactid.simulate.flat import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
+from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
 from impactid.synth.flat import synth_flat_encoders  # noqa: E402
 from impactid.synth.flat_impacts import synth_flat_impacting  # noqa: E402
 

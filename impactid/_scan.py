@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+__all__ = ["channel_scan", "count_equal", "extreme_stats"]
+
 _CHUNKS = 16
 
 

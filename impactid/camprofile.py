@@ -84,6 +84,14 @@ import numpy as np
 import pandas as pd
 
 from impactid.errors import ImpactidError
+from impactid.results import FitResult, Parameter
+
+__all__ = ["ALZATE2007_CAM", "CAM_EDGE_WINDOW", "COUNTERS", "CRITERIA", "C_MAX", "C_MIN", "DEFAULT_STARTS",
+           "DEFAULT_TERMS", "DEPARTURE_BINS", "DEPARTURE_FLOOR", "FIT_BINS", "FIT_TOLERANCE",
+           "MAX_NFEV_PER_PARAMETER", "MAX_TERMS", "NEGLIGIBLE_U", "SPEED_SECTORS", "SPEED_TOLERANCE",
+           "TWO_PI", "WRAP_IMAGES", "CamProfileData", "CamProfileError", "CamProfileFit", "CamProfileResult",
+           "GaussianSumProfile", "ProfileComparison", "compare_profiles", "encoder_edges", "encoder_step",
+           "fit_cam_profile", "gaussian_sum", "load_profile_json", "local_linear", "select_cam_profile_data"]
 
 #: Images ``b_i + 2 pi k``, ``|k| <= WRAP_IMAGES``, summed for a periodic profile.
 WRAP_IMAGES = 2
@@ -722,6 +730,13 @@ def select_cam_profile_data(recording, *, window: tuple[float, float] | None = N
 # --------------------------------------------------------------------------------------------
 
 
+class CamProfileResult(FitResult):
+    """A Gaussian-sum cam profile fit (:func:`fit_cam_profile`) as a shared fit result."""
+
+    kind = "cam-profile"
+    title = "Gaussian-sum cam profile"
+
+
 @dataclass(frozen=True)
 class CamProfileFit:
     """A Gaussian-sum cam profile fitted to encoder data, with its statistics.
@@ -787,6 +802,26 @@ class CamProfileFit:
     def residuals(self) -> np.ndarray:
         """``data - profile`` at the fitted points [rad] (unweighted)."""
         return self.data.fit_follower_angle - self.profile(self.data.fit_cam_angle)
+
+    def to_result(self) -> CamProfileResult:
+        """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
+        params = []
+        for name, values, errors in (("a", self.profile.a, self.stderr_a), ("b", self.profile.b, self.stderr_b),
+                                     ("c", self.profile.c, self.stderr_c)):
+            for k, (value, stderr) in enumerate(zip(values, errors)):
+                params.append(Parameter(f"{name}{k + 1}", value, stderr,
+                                        (value - 1.96 * stderr, value + 1.96 * stderr), unit="rad"))
+        statistics = {"terms": self.terms, "ndata": self.ndata, "nvarys": self.nvarys, "nfev": self.nfev,
+                      "chisqr": self.chisqr, "redchi": self.redchi, "aic": self.aic, "bic": self.bic,
+                      "rms_residual": self.rms_residual, "max_residual": self.max_residual}
+        tables = {} if self.order_table is None else {"orders": self.order_table}
+        return CamProfileResult(params=params, statistics=statistics, tables=tables,
+                                details={"periodic": self.profile.periodic, "criterion": self.criterion,
+                                         "success": self.success, "message": self.message})
+
+    def fit_report(self) -> str:
+        """An lmfit-style fit report (of :meth:`to_result`); :meth:`report` is the short summary."""
+        return self.to_result().report()
 
     def to_dict(self, samples: int = 3600) -> dict[str, Any]:
         """Plain data for JSON: coefficients, statistics, revolutions and the profile sampled on

@@ -71,6 +71,8 @@ from impactid.commandline import (
 from impactid.contact import HuntCrossley
 from impactid.errors import ImpactidError
 
+__all__ = ["UsageError", "build_parser", "main", "resolve_rig"]
+
 EXIT_INPUT_ERROR = 2
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
@@ -132,9 +134,10 @@ def _grid_counts(text: str) -> tuple[int, int]:
 
 
 def _rig_presets() -> dict:
-    from impactid.rigs import ALZATE2007, SUNDAR2016
+    """The default parameter set of every registered rig that rig files describe, by model name."""
+    from impactid.rigs.registry import MODELS, RIG_MODELS
 
-    return {"pivoted-follower": SUNDAR2016, "flat-follower": ALZATE2007}
+    return {name: MODELS[name].default for name in RIG_MODELS}
 
 
 def _is_rig_file(spec: str | None) -> bool:
@@ -321,7 +324,7 @@ def cmd_detachment(args) -> int:
 
 
 def _restitution_law(args):
-    from impactid.simulate.flat import DEFAULT_RESTITUTION, SpeedRestitution
+    from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, SpeedRestitution
 
     if args.restitution is not None:
         return SpeedRestitution(a=args.restitution)
@@ -333,7 +336,7 @@ def _restitution_law(args):
 
 def cmd_bifurcation(args) -> int:
     from impactid.rigs import ALZATE2007, FlatFollowerRig
-    from impactid.simulate.flat import bifurcation
+    from impactid.rigs.flat.simulate import bifurcation
 
     rig, _ = resolve_rig(args.rig, ALZATE2007)
     if not isinstance(rig, FlatFollowerRig):

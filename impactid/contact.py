@@ -16,6 +16,8 @@ import numpy as np
 
 from impactid.errors import SimulationInputError
 
+__all__ = ["HuntCrossley", "Restitution", "beta_from_gamma", "clip_tensile", "coulomb_friction", "gamma_from_beta",
+           "hunt_crossley_force", "restitution_coefficient", "viscous_force"]
 
 def hunt_crossley_force(delta, gap_rate, k_H, beta, n, p=1.5):
     """Generalised Hunt–Crossley contact force ``F = k_H delta^p - beta delta^n dpsi/dt`` [N].

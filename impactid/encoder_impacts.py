@@ -41,12 +41,19 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 from scipy import optimize
 
 from impactid.camprofile import encoder_step
 from impactid.errors import ImpactidError
 from impactid.io import Recording
+from impactid.results import FitResult, Parameter
 from impactid.rigs.flat import FlatFollowerRig
+
+__all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
+           "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
+           "SpeedLawFit", "SpeedLawResult", "align_profile", "first_impacts", "fit_speed_law", "refine_offset",
+           "relative_motion", "restitution_at_speed", "simulated_first_bounce"]
 
 #: Joint-fit window on each side of a first impact [s]: long enough for hundreds of samples, short
 #: enough that a cubic describes the smooth free flight (and the cam's motion) to far below a count.
@@ -405,7 +412,7 @@ def simulated_first_bounce(rig: FlatFollowerRig, cam_speed_hz: float, restitutio
     found on a grid of ``points_per_revolution`` (apex error below 1e-9 rad). NaN when the flight
     does not end in two impacts within the simulated time.
     """
-    from impactid.simulate.flat import simulate_flat
+    from impactid.rigs.flat.simulate import simulate_flat
 
     period = 1.0 / cam_speed_hz
     t_end = (settle_revolutions + 2) * period
@@ -489,13 +496,20 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
                               source=recording.source or "", warnings=tuple(notes))
 
 
+class SpeedLawResult(FitResult):
+    """The speed-dependent restitution law ``r = a + b omega`` (:func:`fit_speed_law`) as a shared fit result."""
+
+    kind = "speed-restitution"
+    title = "restitution r = a + b omega"
+
+
 @dataclass(frozen=True)
 class SpeedLawFit:
     """Least-squares fit ``r = a + b omega`` over cam speeds.
 
     Attributes
     ----------
-    law : the fitted :class:`~impactid.simulate.flat.SpeedRestitution` (``b`` per rad/s)
+    law : the fitted :class:`~impactid.rigs.flat.simulate.SpeedRestitution` (``b`` per rad/s)
     stderr_a, stderr_b : standard errors [-, s/rad]
     points : the per-speed measurements used
     residual_rms : RMS of ``r_i - (a + b omega_i)`` [-]
@@ -506,6 +520,19 @@ class SpeedLawFit:
     stderr_b: float
     points: tuple[RestitutionAtSpeed, ...]
     residual_rms: float
+
+    def to_result(self) -> SpeedLawResult:
+        """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
+        a, b = self.law.a, self.law.b
+        params = [Parameter("a", a, self.stderr_a, (a - 1.96 * self.stderr_a, a + 1.96 * self.stderr_a)),
+                  Parameter("b", b, self.stderr_b, (b - 1.96 * self.stderr_b, b + 1.96 * self.stderr_b), unit="s/rad")]
+        table = pd.DataFrame([p.to_dict() for p in self.points])
+        return SpeedLawResult(params=params, statistics={"speeds": len(self.points), "residual_rms": self.residual_rms},
+                              tables={"points": table})
+
+    def report(self) -> str:
+        """An lmfit-style fit report (of :meth:`to_result`)."""
+        return self.to_result().report()
 
     def to_dict(self) -> dict:
         rpm = 2.0 * math.pi / 60.0
@@ -520,7 +547,7 @@ def fit_speed_law(points) -> SpeedLawFit:
     Ordinary least squares; the standard errors of ``a, b`` come from the residual scatter (from
     the points' own standard errors with two speeds). One speed only: ``r`` is a constant (warned).
     """
-    from impactid.simulate.flat import SpeedRestitution
+    from impactid.rigs.flat.simulate import SpeedRestitution
 
     pts = tuple(p for p in points if math.isfinite(p.restitution))
     if not pts:

@@ -7,6 +7,7 @@ error. Input errors also derive from :class:`ValueError` so that generic code ke
 
 from __future__ import annotations
 
+__all__ = ["ImpactidError", "RigParameterError", "SimulationError", "SimulationInputError"]
 
 class ImpactidError(Exception):
     """Base class of all errors raised deliberately by impactid."""

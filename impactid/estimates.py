@@ -59,6 +59,12 @@ from scipy import interpolate, optimize
 
 from impactid.errors import ImpactidError, SimulationError
 from impactid.residuals import EventSet, residual_name
+from impactid.results import FitResult, Parameter
+
+__all__ = ["ALIKE_SPREAD", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "CALIBRATION_THRESHOLD", "C_BOUNDS", "N_BOUNDS",
+           "RESIDUAL_FLOOR", "SEPARABILITY_WIDTH", "ContactDampingResult", "DampingEstimate", "Estimate",
+           "EstimationWarning", "Landscape", "Progress", "RestitutionEstimate", "RestitutionResult", "estimate",
+           "fit_contact_damping", "fit_restitution", "objective_landscape", "reference_indentation"]
 
 #: Default search bounds: damping at the reference indentation ``c`` [N s/m] and exponent ``n``.
 C_BOUNDS = (1.0, 1.0e6)
@@ -166,6 +172,20 @@ class Landscape:
     residual: str
 
 
+class ContactDampingResult(FitResult):
+    """Hunt–Crossley damping ``beta, n`` of :func:`fit_contact_damping` as a shared fit result."""
+
+    kind = "contact-damping"
+    title = "Hunt-Crossley contact damping"
+
+
+class RestitutionResult(FitResult):
+    """Restitution laws of :func:`fit_restitution` as a shared fit result."""
+
+    kind = "restitution"
+    title = "restitution xi = 1 - gamma v_a"
+
+
 @dataclass(frozen=True)
 class DampingEstimate:
     """Hunt–Crossley damping estimate.
@@ -215,6 +235,27 @@ class DampingEstimate:
         """``c = beta delta_ref^n`` [N s/m]."""
         return self.beta * self.delta_ref ** self.n
 
+    def to_result(self) -> ContactDampingResult:
+        """The estimate as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
+        unit = f"N s m^-({self.n:.4g}+1)"
+        why = "" if self.separable in (None, True) else "beta and n are not separable from these data"
+        params = [Parameter("beta", self.beta, interval=self.beta_interval, unit=unit, note=why),
+                  Parameter("n", self.n, stderr=0.0 if self.fixed_n else math.nan,
+                            interval=(self.n, self.n) if self.fixed_n else self.n_interval, fixed=self.fixed_n,
+                            note=why)]
+        statistics = {"residual": self.residual, "objective": self.objective, "indifference": self.indifference,
+                      "events": int(np.isfinite(self.per_event["residual"]).sum()), "simulations": self.n_simulations,
+                      "failed_simulations": self.n_failed_simulations, "seconds": self.seconds}
+        details = {"method": self.method, "separable": self.separable, "delta_ref": self.delta_ref,
+                   "c_ref": self.damping_at_reference, "beta_bootstrap_95": list(self.beta_bootstrap_interval),
+                   "n_bootstrap_95": list(self.n_bootstrap_interval)}
+        return ContactDampingResult(params=params, statistics=statistics, notes=self.warnings,
+                                    tables={"per_event": self.per_event, "valley": self.valley}, details=details)
+
+    def report(self) -> str:
+        """An lmfit-style fit report (of :meth:`to_result`)."""
+        return self.to_result().report()
+
 
 @dataclass(frozen=True)
 class RestitutionEstimate:
@@ -241,6 +282,28 @@ class RestitutionEstimate:
     impacts_used: int
     per_impact: pd.DataFrame
     warnings: tuple[str, ...] = ()
+
+    def to_result(self) -> RestitutionResult:
+        """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
+        def ci(value, stderr):
+            return (value - 1.96 * stderr, value + 1.96 * stderr)
+
+        params = [Parameter("gamma", self.gamma, self.gamma_stderr, ci(self.gamma, self.gamma_stderr), unit="s/m"),
+                  Parameter("r_constant", self.r_constant, self.r_constant_stderr,
+                            ci(self.r_constant, self.r_constant_stderr)),
+                  Parameter("intercept", self.intercept, self.intercept_stderr,
+                            ci(self.intercept, self.intercept_stderr)),
+                  Parameter("slope", self.slope, self.slope_stderr, ci(self.slope, self.slope_stderr), unit="s/m")]
+        statistics = {"impacts": self.impacts_used, "xi_mean": self.xi_mean, "va_mean": self.va_mean,
+                      "va_spread": self.va_spread}
+        return RestitutionResult(params=params, statistics=statistics, notes=self.warnings,
+                                 tables={"per_impact": self.per_impact},
+                                 details={"beta_equivalent_n1.5": self.beta_equivalent})
+
+    def report(self) -> str:
+        """An lmfit-style fit report (of :meth:`to_result`)."""
+        return self.to_result().report()
+
 
 
 # ---------------------------------------------------------------------------------------------
@@ -272,7 +335,9 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                         fix_n: float | None = None, method: str = "optimise", grid: tuple[int, int] = (41, 21),
                         c_bounds: tuple[float, float] = C_BOUNDS, n_bounds: tuple[float, float] = N_BOUNDS,
                         landscape: bool = False, progress: Progress | None = None,
-                        systematic: float = 0.0) -> DampingEstimate:
+                        systematic: float = 0.0, residual_floor: float | None = None,
+                        separability_width: float = SEPARABILITY_WIDTH, bootstrap_resamples: int = BOOTSTRAP_RESAMPLES,
+                        bootstrap_seed: int = BOOTSTRAP_SEED) -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -287,6 +352,10 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     progress : callback ``(stage, fraction)`` for a progress display.
     systematic : a known systematic uncertainty of the residual (e.g. half a calibrated pipeline
         bias, :mod:`impactid.calibration`): the indifference level of the intervals is at least this.
+    residual_floor : the residual's noise floor (default :data:`RESIDUAL_FLOOR` of the residual); the
+        indifference level of the intervals is at least this.
+    separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
+    bootstrap_resamples, bootstrap_seed : resamples of the events and the seed of the bootstrap.
 
     Raises
     ------
@@ -360,7 +429,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     finite = np.isfinite(per_event_hat)
     n_used = int(finite.sum())
     se = float(np.std(np.abs(per_event_hat[finite]), ddof=1) / math.sqrt(n_used)) if n_used > 1 else math.inf
-    indifference = max(2.0 * se, RESIDUAL_FLOOR[residual], float(systematic)) if math.isfinite(se) else math.inf
+    floor = RESIDUAL_FLOOR[residual] if residual_floor is None else float(residual_floor)
+    indifference = max(2.0 * se, floor, float(systematic)) if math.isfinite(se) else math.inf
     if fix_n is None:
         centre = interpolate.CubicSpline(n_rows, valley_c)(n_rows)
     else:
@@ -369,7 +439,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     for attempt in range(3):
         u = np.linspace(-half, half, _LATTICE_POINTS)
         lat = _lattice(obj, n_rows, centre, u)
-        boot, region, edge = _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference)
+        boot, region, edge = _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference,
+                                          bootstrap_resamples, bootstrap_seed)
         if not edge or attempt == 2:
             break
         half *= 5.0
@@ -417,7 +488,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     spread = float(np.std(va) / np.mean(va)) if va.size > 1 and np.mean(va) > 0 else 0.0
     if fix_n is None:
         touches = n_iv[0] <= n_lo + 1e-9 or n_iv[1] >= n_hi - 1e-9
-        separable = bool((n_iv[1] - n_iv[0]) <= SEPARABILITY_WIDTH and not touches)
+        separable = bool((n_iv[1] - n_iv[0]) <= separability_width and not touches)
         if not separable:
             why = (f"all impacts have nearly the same approach speed (spread {100 * spread:.2g} %)"
                    if spread < ALIKE_SPREAD else f"the approach speeds spread only {100 * spread:.2g} %")
@@ -497,7 +568,8 @@ def _lattice(obj: _Objective, n_rows, centre, u) -> np.ndarray:
     return obj.per_event(cc, nn).reshape(n_rows.size, u.size, -1)
 
 
-def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference):
+def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference, resamples=BOOTSTRAP_RESAMPLES,
+                 seed=BOOTSTRAP_SEED):
     """Bootstrap estimates (beta, n), the indifference region (beta_lo, beta_hi, n_lo, n_hi), and
     whether either reaches the edge of the lattice in ``u``.
 
@@ -509,8 +581,8 @@ def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference):
     n_ev = lat.shape[2]
     spline_u = interpolate.CubicSpline(u, lat, axis=1)
     spline_c = interpolate.CubicSpline(n_rows, centre) if n_rows.size > 1 else None
-    rng = np.random.default_rng(BOOTSTRAP_SEED)
-    weights = rng.multinomial(n_ev, np.full(n_ev, 1.0 / n_ev), size=BOOTSTRAP_RESAMPLES) / n_ev
+    rng = np.random.default_rng(seed)
+    weights = rng.multinomial(n_ev, np.full(n_ev, 1.0 / n_ev), size=resamples) / n_ev
     u_box, n_box = (u[0], u[-1]), (n_rows[0], n_rows[-1])
     for _ in range(2):
         u_fine = np.linspace(*u_box, 201)
@@ -626,6 +698,20 @@ class Estimate:
     #: per recording, the pipeline's alpha_m bias measured on the model's own recording
     #: (:mod:`impactid.calibration`), when the estimate was calibrated
     calibration: tuple[dict, ...] = ()
+    #: the options of the :class:`~impactid.pipeline.Pipeline` that made the estimate
+    pipeline: dict = field(default_factory=dict)
+
+    def report(self) -> str:
+        """lmfit-style reports of the damping and the restitution fits, with the recordings and notes."""
+        parts = [self.damping.to_result().report()]
+        parts.append(self.restitution.to_result().report() if self.restitution is not None
+                     else "[[restitution]]\n    not estimated (see the notes)")
+        parts.append("[[Recordings]]\n" + "\n".join(
+            f"    {s}: {op['events']} events at e/r_c {op['e_over_rc']:.4g}, {op['cam_speed_hz']:.4g} Hz"
+            for s, op in zip(self.sources, self.operating_points)))
+        if self.warnings:
+            parts.append("[[Notes]]\n" + "\n".join(f"    - {w}" for w in self.warnings))
+        return "\n".join(parts)
 
     def to_dict(self, per_impact: bool = True) -> dict:
         """The result as JSON-ready data: the keys of FORMAT.md (SI units) plus uncertainty and detail."""
@@ -671,107 +757,31 @@ class Estimate:
 CALIBRATION_THRESHOLD = 0.5 * RESIDUAL_FLOOR["lambda1"]
 
 
-def _calibrated(damping, recons, sets, *, fix_n, method, grid, c_bounds, n_bounds, landscape, integration, anchor):
-    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.calibration`); where it
-    exceeds :data:`CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit again, with the
-    intervals' indifference at least half the largest correction."""
-    from impactid.calibration import pipeline_bias
-    from impactid.contact import HuntCrossley
-
-    law = HuntCrossley(beta=damping.beta, n=damping.n)
-    biases = [pipeline_bias(r._recording, law, integration=integration, anchor=anchor) for r in recons]
-    record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
-    applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
-    if not any(applied):
-        return damping, sets, record
-    corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
-    systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
-    again = fit_contact_damping(corrected, damping.residual, fix_n=fix_n, method=method, grid=grid, c_bounds=c_bounds,
-                                n_bounds=n_bounds, landscape=landscape, systematic=systematic)
-    note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
-            f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
-            + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
-                        if math.isfinite(b.alpha_m))
-            + "; alpha_m was corrected where the bias is significant and the fit repeated, with the intervals "
-              "widened by half the correction plus two standard errors")
-    from dataclasses import replace
-
-    again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
-                    seconds=again.seconds + damping.seconds)
-    warnings.warn(note, EstimationWarning, stacklevel=3)
-    return again, corrected, record
-
-
 def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = None, method: str = "optimise",
              grid: tuple[int, int] = (41, 21), rig=None, integration: str = "rk", anchor: str = "cam-phase",
              c_bounds=C_BOUNDS, n_bounds=N_BOUNDS, landscape: bool = False,
              progress: Progress | None = None, calibrate: bool = True) -> Estimate:
     """Read, segment and reconstruct recordings, then estimate ``beta, n`` and the restitution laws.
 
+    A thin call on :class:`impactid.pipeline.Pipeline` (which holds every option of the job and is
+    recorded in the result's provenance): ``estimate(recs, **options)`` is
+    ``Pipeline(**options).run(recs, rig=rig, progress=progress)``.
+
     Parameters
     ----------
     recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
-    residual, fix_n, method, grid, c_bounds, n_bounds, landscape, progress : see :func:`fit_contact_damping`.
+    residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
     rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
         rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
+    progress : callback ``(stage, fraction)`` for a progress display.
     calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first
         estimate and, where it matters, correct it and fit again (:mod:`impactid.calibration`;
         lambda1 only).
     """
-    from impactid.events import EventWarning
-    from impactid.io import Recording, read_recording
-    from impactid.reconstruct import reconstruct
+    from impactid.pipeline import Pipeline
 
-    if isinstance(recordings, (Recording, str)) or hasattr(recordings, "__fspath__"):
-        recordings = [recordings]
-    recs = [(r.with_rig(rig) if rig is not None else r) if isinstance(r, Recording) else read_recording(r, rig=rig)
-            for r in recordings]
-    if not recs:
-        raise ImpactidError("no recording given")
-    collected: list[str] = []
-    recons, sets, frames = [], [], []
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", EventWarning)
-        for rec in recs:
-            recon = reconstruct(rec, integration=integration, anchor=anchor)
-            es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
-            recons.append(recon)
-            sets.append(es)
-            tab = recon.table.reset_index()
-            frames.append(pd.DataFrame({"source": es.source, "event": tab["event"],
-                                        "approach_speed": tab["approach_speed"], "xi": tab["xi"],
-                                        "separation_speed": tab["separation_speed"]}))
-    collected += [str(w.message) for w in caught if issubclass(w.category, EventWarning)]
-    # operating points may differ in cam speed and eccentricity; the contact pair must be the same
-    models = {repr({k: v for k, v in r.rig.to_dict().items() if k != "e"}) for r in recons}
-    if len(models) > 1:
-        raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
-                            "e equal); they differ between " + ", ".join(s.source for s in sets))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", EstimationWarning)
-        damping = fit_contact_damping(sets, residual, fix_n=fix_n, method=method, grid=grid, c_bounds=c_bounds,
-                                      n_bounds=n_bounds, landscape=landscape, progress=progress)
-        calibration: list[dict] = []
-        if calibrate and residual_name(residual) == "lambda1":
-            damping, sets, calibration = _calibrated(damping, recons, sets, fix_n=fix_n, method=method, grid=grid,
-                                                     c_bounds=c_bounds, n_bounds=n_bounds, landscape=landscape,
-                                                     integration=integration, anchor=anchor)
-        # a part of the job that cannot be done does not take the others with it: without a
-        # determined xi the restitution law is missing from the result, with the reason
-        try:
-            restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H)
-        except ImpactidError as exc:
-            restitution = None
-            warnings.warn(f"restitution law not estimated: {exc}", EstimationWarning, stacklevel=1)
-    collected += [str(w.message) for w in caught if issubclass(w.category, EstimationWarning)]
-    for message in collected:
-        warnings.warn(message, EstimationWarning, stacklevel=2)
-    ops = tuple({"cam_speed_hz": r.cam_speed_hz, "e_over_rc": r.rig.e / r.rig.r_c, "events": len(s)}
-                for r, s in zip(recons, sets))
-    prov = tuple(p for r in recons for p in r.provenance) + (
-        f"fit_contact_damping(residual={damping.residual!r}, method={method!r}, fix_n={fix_n}): "
-        f"{damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",)
-    return Estimate(damping=damping, restitution=restitution, sources=tuple(s.source for s in sets),
-                    operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
-                    warnings=tuple(collected), provenance=prov, calibration=tuple(calibration))
+    pipeline = Pipeline(residual=residual, fix_n=fix_n, method=method, grid=tuple(grid), integration=integration,
+                        anchor=anchor, c_bounds=tuple(c_bounds), n_bounds=tuple(n_bounds), landscape=landscape,
+                        calibrate=calibrate)
+    return pipeline.run(recordings, rig=rig, progress=progress)

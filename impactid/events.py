@@ -41,6 +41,10 @@ from scipy import optimize
 from impactid._scan import extreme_stats
 from impactid.io import CLIP_RUN, Recording, RecordingError
 
+__all__ = ["BASELINE_GAP", "BASELINE_LENGTH", "INVERTED_RATIO", "MAX_BASELINE_MOVES", "MIN_SAMPLES", "NOISY_ONSET",
+           "PEAK_TOLERANCE", "PERIOD_TOLERANCE", "EventTable", "EventWarning", "NoImpactsError",
+           "find_events", "noise_floor", "quantisation_step"]
+
 #: Samples skipped between a baseline window and the pulse, and the baseline window length.
 BASELINE_GAP = 16
 BASELINE_LENGTH = 64

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from impactid.io import Recording, read_recording
 
+__all__ = ["example_recording", "example_recording_path", "example_recording_paths"]
 
 def example_recording_paths(refresh: bool = False) -> list[Path]:
     """Paths of the two built-in example recordings: one rig at two operating points (e/r_c 0.2 at

@@ -32,6 +32,11 @@ from impactid.rigs import load_rig_toml, rig_from_mapping
 from impactid.rigs.registry import RIG_MODELS
 from impactid.units import UnitError, si_factor
 
+__all__ = ["CAM_SPEED_TOLERANCE", "CHANNEL_QUANTITY", "CHANNEL_UNITS", "CLIP_RUN", "CSV_TIME_TOLERANCE", "FORMAT_NAME",
+           "FORMAT_VERSION", "MAX_MEMORY_FRACTION", "OFFSET_ATTRIBUTES", "SCALE_ATTRIBUTES",
+           "SHORT_REVOLUTIONS", "Recording", "RecordingError", "RecordingWarning", "channel_spec", "read_csv",
+           "read_hdf5", "read_recording", "read_truth", "write_csv", "write_hdf5"]
+
 FORMAT_NAME = "recording"
 FORMAT_VERSION = 1
 

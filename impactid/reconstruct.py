@@ -76,6 +76,10 @@ from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_inte
 from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
 from impactid.simulate.runs import pack_rig
 
+__all__ = ["ANCHORS", "ANCHOR_MARGIN", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE", "EDGE_SNR",
+           "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "EventKinematics",
+           "Reconstruction", "reconstruct"]
+
 #: Samples between a free-flight end point of the return-time anchor and a contact.
 ANCHOR_MARGIN = 8
 #: Deviation above the noise floor that a pulse edge's first sample needs for its power law to be

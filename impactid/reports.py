@@ -11,6 +11,10 @@ import pandas as pd
 
 from impactid._files import StagedFiles, atomic_write
 
+__all__ = ["REGIME_COLOURS", "cam_fit_figures", "estimate_figures", "period1_band", "plot_bifurcation", "plot_cam_fit",
+           "plot_cam_fit_order", "plot_kinematics_spline_study", "plot_regime_map", "save_figure_atomic",
+           "write_bifurcation", "write_csv_atomic", "write_regime_map"]
+
 REGIME_COLOURS = {"contact": "#4c72b0", "period-1": "#55a868", "period-k": "#dd8452", "irregular": "#c44e52"}
 
 

@@ -39,6 +39,8 @@ from impactid.reconstruct import Reconstruction
 from impactid.rigs.pivoted import PivotedFollowerRig
 from impactid.simulate.runs import DEFAULT_TOLERANCES, BatchResult, Tolerances, simulate_events
 
+__all__ = ["FAILED_SIMULATION_RESIDUAL", "RESIDUALS", "EventSet", "force_misfit", "loop_area", "residual_name"]
+
 #: Residual of an event whose S1 run with a trial law cannot be simulated (step budget exceeded,
 #: step-size underflow, non-finite state): a 100 % relative error, far above the residual of any
 #: plausible law (near the estimate residuals are 1e-5 .. 1e-2), so the search moves away from it.

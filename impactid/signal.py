@@ -32,6 +32,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import integrate
 
+__all__ = ["EDGE_SPAN_SAMPLES", "INTEGRATORS", "EventSpan", "PowerLawEdge", "cumulative_rk4", "cumulative_simpson",
+           "cumulative_spectral", "cumulative_trapezoid", "detrend_integrate", "edge_correction",
+           "get_integrator"]
 
 def cumulative_trapezoid(y: np.ndarray, dt: float) -> np.ndarray:
     """Cumulative trapezoidal integral of ``y`` sampled every ``dt`` [s]; first value 0."""

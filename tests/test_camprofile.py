@@ -24,6 +24,7 @@ from impactid.camprofile import (
     ALZATE2007_CAM,
     C_MAX,
     CamProfileError,
+    CamProfileResult,
     GaussianSumProfile,
     compare_profiles,
     encoder_edges,
@@ -36,6 +37,7 @@ from impactid.camprofile import (
 from impactid.cli import main
 from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
+from impactid.results import FitResult
 from impactid.rigs.flat import ALZATE2007
 from impactid.synth import synth_flat_encoders
 from tests.golden import assert_matches_golden
@@ -188,6 +190,9 @@ def test_without_counter_correction_the_half_count_bias_remains(rec110):
     assert cmp.rms == pytest.approx(Q_FOLLOWER / 2, rel=0.05)
     level = compare_profiles(fit.profile, _analytic, directions=(1,), fit_level=True)
     assert level.level == pytest.approx(-Q_FOLLOWER / 2, rel=0.05) and level.rms < 0.1 * cmp.rms
+    again = FitResult.from_json(fit.to_result().to_json())
+    assert type(again) is CamProfileResult and again["a1"].value == fit.profile.a[0]
+    assert len(again.params) == 3 * fit.terms and "[[Fit Statistics]]" in fit.fit_report()
 
 
 @pytest.mark.parametrize("zero", [PEAK, PEAK + 0.02, PEAK - 0.02])

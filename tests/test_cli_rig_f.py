@@ -10,7 +10,7 @@ import pytest
 from impactid import save_rig_toml
 from impactid.cli import main
 from impactid.rigs import ALZATE2007
-from impactid.simulate.flat import DEFAULT_RESTITUTION
+from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION
 from impactid.synth.flat_impacts import synth_flat_impacting
 from tests.golden import assert_matches_golden
 

@@ -13,12 +13,14 @@ import pytest
 
 from impactid.encoder_impacts import (
     EncoderImpactError,
+    SpeedLawResult,
     fit_speed_law,
     relative_motion,
     restitution_at_speed,
 )
+from impactid.results import FitResult
 from impactid.rigs.flat import ALZATE2007 as RIG
-from impactid.simulate.flat import SpeedRestitution
+from impactid.rigs.flat.simulate import SpeedRestitution
 from impactid.synth.flat import synth_flat_encoders
 from impactid.synth.flat_impacts import synth_flat_impacting
 
@@ -74,6 +76,9 @@ def test_linear_law_recovered(impact_law_points):
         assert fit.law(rpm / 60.0) == pytest.approx(LAW(rpm / 60.0), rel=0.02)
     assert fit.law.b < 0.0 and math.isfinite(fit.stderr_b)
     assert "law" in fit.to_dict() and len(fit.to_dict()["points"]) == len(SPEEDS_RPM)
+    again = FitResult.from_json(fit.to_result().to_json())
+    assert type(again) is SpeedLawResult and again["b"].value == fit.law.b
+    assert len(again.to_pandas("points")) == len(SPEEDS_RPM) and "[[Variables]]" in fit.report()
 
 
 def test_permanent_contact_has_no_impacts():

@@ -15,10 +15,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from impactid.estimates import EstimationWarning, estimate, fit_contact_damping, fit_restitution
+from impactid.estimates import (
+    ContactDampingResult,
+    EstimationWarning,
+    RestitutionResult,
+    estimate,
+    fit_contact_damping,
+    fit_restitution,
+)
 from impactid.io import RecordingError
 from impactid.reconstruct import reconstruct
 from impactid.residuals import EventSet, loop_area, residual_name
+from impactid.results import FitResult
 
 BETA, N = 24.7e9, 1.5
 
@@ -70,6 +78,14 @@ def test_fixed_n_noise_free_beta_within_1_percent(s2_events):
     assert abs(est.beta / BETA - 1) < 0.01  # measured 2e-4
     assert est.beta_interval[0] <= BETA <= est.beta_interval[1]
     assert est.n == N and est.separable is None
+    # the shared result type: parameters, report, JSON round trip, per-event table
+    result = est.to_result()
+    again = FitResult.from_json(result.to_json())
+    assert type(again) is ContactDampingResult
+    assert again["beta"].value == est.beta and again["beta"].interval == est.beta_interval
+    assert again["n"].fixed and again["n"].value == N
+    assert "[[Variables]]" in est.report() and "beta" in est.report()
+    assert len(again.to_pandas("per_event")) == len(est.per_event)
 
 
 def test_grid_method_agrees_with_the_optimiser_to_its_resolution(s2_events):
@@ -128,6 +144,9 @@ def test_restitution_fit_recovers_a_spread_linear_law():
     assert fit.gamma == pytest.approx(0.75, abs=3 * fit.gamma_stderr)
     assert fit.intercept == pytest.approx(1.0, abs=3 * fit.intercept_stderr)
     assert fit.impacts_used == 40
+    again = FitResult.from_json(fit.to_result().to_json())
+    assert type(again) is RestitutionResult and again["gamma"].value == fit.gamma
+    assert again["gamma"].contains(0.75)
 
 
 def test_restitution_warns_outside_the_law_range():

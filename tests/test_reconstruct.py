@@ -170,6 +170,14 @@ def test_noisy_recording_degrades_gracefully():
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = reconstruct(noisy.recording, events)
+    # the promised bound: the angle within 3 % of its peak-to-peak at every sample of every event
+    pp = noisy.truth["alpha"].max() - noisy.truth["alpha"].min()
+    worst = 0.0
+    for event in result.table.index:
+        kin = result.event_kinematics(event)
+        k0 = events.table.loc[event, "onset_index"]
+        worst = max(worst, float(np.max(np.abs(kin.alpha - noisy.truth["alpha"][k0:k0 + kin.alpha.size]))))
+    assert worst < 0.03 * pp, f"angle error {worst / pp:.3%} of the peak-to-peak"
     xi = result.table["xi"].to_numpy()
     if not np.all(np.isfinite(xi)):
         assert any("xi are undetermined" in str(w.message) for w in caught)

@@ -14,6 +14,7 @@ import numpy as np
 from impactid.errors import RigParameterError
 from impactid.rigs._toml import format_toml
 
+__all__ = ["RigParameters"]
 
 class RigParameters:
     """Mixin for frozen rig dataclasses with a class attribute ``model`` (the FORMAT.md name)."""

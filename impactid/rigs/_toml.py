@@ -15,6 +15,7 @@ from typing import Any
 
 from impactid.errors import RigParameterError
 
+__all__ = ["format_toml", "read_toml", "write_text_atomic"]
 
 def read_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read a TOML file, raising :class:`RigParameterError` naming the file on any problem."""

@@ -106,7 +106,8 @@ class RigModel:
     detachment : ``detachment(rig, **options)`` -> the cam speed [Hz] at which the follower
         leaves the cam, or None.
     pack : ``pack(rig) -> numpy array``: the parameter vector the compiled kernel takes.
-    kernel : the rig's compiled kernel module (built on :mod:`impactid.simulate.dp5`).
+    kernel : import path of the rig's compiled kernel module (built on :mod:`impactid.simulate.dp5`),
+        a string so that reading a rig file does not load numba.
     simulate : the rig's main simulation entry point, or None.
     measure : the measurement model: ``measure(recording, **options)`` turns a recording into
         per-event (per-impact, per-revolution, per-bounce) kinematics, or None.

@@ -11,8 +11,8 @@ from typing import Any
 from impactid.errors import RigParameterError
 from impactid.rigs._toml import read_toml, write_text_atomic
 from impactid.rigs.base import RigModel
-from impactid.rigs.flat import FlatFollowerRig
-from impactid.rigs.pivoted import PivotedFollowerRig
+
+__all__ = ["MODELS", "RIG_MODELS", "load_rig_toml", "register", "rig_from_mapping", "rig_model", "save_rig_toml"]
 
 #: The registered rig models by FORMAT.md model name (:class:`~impactid.rigs.base.RigModel`).
 MODELS: dict[str, RigModel] = {}
@@ -23,13 +23,14 @@ def register(model: RigModel) -> RigModel:
     if model.name in MODELS:
         raise ValueError(f"rig model {model.name!r} is registered twice")
     MODELS[model.name] = model
-    RIG_MODELS[model.name] = model.parameters
+    if hasattr(model.parameters, "from_mapping"):  # rigs described by rig files (not the bouncing ball)
+        RIG_MODELS[model.name] = model.parameters
     return model
 
 
-#: FORMAT.md rig ``model`` names and the parameter dataclass of each.
-RIG_MODELS: dict[str, type] = {PivotedFollowerRig.model: PivotedFollowerRig,
-                               FlatFollowerRig.model: FlatFollowerRig}
+#: Rig ``model`` names (of rig files and recordings) and the parameter dataclass of each (filled by
+#: :func:`register`).
+RIG_MODELS: dict[str, type] = {}
 
 
 def rig_model(name: str) -> RigModel:
@@ -84,4 +85,6 @@ def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, flo
 
 
 # ---- the registry: one line per rig (a rig's folder defines its MODEL; see impactid/rigs/base.py) ----
+from impactid.rigs.pivoted import MODEL as _PIVOTED; register(_PIVOTED)  # noqa: E402, E702, I001
+from impactid.rigs.flat import MODEL as _FLAT; register(_FLAT)  # noqa: E402, E702, I001
 from impactid.rigs.ball import MODEL as _BALL; register(_BALL)  # noqa: E402, E702, I001

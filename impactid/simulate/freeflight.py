@@ -13,7 +13,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from impactid.simulate import _kernel as K
+from impactid.rigs.pivoted import kernel as K
+
+__all__ = ["FREE_FLIGHT_STEPS", "free_flight", "return_time_anchors"]
 
 #: RK4 steps per free flight (one cam revolution or less).
 FREE_FLIGHT_STEPS = 2000

@@ -40,6 +40,9 @@ from impactid.errors import SimulationInputError
 from impactid.rigs.pivoted import PivotedFollowerRig
 from impactid.simulate.runs import DEFAULT_TOLERANCES, Tolerances, simulate
 
+__all__ = ["SEED_S2_LAW", "DetachmentResult", "Law", "RegimeResult", "classify_regime", "detachment_speed",
+           "follower_kinematics", "regime_map", "required_contact_force"]
+
 Law = HuntCrossley | Restitution
 
 #: the seed's S2 contact law (Table 2 of Sundar, Dreyer & Singh (2016)), the default of every regime computation

@@ -23,7 +23,11 @@ import pandas as pd
 from impactid.contact import HuntCrossley, Restitution
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.pivoted import PivotedFollowerRig
-from impactid.simulate import _kernel as K
+from impactid.rigs.pivoted import kernel as K
+
+__all__ = ["BATCH_CHUNK_JOBS", "DEFAULT_TOLERANCES", "MODE_NAMES", "S1_CONTACT_ROWS", "S1_MAX_STEPS", "BatchResult",
+           "EventResult", "Law", "SimulationResult", "Tolerances", "observables", "pack_law", "pack_rig",
+           "simulate", "simulate_event", "simulate_events"]
 
 Law = HuntCrossley | Restitution
 

@@ -23,6 +23,8 @@ from impactid.rigs.pivoted import SUNDAR2016
 from impactid.synth.pivoted import synth_pivoted
 from impactid.synth.sensors import SensorModel
 
+__all__ = ["EXAMPLE_POINTS", "EXAMPLE_RECIPE", "cache_dir", "example_recording_path", "example_recording_paths"]
+
 #: What the two example recordings share; its hash and each point name the cached files.
 EXAMPLE_RECIPE = {
     "beta": 24.7e9, "n": 1.5, "duration": 1.0, "settle_s": 40.0, "sample_rate_hz": 204_800.0, "noise": 0.002,

@@ -20,6 +20,8 @@ from impactid.rigs.flat import FlatFollowerRig
 from impactid.synth.pivoted import SyntheticRecording
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, apply_sensors, encoder_counts
 
+__all__ = ["DEFAULT_CAM_PPR", "DEFAULT_FLAT_SAMPLE_RATE_HZ", "DEFAULT_FOLLOWER_PPR", "synth_flat_encoders"]
+
 DEFAULT_FLAT_SAMPLE_RATE_HZ = 20_000.0
 DEFAULT_CAM_PPR = 5000
 DEFAULT_FOLLOWER_PPR = 10_000

@@ -1,6 +1,6 @@
 """Synthetic encoder recordings of rig F above detachment: impacting motion with a restitution law.
 
-The rig F simulator (:func:`impactid.simulate.flat.simulate_flat`) runs from permanent contact at
+The rig F simulator (:func:`impactid.rigs.flat.simulate.simulate_flat`) runs from permanent contact at
 ``theta_c = 0``; the first ``settle_revolutions`` cam revolutions are discarded and the exact dense
 output is sampled at ``t_k = settle + k / sample_rate_hz`` (the recording keeps the simulation
 clock, so the impact times in ``/truth`` are on the recording's time axis). The encoders count whole
@@ -17,10 +17,12 @@ import impactid
 from impactid.errors import SimulationInputError
 from impactid.io import CHANNEL_UNITS, Recording
 from impactid.rigs.flat import FlatFollowerRig
-from impactid.simulate.flat import DEFAULT_RESTITUTION, SpeedRestitution, simulate_flat
+from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, SpeedRestitution, simulate_flat
 from impactid.synth.flat import DEFAULT_CAM_PPR, DEFAULT_FLAT_SAMPLE_RATE_HZ, DEFAULT_FOLLOWER_PPR
 from impactid.synth.pivoted import SyntheticRecording
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, apply_sensors, encoder_counts
+
+__all__ = ["DEFAULT_SETTLE_REVOLUTIONS", "synth_flat_impacting"]
 
 #: Revolutions simulated and discarded before recording (transients of rig F's period-1 impacting
 #: motion decay within a few revolutions: each impact removes 1 - r^2 of the relative energy).

@@ -25,6 +25,9 @@ from impactid.simulate import simulate
 from impactid.simulate.runs import DEFAULT_TOLERANCES, observables
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, antialias_decimate, apply_sensors, encoder_counts
 
+__all__ = ["ALL_CHANNELS", "DEFAULT_SAMPLE_RATE_HZ", "DEFAULT_SETTLE_S", "SyntheticRecording", "pivot_reaction",
+           "synth_pivoted"]
+
 DEFAULT_SAMPLE_RATE_HZ = 204_800.0
 #: Default settling time [s]: the slowest Table 2 transient (e/r_c = 0.2, 16 Hz) needs about 35 s
 #: to reach period-1 motion (README, "Findings").

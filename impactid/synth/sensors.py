@@ -19,6 +19,9 @@ from scipy import signal
 
 from impactid.errors import SimulationInputError
 
+__all__ = ["ANGLE_CHANNELS", "NO_SENSOR_ERRORS", "SensorModel", "add_noise", "antialias_decimate", "apply_sensors",
+           "encoder_counts", "quantise"]
+
 #: Channels that are encoder angles: quantised in counts, no analogue noise by default.
 ANGLE_CHANNELS = ("cam_angle", "follower_angle")
 

@@ -15,7 +15,7 @@ import pytest
 
 from impactid.errors import SimulationInputError
 from impactid.rigs.flat import ALZATE2007 as RIG
-from impactid.simulate.flat import SpeedRestitution, bifurcation, simulate_flat
+from impactid.rigs.flat.simulate import SpeedRestitution, bifurcation, simulate_flat
 from tests.simulate import flat_reference as ref
 
 TIME_TOL = 1e-9  # [s]

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from impactid import SUNDAR2016, HuntCrossley, contact
-from impactid.simulate import _kernel as K
+from impactid.rigs.pivoted import kernel as K
 from impactid.simulate.runs import pack_law, pack_rig
 
 

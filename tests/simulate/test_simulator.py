@@ -21,7 +21,7 @@ from impactid import (
     simulate_event,
     simulate_events,
 )
-from impactid.simulate import _kernel as K
+from impactid.rigs.pivoted import kernel as K
 from impactid.simulate.runs import pack_law, pack_rig
 
 

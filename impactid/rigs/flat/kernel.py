@@ -27,7 +27,7 @@ Method
   revolution and its downward zero is located by Brent's method; the follower is then
   released into free flight with the contact state.
 
-Status codes are returned instead of raising; :mod:`impactid.simulate.flat` turns them into
+Status codes are returned instead of raising; :mod:`impactid.rigs.flat.simulate` turns them into
 :class:`~impactid.errors.SimulationError`.
 """
 
@@ -39,7 +39,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from impactid.rigs import flat as _geo
+from impactid.rigs.flat import parameters as _geo
 from impactid.simulate import dp5
 from impactid.simulate.dp5 import BAD_INPUT, MAX_STEPS, NONFINITE, OK, STATUS_MESSAGES, STEP_UNDERFLOW
 

@@ -42,8 +42,12 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
-from impactid.rigs import pivoted as _geo
+from impactid.rigs.pivoted import parameters as _geo
 from impactid.simulate import dp5
+
+__all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "N_CCOL", "N_LAW", "N_RIG", "N_SUM", "STATUS_MESSAGES", "RunEnd",
+           "acceleration", "batch_events", "contact_force", "initial_mode", "integrate", "observe",
+           "stick_force"]
 
 _jit = njit(cache=True, inline="always")
 

@@ -20,6 +20,9 @@ import numpy as np
 from impactid.errors import RigParameterError
 from impactid.rigs._params import RigParameters
 
+__all__ = ["ALZATE2007", "MODEL_NAME", "FlatFollowerRig", "contact_angle_derivatives", "contact_follower_angle",
+           "flat_gap", "flat_gap_rate", "flat_lever", "flat_spring_torque"]
+
 MODEL_NAME = "flat-follower"
 
 

@@ -1,6 +1,6 @@
 """Rig F (Alzate et al. 2007): impacting motion with a restitution law, and the bifurcation diagram.
 
-:func:`simulate_flat` runs the compiled event-driven model of :mod:`impactid.simulate._flat_kernel`
+:func:`simulate_flat` runs the compiled event-driven model of :mod:`impactid.rigs.flat.kernel`
 (free flight A-10, riding the cam A-11/A-17, impacts A-12..A-16, chattering accumulated into
 sticking) at a constant cam speed. :func:`bifurcation` runs it from permanent contact at many cam
 speeds in parallel, samples the follower stroboscopically once per cam revolution (Fig. 16 of the
@@ -20,9 +20,12 @@ import numpy as np
 
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.flat import FlatFollowerRig
-from impactid.simulate import _flat_kernel as FK
+from impactid.rigs.flat import kernel as FK
 from impactid.simulate.regimes import _find_period
 from impactid.simulate.runs import DEFAULT_TOLERANCES, Tolerances
+
+__all__ = ["DEFAULT_RESTITUTION", "EVENT_KINDS", "RPM", "TWO_PI", "V_STICK", "BifurcationResult", "FlatRun",
+           "SpeedRestitution", "bifurcation", "pack_flat_rig", "simulate_flat", "strobe_phase_default"]
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0  # rad/s per rpm

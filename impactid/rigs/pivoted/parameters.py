@@ -26,6 +26,10 @@ from scipy import optimize
 from impactid.errors import RigParameterError
 from impactid.rigs._params import RigParameters
 
+__all__ = ["MODEL_NAME", "SUNDAR2016", "PivotedFollowerRig", "free_torque", "gap", "gap_paper", "gap_rate",
+           "gap_rate_paper", "lever_arm", "sliding_velocity", "spring_force", "tangential_gap_paper",
+           "tangential_gap_rate", "tangential_gap_rate_paper", "zero_state_angle"]
+
 MODEL_NAME = "pivoted-follower"
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,210 @@
+"""The estimation pipeline: every option of the job from recordings to estimates, in one frozen object.
+
+In the manner of pvlib's ``ModelChain``: a :class:`Pipeline` holds the choices that decide an estimate
+(the per-event kinematics method and anchor, the residual, the search and its bounds, the
+uncertainty options, the calibration) and runs the steps in order::
+
+    recordings -> events -> kinematics -> event sets -> contact damping (+ calibration) -> restitution
+
+:func:`impactid.estimate` is a thin call on it. The pipeline's options are recorded in the result
+(:attr:`~impactid.estimates.Estimate.pipeline` and its provenance), so that an estimate says how it
+was made.
+
+Example
+-------
+>>> from impactid import Pipeline
+>>> pipeline = Pipeline(fix_n=1.5, bootstrap_resamples=200)      # doctest: +SKIP
+>>> result = pipeline.run(["rec_020_16.h5", "rec_025_15.h5"])      # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from dataclasses import asdict, dataclass
+
+import pandas as pd
+
+from impactid import __version__
+from impactid.errors import ImpactidError
+from impactid.estimates import (
+    BOOTSTRAP_RESAMPLES,
+    BOOTSTRAP_SEED,
+    C_BOUNDS,
+    CALIBRATION_THRESHOLD,
+    N_BOUNDS,
+    SEPARABILITY_WIDTH,
+    Estimate,
+    EstimationWarning,
+    Progress,
+    fit_contact_damping,
+    fit_restitution,
+)
+from impactid.residuals import EventSet, residual_name
+
+__all__ = ["Pipeline"]
+
+
+@dataclass(frozen=True)
+class Pipeline:
+    """Every option of an estimate (frozen; recorded in the result).
+
+    Attributes
+    ----------
+    residual : ``"lambda1"`` (accelerometer only, default), ``"lambda2"`` or ``"lambda3"``.
+    fix_n : fix the Hunt–Crossley exponent (1.5: Hertzian; None: estimate it jointly with beta).
+    method : ``"optimise"`` (bounded Brent searches along the valley) or ``"grid"`` (the paper's grid).
+    grid : grid points ``(n_c, n_n)`` of the grid method.
+    integration, anchor : per-event kinematics (:func:`impactid.reconstruct.reconstruct`).
+    c_bounds : bounds of ``c = beta delta_ref^n`` [N s/m]; n_bounds : bounds of ``n``.
+    landscape : also compute the objective landscape (for plots).
+    calibrate : measure and correct the pipeline's alpha_m bias on the model's own recording
+        (:mod:`impactid.calibration`; lambda1 only).
+    residual_floor : the residual's noise floor (None: the calibrated default of the residual).
+    separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
+    bootstrap_resamples, bootstrap_seed : the bootstrap over events.
+    """
+
+    residual: str = "lambda1"
+    fix_n: float | None = None
+    method: str = "optimise"
+    grid: tuple[int, int] = (41, 21)
+    integration: str = "rk"
+    anchor: str = "cam-phase"
+    c_bounds: tuple[float, float] = C_BOUNDS
+    n_bounds: tuple[float, float] = N_BOUNDS
+    landscape: bool = False
+    calibrate: bool = True
+    residual_floor: float | None = None
+    separability_width: float = SEPARABILITY_WIDTH
+    bootstrap_resamples: int = BOOTSTRAP_RESAMPLES
+    bootstrap_seed: int = BOOTSTRAP_SEED
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "residual", residual_name(self.residual))
+        if self.method not in ("optimise", "grid"):
+            raise ValueError(f"method must be 'optimise' or 'grid', got {self.method!r}")
+        if self.fix_n is not None and not (math.isfinite(self.fix_n) and self.fix_n >= 0.0):
+            raise ValueError(f"fix_n must be a finite number >= 0, got {self.fix_n!r}")
+        if self.bootstrap_resamples < 10:
+            raise ValueError(f"bootstrap_resamples must be at least 10, got {self.bootstrap_resamples!r}")
+
+    def fit_options(self) -> dict:
+        """The keyword arguments of :func:`~impactid.estimates.fit_contact_damping` this pipeline uses."""
+        return dict(fix_n=self.fix_n, method=self.method, grid=self.grid, c_bounds=self.c_bounds,
+                    n_bounds=self.n_bounds, landscape=self.landscape, residual_floor=self.residual_floor,
+                    separability_width=self.separability_width, bootstrap_resamples=self.bootstrap_resamples,
+                    bootstrap_seed=self.bootstrap_seed)
+
+    def to_dict(self) -> dict:
+        """The options as JSON-ready data."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+
+    @classmethod
+    def from_dict(cls, data: dict) -> Pipeline:
+        """The pipeline of :meth:`to_dict` (e.g. from a result's ``pipeline``)."""
+        return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
+
+    def run(self, recordings, *, rig=None, progress: Progress | None = None) -> Estimate:
+        """Read, segment and reconstruct ``recordings``, then estimate ``beta, n`` and the restitution law.
+
+        Parameters
+        ----------
+        recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
+        rig : overrides the recordings' rig: a rig dataclass, or the path of a TOML rig file, whose
+            ``[operating]`` table also supplies or overrides the operating point.
+        progress : callback ``(stage, fraction)`` for a progress display.
+
+        Returns
+        -------
+        Estimate
+            with the damping estimate, the restitution law (None, with the reason among the
+            warnings, when it cannot be fitted), per-event tables, notes and provenance.
+        """
+        from impactid.events import EventWarning
+        from impactid.io import Recording, read_recording
+        from impactid.reconstruct import reconstruct
+
+        if isinstance(recordings, (Recording, str)) or hasattr(recordings, "__fspath__"):
+            recordings = [recordings]
+        recs = [(r.with_rig(rig) if rig is not None else r) if isinstance(r, Recording) else read_recording(r, rig=rig)
+                for r in recordings]
+        if not recs:
+            raise ImpactidError("no recording given")
+        collected: list[str] = []
+        recons, sets, frames = [], [], []
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", EventWarning)
+            for rec in recs:
+                recon = reconstruct(rec, integration=self.integration, anchor=self.anchor)
+                es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
+                recons.append(recon)
+                sets.append(es)
+                tab = recon.table.reset_index()
+                frames.append(pd.DataFrame({"source": es.source, "event": tab["event"],
+                                            "approach_speed": tab["approach_speed"], "xi": tab["xi"],
+                                            "separation_speed": tab["separation_speed"]}))
+        collected += [str(w.message) for w in caught if issubclass(w.category, EventWarning)]
+        # operating points may differ in cam speed and eccentricity; the contact pair must be the same
+        models = {repr({k: v for k, v in r.rig.to_dict().items() if k != "e"}) for r in recons}
+        if len(models) > 1:
+            raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
+                                "e equal); they differ between " + ", ".join(s.source for s in sets))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", EstimationWarning)
+            damping = fit_contact_damping(sets, self.residual, **self.fit_options(), progress=progress)
+            calibration: list[dict] = []
+            if self.calibrate and residual_name(self.residual) == "lambda1":
+                damping, sets, calibration = _calibrated(damping, recons, sets, self.fit_options(),
+                                                         integration=self.integration, anchor=self.anchor)
+            # a part of the job that cannot be done does not take the others with it: without a
+            # determined xi the restitution law is missing from the result, with the reason
+            try:
+                restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H)
+            except ImpactidError as exc:
+                restitution = None
+                warnings.warn(f"restitution law not estimated: {exc}", EstimationWarning, stacklevel=1)
+        collected += [str(w.message) for w in caught if issubclass(w.category, EstimationWarning)]
+        for message in collected:
+            warnings.warn(message, EstimationWarning, stacklevel=2)
+        ops = tuple({"cam_speed_hz": r.cam_speed_hz, "e_over_rc": r.rig.e / r.rig.r_c, "events": len(s)}
+                    for r, s in zip(recons, sets))
+        prov = tuple(p for r in recons for p in r.provenance) + (
+            f"fit_contact_damping(residual={damping.residual!r}, method={self.method!r}, fix_n={self.fix_n}): "
+            f"{damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",
+            f"impactid {__version__} pipeline {json.dumps(self.to_dict(), sort_keys=True)}")
+        return Estimate(damping=damping, restitution=restitution, sources=tuple(s.source for s in sets),
+                        operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
+                        warnings=tuple(collected), provenance=prov, calibration=tuple(calibration),
+                        pipeline=self.to_dict())
+
+
+def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, anchor: str):
+    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.calibration`); where it
+    exceeds :data:`CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit again, with the
+    intervals' indifference at least half the largest correction."""
+    from impactid.calibration import pipeline_bias
+    from impactid.contact import HuntCrossley
+
+    law = HuntCrossley(beta=damping.beta, n=damping.n)
+    biases = [pipeline_bias(r._recording, law, integration=integration, anchor=anchor) for r in recons]
+    record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
+    applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
+    if not any(applied):
+        return damping, sets, record
+    corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
+    systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
+    again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic)
+    note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
+            f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
+            + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
+                        if math.isfinite(b.alpha_m))
+            + "; alpha_m was corrected where the bias is significant and the fit repeated, with the intervals "
+              "widened by half the correction plus two standard errors")
+    from dataclasses import replace
+
+    again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
+                    seconds=again.seconds + damping.seconds)
+    warnings.warn(note, EstimationWarning, stacklevel=3)
+    return again, corrected, record
