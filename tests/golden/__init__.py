@@ -23,7 +23,8 @@ GOLDEN = Path(__file__).parent
 RELATIVE_TOLERANCE = 1e-7
 #: keys whose values depend on the machine, the paths or the version, not on the computation
 IGNORED_KEYS = frozenset({"provenance", "version", "impactid_version", "files", "file", "files_read", "plots",
-                          "path", "paths", "source", "sources", "seconds", "elapsed_s", "created", "written", "outputs", "recordings"})
+                          "path", "paths", "source", "sources", "seconds", "elapsed_s", "created", "written",
+                          "outputs", "recordings"})
 
 
 def _differences(got, want, path: str, out: list[str]) -> None:
