@@ -1,0 +1,1 @@
+"""Finger-follower valve train with a hydraulic lash adjuster (Kim, Jeon & Park 1990)."""
