@@ -84,3 +84,4 @@ def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, flo
 
 
 # ---- the registry: one line per rig (a rig's folder defines its MODEL; see impactid/rigs/base.py) ----
+register(__import__("impactid.rigs.finger_follower", fromlist=["MODEL"]).MODEL)

@@ -38,6 +38,11 @@ from impactid.rigs.finger_follower.simulate import DEFAULT_TOLERANCES, prepare, 
 __all__ = ["Sensors", "SynthRecording", "synth_recording"]
 
 TWO_PI = 2.0 * math.pi
+#: Default time-domain sample rate [Hz]: a data-acquisition clock independent of the camshaft, so
+#: that the samples fall at every phase of the encoder's steps (a rate commensurate with the
+#: encoder, such as 20 samples per degree, leaves the encoder's quantisation unaveraged: up to a
+#: tenth of a step of angle error, which biases the tappet damping by 5e-4 at 1600 rpm).
+DEFAULT_SAMPLE_RATE_HZ = 50_000.0
 
 
 @dataclass(frozen=True)
@@ -119,7 +124,7 @@ def synth_recording(rig, rpm: float, *, revolutions: int = 16, sampling: str = "
     revolutions : whole revolutions recorded (for synchronous averaging).
     sampling : ``"angle"`` (one sample per encoder step) or ``"time"`` (``sample_rate_hz``).
     encoder_ppr : encoder steps per revolution.
-    sample_rate_hz : time-domain sample rate [Hz] (default 20 samples per degree of cam angle).
+    sample_rate_hz : time-domain sample rate [Hz] (default :data:`DEFAULT_SAMPLE_RATE_HZ`).
     lift : a lift law (default the rig's cycloidal law).
     sensors : :class:`Sensors`.
     nose_angle : encoder angle of the nose [rad] (written to ``/operating nose_angle_rad``).
@@ -147,7 +152,7 @@ def synth_recording(rig, rpm: float, *, revolutions: int = 16, sampling: str = "
         t = t0 + np.arange(n) * (step / omega)
         rate = encoder_ppr * speed_hz
     else:
-        rate = float(sample_rate_hz) if sample_rate_hz is not None else 20.0 * 360.0 * speed_hz
+        rate = float(sample_rate_hz) if sample_rate_hz is not None else DEFAULT_SAMPLE_RATE_HZ
         if not (math.isfinite(rate) and rate > 0.0):
             raise SimulationInputError(f"sample_rate_hz must be positive, got {sample_rate_hz!r}")
         n = int(math.floor(revolutions * rate / speed_hz))
