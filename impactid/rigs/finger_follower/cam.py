@@ -54,7 +54,8 @@ __all__ = ["BaseGeometry", "CycloidalLift", "Kinematics", "LiftTable", "base_geo
 TWO_PI = 2.0 * math.pi
 DEG = math.pi / 180.0
 #: Default step of the kinematic table [deg]: the splines' interpolation error is below 2e-11 m
-#: in Y_c and L_fc (tests), 1e-5 of the contact deflections the dynamics resolve.
+#: in Y_c and L_fc where the lift is smooth, and below 5e-9 m within a degree of the points where
+#: the cycloidal lift's third derivative jumps (the nose and the event ends) (tests).
 TABLE_STEP_DEG = 0.1
 
 LIFT_CYCLOIDAL, LIFT_TABLE = 0, 1

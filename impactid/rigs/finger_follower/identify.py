@@ -56,6 +56,9 @@ FIT_STEADY_TOL = 1e-6
 #: Points per revolution at which a model is evaluated for time-domain data (0.02 deg; the
 #: periodic cubic spline through them interpolates the leak-down to about 1e-10 m).
 MODEL_GRID_POINTS = 18_000
+#: Step tolerance of the lift fit (relative, on log S_K, log beta and the phase in rad): 1e-9 of
+#: the angles is 1e-7 deg, far inside the intervals noisy data give (1e-5 relative).
+LIFT_XTOL = 1e-9
 
 
 class IdentificationError(ImpactidError, ValueError):
@@ -367,9 +370,17 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
     scale = max(float(np.ptp(data)), 1e-9)
     n_eval = [0]
 
+    failed = [0]
+
     def residual(x):
         n_eval[0] += 1
-        sim = np.concatenate([model(x, k, c) for k, c in enumerate(cycles)])
+        try:
+            sim = np.concatenate([model(x, k, c) for k, c in enumerate(cycles)])
+        except SimulationError:
+            # a trial tappet the integrator cannot follow (chatter, no steady state): a penalty the
+            # optimiser's step control backs away from, counted and reported
+            failed[0] += 1
+            return np.full(data.size, 10.0)
         return _project(data - sim, groups) / scale
 
     c0, k0 = start if start is not None else (0.005 * rig.C_d_plus, 0.5 * rig.K_e)
@@ -384,12 +395,20 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
     rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
     notes = [n for c in cycles for n in c.notes]
     separable = True
-    if not math.isfinite(rho) or abs(rho) > SEPARABILITY_CORRELATION or np.any(se > SEPARABILITY_RELATIVE_ERROR):
+    if not math.isfinite(rho) or abs(rho) > SEPARABILITY_CORRELATION:
         separable = False
-        notes.append(f"c_t and k_t are not separable from these data (correlation {rho:.4f}, relative errors "
-                     f"{se[0]:.2g} and {se[1]:.2g}); fit several speeds or fix one of them")
+        notes.append(f"c_t and k_t are not separable from these data (correlation {rho:.4f}); fit several "
+                     "speeds or fix one of them")
+    for name, err in (("c_t", se[0]), ("k_t", se[1])):
+        if not err <= SEPARABILITY_RELATIVE_ERROR:
+            separable = False
+            notes.append(f"{name} is not determined by these data (relative standard error {100 * err:.3g} %): "
+                         "c_t and k_t are not separable here; average more revolutions, fit several speeds or "
+                         "fix one of them")
     if not sol.success:
         notes.append(f"the optimiser stopped without converging: {sol.message}")
+    if failed[0]:
+        notes.append(f"{failed[0]} trial parameter set(s) could not be simulated and were penalised")
     bound_note = "" if separable else "not separable"
     c_t = _log_parameter("c_t", sol.x[0], se[0], q, "N s/m", confidence, bound_note)
     k_t = _log_parameter("k_t", sol.x[1], se[1], q, "N/m", confidence, bound_note)
@@ -413,7 +432,8 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
             rows.append({"recording": k, "rpm": cycle.rpm, "cam_angle_deg": th, "measured_m": y, "fitted_m": s})
     rms = float(np.sqrt(np.mean(r * r)))
     statistics = {"n_data": int(r.size), "dof": int(dof), "residual_rms_m": rms, "correlation_c_t_k_t": float(rho),
-                  "separable": separable, "evaluations": int(n_eval[0]), "cost": float(0.5 * r @ r),
+                  "separable": separable, "evaluations": int(n_eval[0]), "failed_evaluations": int(failed[0]),
+                  "cost": float(0.5 * r @ r),
                   "speeds_rpm": ", ".join(f"{c.rpm:.6g}" for c in cycles)}
     details = {"cycles": [{"rpm": c.rpm, "revolutions": c.revolutions, "sampling": c.sampling, "source": c.source,
                            "bins": int(c.theta.size)} for c in cycles],
@@ -536,8 +556,8 @@ def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, con
         return _project(y - sim, [np.arange(y.size)]) / scale
 
     x0 = np.array([math.log(start.S_K), math.log(start.beta_open), math.log(start.beta_close), phase0])
-    sol = optimize.least_squares(residual, x0, method="trf", diff_step=1e-6, xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                 max_nfev=300)
+    sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-6, xtol=LIFT_XTOL,
+                                 ftol=1e-10, gtol=1e-10, max_nfev=300)
     r = sol.fun * scale
     jac = sol.jac * scale
     cov, se, q, dof = _intervals(jac, r, 1, confidence)
