@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import math
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -329,6 +330,9 @@ def run_fit_tappet(args, model) -> int:
         entry.pop("tables", None)
     figures = [(f"tappet_fit_{k}.png", (lambda f=f: f.plot())) for k, f in enumerate(fits)]
     _deliver(args, data, inputs, figures)
+    for f in fits:
+        for note in f.notes:
+            warnings.warn(note, stacklevel=2)
     if not args.json:
         for f in fits:
             print(f.report())
@@ -346,6 +350,8 @@ def run_fit_lift(args, model) -> int:
     data = {"rig": MODEL_NAME, "recording": str(args.recording), **fit.to_dict()}
     data.pop("tables", None)
     _deliver(args, data, inputs, [("lift_fit.png", fit.plot)])
+    for note in fit.notes:
+        warnings.warn(note, stacklevel=2)
     if not args.json:
         print(fit.report())
     return 0
