@@ -357,7 +357,8 @@ def _hermite_min(f0, f1, d0, d1):
     a = 3.0 * c3
     b = 2.0 * c2
     c = d0
-    if abs(a) < 1e-14 * (abs(b) + abs(c)):
+    # "<=": with rates of round-off size (subnormal) the right side underflows to 0 while a may be 0
+    if abs(a) <= 1e-14 * (abs(b) + abs(c)):
         if b <= 0.0:
             return -1.0
         x = -c / b

@@ -6,7 +6,7 @@ stiffness and damping, the surge model, the static preloads, the seat lift-off t
 properties computed from them, so that a rig file cannot hold an inconsistent copy.
 
 The paper's tables are the preset :data:`KIM1990` (with the repairs and assumptions of the
-project's reading of the paper, see ``docs/rigs/finger_follower.md``); :data:`KIM1990_TABLE2`
+project's reading of the paper, see ``docs/finger_follower.md``); :data:`KIM1990_TABLE2`
 replaces the tappet's limiting stiffness by Table 2's printed ``K_tp = 6.648e7 N/m``.
 
 Pure functions (:func:`tappet_limits`, :func:`contact_damping`, :func:`equivalent_mass`,

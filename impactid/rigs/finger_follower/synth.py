@@ -4,7 +4,7 @@ The rig of Kim, Jeon & Park (1990) measured the valve displacement with a non-co
 follower, the tappet (plunger) motion with a gap sensor and the cam angle with an encoder on the
 camshaft, and averaged the signals over revolutions with the encoder. The paper gives no sample
 rate, resolution or noise level; the defaults of :class:`Sensors` are assumptions (documented in
-``docs/rigs/finger_follower.md``), each a parameter.
+``docs/finger_follower.md``), each a parameter.
 
 Two samplings are offered:
 

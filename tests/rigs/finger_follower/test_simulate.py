@@ -150,3 +150,15 @@ def test_bad_inputs_raise(train):
         simulate(train, 0.0)
     with pytest.raises(SimulationInputError, match="revolutions"):
         simulate(train, 900.0, revolutions=-1.0)
+
+
+def test_round_off_rates_do_not_break_event_search(train):
+    """Regression: on the quiet base circle a switching function's rates can be subnormal; the
+    Hermite-minimum search divided by zero there (found at rtol 1e-12, 600 rpm)."""
+    from impactid.rigs.finger_follower import kernel
+    from impactid.rigs.finger_follower.simulate import Tolerances
+
+    assert kernel._hermite_min(1e-10, 1e-10, -5e-324, 5e-324) == -1.0
+    tight = Tolerances(rtol=1e-12, atol_displacement=1e-14, atol_rate=1e-11, max_step_revolutions=2e-4)
+    run = simulate(train, 600.0, revolutions=0.09990722592920065, tolerances=tight)
+    assert np.abs(run.y_end).max() == 0.0
