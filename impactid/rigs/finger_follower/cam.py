@@ -313,7 +313,8 @@ def read_lift(path: str | os.PathLike[str]):
         gamma = [float(r[ig]) for r in rows[1:]]
         lift = [float(r[il]) for r in rows[1:]]
     except (ValueError, IndexError):
-        raise RigParameterError(f"{path}: malformed lift CSV (every row needs numbers in gamma_rad and lift_m)") from None
+        raise RigParameterError(f"{path}: malformed lift CSV (every row needs numbers in gamma_rad and "
+                                "lift_m)") from None
     return LiftTable(np.array(gamma), np.array(lift), source=str(path))
 
 
@@ -482,7 +483,6 @@ def contact_table(thetas, gamma0, sig, Ax, Ay, g0, angle_c0, rc, rf, r1, l_tf, l
         dCx = dCx_th + rho_p * tx * dg
         dCy = dCy_th + rho_p * ty * dg
         dnx = -tx + tx * dg
-        dny = -ty + ty * dg
         Px, Py = Cx - rf * nx, Cy - rf * ny
         dPx = dCx - rf * dnx
         base = S == 0.0 and S1 == 0.0

@@ -93,7 +93,6 @@ def _json_text(data: dict) -> str:
 def _deliver(args, data: dict, inputs, figures=()) -> None:
     """``--out`` JSON and ``--plots`` figures in one transaction; ``--json`` to stdout."""
     from impactid._files import StagedFiles
-
     from impactid.rigs.finger_follower import figures as F
 
     if args.plots and figures:
@@ -306,7 +305,7 @@ def _read(paths, args):
 
     rig_file = getattr(args, "rig_file", None)
     recs = [read_recording(p, rig=rig_file) if rig_file else read_recording(p) for p in paths]
-    for p, rec in zip(paths, recs):
+    for rec in recs:
         rec.require_rig(MODEL_NAME)
     return recs
 

@@ -79,7 +79,7 @@ def plot_tappet_fit(fit):
     plt = _plt()
     table = fit.tables["cycles"]
     fig, ax = plt.subplots(figsize=(7.0, 4.2), constrained_layout=True)
-    for (k, rpm), sel in table.groupby(["recording", "rpm"]):
+    for (_, rpm), sel in table.groupby(["recording", "rpm"]):
         o = np.argsort(sel["cam_angle_deg"].to_numpy())
         th = sel["cam_angle_deg"].to_numpy()[o]
         line, = ax.plot(th, 1e6 * sel["measured_m"].to_numpy()[o], ".", ms=2, label=f"measured {rpm:.6g} rpm")

@@ -492,7 +492,8 @@ def steady_state(model, rpm: float, *, alpha: float | None = None, beta: float |
         runs.append(rev)
         runs = runs[-max(keep, max_period):]
         sections.append(rev.y_end.copy())
-        diffs = [(_section_difference(sections[-1], sections[-1 - q], train.rig.L_vf) if len(sections) > q else math.inf)
+        diffs = [(_section_difference(sections[-1], sections[-1 - q], train.rig.L_vf) if len(sections) > q
+                  else math.inf)
                  for q in range(1, max_period + 1)]
         opens = int(((rev.events["switch"] == "g_seat") & (rev.events["direction"] > 0)).sum())
         rows.append({"revolution": k, "difference": diffs[0], "max_Y_t": float(rev.y[:, 0].max()),
@@ -599,7 +600,6 @@ def summarize(state: SteadyState, flank_fraction: float = 1.0 / 3.0) -> dict[str
     events = state.events
     seat = events[events["switch"] == "g_seat"]
     opens = seat[seat["direction"] > 0]
-    closes = seat[seat["direction"] < 0]
     per_rev = [int((opens["revolution"] == k).sum()) for k in range(len(revs))]
     out["openings_per_revolution"] = max(per_rev) if per_rev else 0
     out["bounce"] = out["openings_per_revolution"] > 1
@@ -891,22 +891,23 @@ def critical_speeds(model, *, rpm_from: float = 1000.0, rpm_to: float = 6000.0, 
         rows.append(row)
     notes = []
     result = {}
+    swept = list(rows)  # the sweep alone (bisection runs of one flag must not count for the other)
     for flag in ("jump", "bounce"):
-        on = [r for r in rows if r[flag]]
+        on = [r for r in swept if r[flag]]
         if not on:
             result[flag] = math.nan
             notes.append(f"no {flag} between {rpm_from:g} and {rpm_to:g} rpm")
             continue
-        first = next(i for i, r in enumerate(rows) if r[flag])
+        first = next(i for i, r in enumerate(swept) if r[flag])
         if first == 0:
             result[flag] = math.nan
             notes.append(f"{flag} already at the lowest speed of the sweep ({rpm_from:g} rpm): lower rpm_from")
             continue
-        if any(not r[flag] for r in rows[first:]):
-            back = [r["rpm"] for r in rows[first:] if not r[flag]]
+        if any(not r[flag] for r in swept[first:]):
+            back = [r["rpm"] for r in swept[first:] if not r[flag]]
             notes.append(f"{flag} is not monotone in speed: off again at {', '.join(f'{x:g}' for x in back)} rpm "
                          "(the first transition is reported)")
-        lo, hi = rows[first - 1]["rpm"], rows[first]["rpm"]
+        lo, hi = swept[first - 1]["rpm"], swept[first]["rpm"]
         while hi - lo > resolution_rpm:
             mid = 0.5 * (lo + hi)
             row, _ = _flags(train, mid, None, options)

@@ -122,7 +122,8 @@ def test_joint_fit_of_two_speeds_and_per_speed_fits(rig):
     recs = [synth_recording(rig, rpm, revolutions=1, sensors=IDEAL, alpha=0.008, beta=0.3).recording
             for rpm in (900.0, 1600.0)]
     joint = fit_tappet_drag(recs, joint=True)
-    assert joint.value("alpha") == pytest.approx(0.008, rel=1e-3) and joint.value("beta") == pytest.approx(0.3, rel=1e-3)
+    assert joint.value("alpha") == pytest.approx(0.008, rel=1e-3)
+    assert joint.value("beta") == pytest.approx(0.3, rel=1e-3)
     assert "offset_1" in joint.params and joint.statistics["n_data"] == 2880
     separate = fit_tappet_drag(recs)
     assert isinstance(separate, list) and len(separate) == 2
