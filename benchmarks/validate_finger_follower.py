@@ -33,7 +33,7 @@ import reference_finger_follower as R  # noqa: E402
 from impactid.io import Recording  # noqa: E402
 from impactid.rigs.finger_follower import analysis  # noqa: E402
 from impactid.rigs.finger_follower.cam import CycloidalLift  # noqa: E402
-from impactid.rigs.finger_follower.identify import fit_cam_lift, fit_tappet_drag  # noqa: E402
+from impactid.rigs.finger_follower.identify import fit_cam_lift, fit_damping, fit_tappet_drag  # noqa: E402
 from impactid.rigs.finger_follower.parameters import KIM1990 as RIG  # noqa: E402
 from impactid.rigs.finger_follower.simulate import (  # noqa: E402
     Tolerances,
@@ -296,8 +296,27 @@ def identification(lines):
             err = f"{100 * (p.value / value - 1):+.4f} %" if value else f"{p.value:+.2e} rad"
             lines.append(f"| {label} | {name} | {value:.6g} | {p.value:.6g} | {err} | [{p.interval[0]:.6g}, "
                          f"{p.interval[1]:.6g}] | {_inside(label, p.contains(value))} | {seconds:.1f} |")
-    lines += ["", "Not done: a free-form (spline) lift table, and the contact and spring damping ratios from the "
-              "ringing after closure (see docs/finger_follower.md).", ""]
+    lines += ["### Contact and spring damping ratios from the ringing after valve closure", "",
+              "`fit_damping` at 2450 rpm: the three contact dampers scaled together (`zeta_contact`, 0.06 in the "
+              "rig's table values) and the spring's first-mode damping ratio, from the valve around closure "
+              "(from 20 deg before to 60 deg after the lift falls through 10 % of its maximum).", "",
+              "| recording | parameter | truth | estimate | error | 95 % interval | inside | fit [s] |",
+              "|---|---|---|---|---|---|---|---|"]
+    for label, s in (("compiled, noise-free", synth_recording(RIG, 2450.0, revolutions=1, sensors=Sensors.ideal())),
+                     ("compiled, noisy, displacement only", synth_recording(RIG, 2450.0, revolutions=16, seed=14)),
+                     ("compiled, noisy, displacement and velocity",
+                      synth_recording(RIG, 2450.0, revolutions=16, velocity=True, seed=14))):
+        t0 = time.perf_counter()
+        fit = fit_damping(s.recording)
+        seconds = time.perf_counter() - t0
+        for name, value in (("zeta_contact", 0.06), ("zeta_spring", RIG.zeta_spring)):
+            p = fit[name]
+            lines.append(f"| {label} | {name} | {value:.6g} | {p.value:.6g} | {100 * (p.value / value - 1):+.3f} % | "
+                         f"[{p.interval[0]:.6g}, {p.interval[1]:.6g}] | {_inside(label, p.contains(value))} | "
+                         f"{seconds:.1f} |")
+    lines += ["", "With the displacement alone the contact damping is determined to about 20 %; a velocity channel "
+              "(5 mm/s noise) brings both ratios to about 4 %.", "",
+              "Not done: a free-form (spline) lift table; the HLA preload from the onset of tappet separation.", ""]
     print("\n".join(lines[-40:]))
 
 

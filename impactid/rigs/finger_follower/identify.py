@@ -10,6 +10,8 @@
   with the rig's ``C_d+`` and ``K_e``. The zero offset of the gap sensor is a nuisance parameter
   eliminated in closed form (variable projection). One fit per speed, or one pair for several
   speeds (``joint=True``).
+* :func:`fit_damping` fits the contact damping ratio and the valve spring's damping ratio to the
+  valve's motion around closure (displacement, and velocity when recorded).
 * :func:`fit_cam_lift` is the analogue of rig F's cam-profile fit: the lift law (a cycloidal rise
   and return of unknown height and angles) and the encoder's phase against the nose, from the
   valve displacement at a low speed, where the train is nearly quasi-static.
@@ -41,7 +43,8 @@ from impactid.results import FitResult, Parameter
 from impactid.rigs.finger_follower.cam import CycloidalLift
 from impactid.rigs.finger_follower.simulate import DEFAULT_TOLERANCES, prepare, steady_state
 
-__all__ = ["AveragedCycle", "IdentificationError", "LiftFit", "TappetFit", "fit_cam_lift", "fit_tappet_drag",
+__all__ = ["AveragedCycle", "DampingFit", "IdentificationError", "LiftFit", "TappetFit", "fit_cam_lift", "fit_damping",
+           "fit_tappet_drag",
            "synchronous_average"]
 
 TWO_PI = 2.0 * math.pi
@@ -580,3 +583,127 @@ def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, con
                    details={"correlation": corr.tolist(), "start": start.to_dict() | {"phase": phase0},
                             "confidence": confidence, "source": cycle.source},
                    provenance=(f"fit_cam_lift({where}, {cycle.rpm:.6g} rpm)",))
+
+
+# --------------------------------------------------------------------------------------------
+# Contact and spring damping from the ringing after valve closure
+# --------------------------------------------------------------------------------------------
+
+#: The contact damping ratio behind the rig's tabulated contact dampers (Kim et al.'s rule, K-1).
+TABLE_CONTACT_ZETA = 0.06
+
+
+class DampingFit(FitResult):
+    """Contact and valve-spring damping ratios fitted to the valve motion around closure.
+
+    Parameters ``zeta_contact`` (the three contact dampers scaled together from the rig's values,
+    which correspond to 0.06 by Kim et al.'s rule) and ``zeta_spring`` (first surge mode). Table
+    ``cycle``: the averaged and fitted channels in the window.
+    """
+
+    kind: ClassVar[str] = "finger_follower_damping"
+    title: ClassVar[str] = "contact and spring damping from the ringing after valve closure"
+
+
+def _closing_angle(theta: np.ndarray, lift: np.ndarray) -> float:
+    """Cam angle [rad] where the averaged valve lift last falls through a tenth of its maximum."""
+    base = float(np.median(lift))
+    level = base + 0.1 * (float(np.max(lift)) - base)
+    above = np.flatnonzero(lift > level)
+    return float(theta[above[-1]]) if above.size else math.nan
+
+
+def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, float] = (-20.0, 60.0),
+                confidence: float = 0.95, bins: int | None = None, tolerances=DEFAULT_TOLERANCES) -> DampingFit:
+    """Fit the contact damping ratio and the valve-spring damping ratio to the valve's ringing.
+
+    Parameters
+    ----------
+    recording : a recording at a speed where the valve closes hard enough to ring (``valve_displacement``
+        and, if present, ``valve_velocity`` are used; each channel is weighted by the scatter of its
+        synchronous average).
+    rig, lift : the rig (default the recording's) and its cam lift.
+    window_deg : cam-angle window [deg] relative to where the averaged valve lift last falls through a
+        tenth of its maximum (the end of the closing flank, found in the data).
+    confidence : coverage of the intervals.
+
+    The tappet drag is the rig's at the recording's speed (fit it first with :func:`fit_tappet_drag`
+    and put it in the rig). When a ratio is determined to worse than 50 %, the result says the data
+    do not carry it.
+    """
+    rig = rig if rig is not None else recording.require_rig("finger-follower-hla")
+    where = recording.source or "recording"
+    if "valve_displacement" not in recording:
+        raise IdentificationError(f"{where}: no 'valve_displacement' channel")
+    names = [c for c in ("valve_displacement", "valve_velocity") if c in recording]
+    cycle = synchronous_average(recording, channels=names, bins=bins)
+    closing = _closing_angle(cycle.theta, cycle.mean["valve_displacement"])
+    if not math.isfinite(closing):
+        raise IdentificationError(f"{where}: the valve does not open in this recording")
+    lo, hi = closing + math.radians(window_deg[0]), closing + math.radians(window_deg[1])
+    mask = (cycle.theta >= lo) & (cycle.theta <= hi)
+    if mask.sum() < 10:
+        raise IdentificationError(f"{where}: fewer than 10 averaged samples in the closing window")
+    weights = {}
+    for c in names:
+        se = cycle.stderr[c][mask]
+        se = se[np.isfinite(se) & (se > 0)]
+        weights[c] = 1.0 / float(np.median(se)) if se.size else 1.0 / max(float(np.ptp(cycle.mean[c])) * 1e-3, 1e-12)
+    data = np.concatenate([cycle.mean[c][mask] * weights[c] for c in names])
+    groups = [np.arange(k * int(mask.sum()), (k + 1) * int(mask.sum())) for k in range(len(names))]
+    base_train = prepare(rig, lift)
+    state = {"start": None, "n": 0, "failed": 0}
+    channel_of = {"valve_displacement": "Y_v", "valve_velocity": "Y_v_dot"}
+
+    def model(x):
+        zc, zs = math.exp(x[0]), math.exp(x[1])
+        scale = zc / TABLE_CONTACT_ZETA
+        trial = rig.replace(C_tf=rig.C_tf * scale, C_fc=rig.C_fc * scale, C_vf=rig.C_vf * scale, zeta_spring=zs)
+        st = steady_state(base_train.with_rig(trial), cycle.rpm, tol=FIT_STEADY_TOL, start=state["start"],
+                          grid_deg=cycle.model_grid_deg(), tolerances=tolerances, max_revolutions=200)
+        state["start"] = st.start
+        if not st.converged:
+            raise SimulationError(f"no periodic steady state with zeta_contact {zc:.4g}, zeta_spring {zs:.4g}")
+        return np.concatenate([cycle.average_model(st.revolution.channel(channel_of[c]))[mask] * weights[c]
+                               for c in names])
+
+    def residual(x):
+        state["n"] += 1
+        try:
+            return _project(data - model(x), [groups[0]])  # the displacement sensor's zero
+        except SimulationError:
+            state["failed"] += 1
+            return np.full(data.size, 1e3)
+
+    x0 = np.log([0.03, 0.08])
+    sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-5, xtol=1e-10,
+                                 ftol=1e-12, gtol=1e-12, max_nfev=100)
+    cov, se, q, dof = _intervals(sol.jac, sol.fun, 1, confidence)
+    notes = list(cycle.notes)
+    params = []
+    for k, name in enumerate(("zeta_contact", "zeta_spring")):
+        note = ""
+        if not se[k] <= SEPARABILITY_RELATIVE_ERROR:
+            note = "not determined"
+            notes.append(f"{name} is not determined by these data (relative standard error {100 * se[k]:.3g} %): "
+                         "the ringing after closure does not carry it")
+        params.append(_log_parameter(name, sol.x[k], se[k], q, "", confidence, note))
+    if state["failed"]:
+        notes.append(f"{state['failed']} trial parameter set(s) could not be simulated and were penalised")
+    if not sol.success:
+        notes.append(f"the optimiser stopped without converging: {sol.message}")
+    rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
+    fitted = model(sol.x)
+    table = {"cam_angle_deg": cycle.theta_deg[mask]}
+    for k, c in enumerate(names):
+        g = groups[k]
+        table[f"{c}_measured"] = data[g] / weights[c]
+        offset = float(np.mean(data[g] - fitted[g])) if k == 0 else 0.0
+        table[f"{c}_fitted"] = (fitted[g] + offset) / weights[c]
+    statistics = {"n_data": int(data.size), "dof": int(dof), "rpm": cycle.rpm, "channels": ", ".join(names),
+                  "closing_deg": math.degrees(closing), "correlation": float(rho), "evaluations": state["n"],
+                  "failed_evaluations": state["failed"], "weighted_rms": float(np.sqrt(np.mean(sol.fun ** 2)))}
+    return DampingFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": pd.DataFrame(table)},
+                      details={"window_deg": list(window_deg), "confidence": confidence,
+                               "weights": {c: w for c, w in weights.items()}},
+                      provenance=(f"fit_damping({where}, {cycle.rpm:.6g} rpm)",))

@@ -177,3 +177,15 @@ def test_recording_file_round_trip_keeps_the_rig_and_truth_apart(rig, tmp_path):
     from impactid.io import read_truth
 
     assert read_truth(path)["alpha"] == pytest.approx(0.0071)
+
+
+def test_damping_ratios_from_the_ringing_after_closure(rig):
+    """Contact and spring damping ratios (truth 0.06 and 0.04) from the valve around closure at 2450 rpm."""
+    from impactid.rigs.finger_follower.identify import fit_damping
+
+    clean = fit_damping(synth_recording(rig, 2450.0, revolutions=1, sensors=IDEAL).recording)
+    assert clean.value("zeta_contact") == pytest.approx(0.06, rel=1e-3)
+    assert clean.value("zeta_spring") == pytest.approx(0.04, rel=1e-3)
+    noisy = fit_damping(synth_recording(rig, 2450.0, revolutions=16, velocity=True, seed=4).recording)
+    assert noisy["zeta_contact"].contains(0.06) and noisy["zeta_spring"].contains(0.04)
+    assert noisy["zeta_contact"].stderr / noisy.value("zeta_contact") < 0.1 and not noisy.notes
