@@ -107,8 +107,10 @@ def test_tappet_fit_noisy_time_domain_inside_intervals(rig):
     assert fit.statistics["residual_rms_m"] < 0.2e-6
 
 
+@pytest.mark.slow
 def test_tappet_fit_on_the_reference_model(ref900, rig):
-    """Recordings made by the independent solve_ivp model: the compiled model fitted to them."""
+    """Recordings made by the independent solve_ivp model: the compiled model fitted to them (slow:
+    the reference needs about 10 s for its steady state)."""
     clean = fit_tappet_drag(_reference_recording(ref900, rig, 1, 0.0, 0.0))
     truth = {"c_t": 0.0071 * rig.C_d_plus, "k_t": 0.28 * rig.K_e, "alpha": 0.0071, "beta": 0.28}
     err = _recovered(clean, truth)
