@@ -88,3 +88,4 @@ def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, flo
 from impactid.rigs.pivoted import MODEL as _PIVOTED; register(_PIVOTED)  # noqa: E402, E702, I001
 from impactid.rigs.flat import MODEL as _FLAT; register(_FLAT)  # noqa: E402, E702, I001
 from impactid.rigs.ball import MODEL as _BALL; register(_BALL)  # noqa: E402, E702, I001
+from impactid.rigs.finger_follower import MODEL as _FINGER; register(_FINGER)  # noqa: E402, E702, I001

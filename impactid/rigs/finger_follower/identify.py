@@ -1,0 +1,709 @@
+"""Identification on recordings of the finger-follower valve train (Kim, Jeon & Park 1990, and more).
+
+* :func:`synchronous_average` averages a recording over camshaft revolutions with its encoder
+  (angle-domain or time-domain sampling), as the paper's rig did.
+* :func:`fit_tappet_drag` is the paper's identification: the tappet drag of (K-6) from the
+  measured plunger motion ``Y_t(theta)``, by least squares of the simulated periodic steady state
+  against the averaged cycle. The free parameters are the better-conditioned products
+  ``c_t = alpha C_d+`` [N s/m] and ``k_t = beta K_e`` [N/m] (searched in logarithms); ``alpha``
+  and ``beta`` are reported as well, with the same relative intervals, and mean something only
+  with the rig's ``C_d+`` and ``K_e``. The zero offset of the gap sensor is a nuisance parameter
+  eliminated in closed form (variable projection). One fit per speed, or one pair for several
+  speeds (``joint=True``).
+* :func:`fit_damping` fits the contact damping ratio and the valve spring's damping ratio to the
+  valve's motion around closure (displacement, and velocity when recorded).
+* :func:`fit_cam_lift` is the analogue of rig F's cam-profile fit: the lift law (a cycloidal rise
+  and return of unknown height and angles) and the encoder's phase against the nose, from the
+  valve displacement at a low speed, where the train is nearly quasi-static.
+
+Intervals
+---------
+Linearised (Gauss-Newton) intervals at the optimum: covariance ``s^2 (J^T J)^-1`` with the
+residual variance ``s^2 = SSR / (n - p)`` (``p`` counts the eliminated offsets), and Student-t
+quantiles for the chosen confidence. The averaged samples are independent when the sensor noise
+is white, which is the assumption these intervals rest on; they say nothing about model error
+(a wrong cam or wrong masses), which the residual RMS and the notes report instead. When the two
+tappet parameters are correlated beyond ``|rho| > 0.995`` or one is determined to worse than
+50 %, the result says they are not separable.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import pandas as pd
+from scipy import optimize, stats
+
+from impactid.errors import ImpactidError, SimulationError
+from impactid.results import FitResult, Parameter
+from impactid.rigs.finger_follower.cam import CycloidalLift
+from impactid.rigs.finger_follower.simulate import DEFAULT_TOLERANCES, prepare, steady_state
+
+__all__ = ["AveragedCycle", "DampingFit", "IdentificationError", "LiftFit", "TappetFit", "fit_cam_lift", "fit_damping",
+           "fit_tappet_drag",
+           "synchronous_average"]
+
+TWO_PI = 2.0 * math.pi
+DEG = math.pi / 180.0
+#: Correlation beyond which two parameters are reported as not separable.
+SEPARABILITY_CORRELATION = 0.995
+#: Relative standard error beyond which a parameter is reported as not determined.
+SEPARABILITY_RELATIVE_ERROR = 0.5
+#: Steady-state tolerance inside the fits (units of 1 um and 1 mm/s, see ``steady_state``): 1 pm,
+#: far below the finite-difference steps' effect (1e-4 relative, about 10 nm of leak-down).
+FIT_STEADY_TOL = 1e-6
+#: Points per revolution at which a model is evaluated for time-domain data (0.02 deg; the
+#: periodic cubic spline through them interpolates the leak-down to about 1e-10 m).
+MODEL_GRID_POINTS = 18_000
+#: Step tolerance of the lift fit (relative, on log S_K, log beta and the phase in rad): 1e-9 of
+#: the angles is 1e-7 deg, far inside the intervals noisy data give (1e-5 relative).
+LIFT_XTOL = 1e-9
+
+
+class IdentificationError(ImpactidError, ValueError):
+    """A recording that cannot be used for the identification asked (missing channel, no speed, ...)."""
+
+
+# --------------------------------------------------------------------------------------------
+# Synchronous averaging
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class AveragedCycle:
+    """One camshaft revolution averaged over the revolutions of a recording.
+
+    Attributes
+    ----------
+    theta : cam angles of the bins [rad], model convention (0 at the nose), sorted in [-pi, pi).
+    mean, stderr : averaged channels and their standard errors by name [SI] (NaN stderr for a
+        bin with one sample).
+    counts : samples per bin.
+    rpm : camshaft speed [rpm]; ``revolutions`` the number of revolutions averaged.
+    sampling : ``"angle"`` or ``"time"``; ``source`` the recording's file.
+    notes : what qualifies the average.
+    """
+
+    theta: np.ndarray
+    mean: dict
+    stderr: dict
+    counts: np.ndarray
+    rpm: float
+    revolutions: float
+    sampling: str
+    source: str = ""
+    notes: tuple = ()
+    sample_theta: np.ndarray | None = None
+    sample_bin: np.ndarray | None = None
+
+    @property
+    def theta_deg(self) -> np.ndarray:
+        """Bin angles [deg]."""
+        return self.theta / DEG
+
+    @property
+    def exact_bins(self) -> bool:
+        """Whether every sample sits at its bin's angle (angle-domain sampling): a model is then
+        compared at the bin angles; otherwise it is averaged over the samples as the data were."""
+        return self.sample_theta is None
+
+    def model_grid_deg(self) -> np.ndarray:
+        """Cam angles [deg] at which to evaluate a model for :meth:`average_model`."""
+        if self.exact_bins:
+            return self.theta_deg
+        return -180.0 + np.arange(MODEL_GRID_POINTS + 1) * (360.0 / MODEL_GRID_POINTS)
+
+    def average_model(self, values: np.ndarray) -> np.ndarray:
+        """A model's values at :meth:`model_grid_deg`, averaged into the bins as the data were
+        (time-domain sampling: interpolated at every sample's angle with a periodic cubic spline,
+        then bin-averaged, so the binning's own smoothing is applied to both)."""
+        if self.exact_bins:
+            return np.asarray(values, dtype=float)
+        from scipy.interpolate import CubicSpline
+
+        grid = np.radians(self.model_grid_deg())
+        v = np.asarray(values, dtype=float).copy()
+        v[-1] = v[0]
+        spline = CubicSpline(grid, v, bc_type="periodic")
+        at = spline(self.sample_theta)
+        n = self.theta.size
+        return np.bincount(self.sample_bin, weights=at, minlength=n) / self.counts
+
+    def to_frame(self) -> pd.DataFrame:
+        """Table ``cam_angle_deg, count`` and, per channel, its mean and standard error."""
+        data: dict[str, Any] = {"cam_angle_deg": self.theta_deg, "count": self.counts}
+        for name in self.mean:
+            data[name] = self.mean[name]
+            data[f"{name}_stderr"] = self.stderr[name]
+        return pd.DataFrame(data)
+
+
+def _model_angles(recording) -> tuple[np.ndarray, str, list[str]]:
+    """Cam angle of every sample in the model convention (0 at the nose), unwrapped [rad]."""
+    notes: list[str] = []
+    if "cam_angle" not in recording:
+        raise IdentificationError(f"{recording.source or 'recording'}: no 'cam_angle' channel (the encoder)")
+    nose = float(recording.operating.get("nose_angle_rad", 0.0))
+    if "nose_angle_rad" not in recording.operating:
+        notes.append("no operating nose_angle_rad: the encoder zero is taken as the cam nose")
+    angle = np.unwrap(np.asarray(recording["cam_angle"], dtype=float))
+    if angle[-1] < angle[0]:
+        raise IdentificationError(f"{recording.source or 'recording'}: the cam angle decreases (the encoder counts "
+                                  "backwards); reverse its sign")
+    if "samples_per_revolution" in recording.operating:
+        return angle - nose, "angle", notes
+    # time-domain sampling: the camshaft turns at a constant speed (the paper's DC drive), so a
+    # straight line through the encoder readings removes their quantisation; a counter reads the
+    # step below the true angle, so half a step is added back
+    t = np.arange(angle.size) / recording.sample_rate_hz
+    slope, intercept = np.polyfit(t, angle, 1)
+    line = intercept + slope * t
+    ppr = recording.operating.get("encoder_ppr")
+    step = TWO_PI / ppr if ppr else 0.0
+    spread = float(np.sqrt(np.mean((angle - line) ** 2)))
+    if spread > max(3.0 * step, 0.5 * DEG):
+        notes.append(f"the cam angle departs from a constant speed by {spread / DEG:.3g} deg RMS: the encoder "
+                     "readings are used as they are")
+        return angle + 0.5 * step - nose, "time", notes
+    return line + 0.5 * step - nose, "time", notes
+
+
+def synchronous_average(recording, *, channels: Sequence[str] = ("tappet_displacement", "valve_displacement"),
+                        bins: int | None = None) -> AveragedCycle:
+    """Average a recording over camshaft revolutions by cam angle.
+
+    Parameters
+    ----------
+    recording : :class:`impactid.io.Recording` with ``cam_angle`` [rad] and the channels asked
+        (those missing are skipped; at least one must be there); ``/operating`` gives
+        ``cam_speed_hz`` (else the encoder's rate), ``nose_angle_rad`` (encoder angle of the nose)
+        and, for angle-domain sampling, ``samples_per_revolution``.
+    channels : channels to average.
+    bins : bins per revolution (angle-domain default: the samples per revolution, one bin per
+        encoder step; time-domain default: 720, half a degree).
+
+    Angle-domain recordings are binned on their own encoder angles; time-domain recordings by the
+    cam angle of a constant-speed line through the encoder readings, each bin at the mean angle of
+    its samples.
+    """
+    where = recording.source or "recording"
+    present = [c for c in channels if c in recording]
+    if not present:
+        raise IdentificationError(f"{where}: none of the channels {', '.join(channels)}")
+    theta, sampling, notes = _model_angles(recording)
+    speed = recording.operating.get("cam_speed_hz")
+    if speed is None:
+        speed = (theta[-1] - theta[0]) / TWO_PI * recording.sample_rate_hz / max(theta.size - 1, 1)
+        notes.append("no operating cam_speed_hz: the speed is the encoder's mean rate")
+    revolutions = (theta[-1] - theta[0]) / TWO_PI
+    if revolutions < 0.999:
+        raise IdentificationError(f"{where}: less than one camshaft revolution recorded ({revolutions:.3g})")
+    if sampling == "angle":
+        n = int(bins or round(recording.operating["samples_per_revolution"]))
+        step = TWO_PI / n
+        index = np.round((theta - theta[0]) / step).astype(np.int64) % n
+    else:
+        n = int(bins or 720)
+        step = TWO_PI / n
+        index = np.floor(((theta + math.pi) % TWO_PI) / step).astype(np.int64) % n
+    if n < 36:
+        raise IdentificationError(f"{where}: {n} bins per revolution are too few (at least 36)")
+    counts = np.bincount(index, minlength=n)
+    keep = counts > 0
+    wrapped = (theta + math.pi) % TWO_PI - math.pi
+    # mean angle per bin (circular, relative to the bin's first sample, so a bin at +-pi stays whole)
+    first = np.full(n, np.nan)
+    first[index[::-1]] = wrapped[::-1]
+    rel = (wrapped - first[index] + math.pi) % TWO_PI - math.pi
+    angle = first + np.bincount(index, weights=rel, minlength=n) / np.maximum(counts, 1)
+    angle = (angle + math.pi) % TWO_PI - math.pi
+    mean, err = {}, {}
+    for c in present:
+        x = np.asarray(recording[c], dtype=float)
+        s1 = np.bincount(index, weights=x, minlength=n)
+        m = s1 / np.maximum(counts, 1)
+        dev = x - m[index]
+        var = np.bincount(index, weights=dev * dev, minlength=n) / np.maximum(counts - 1, 1)
+        se = np.where(counts > 1, np.sqrt(var / np.maximum(counts, 1)), np.nan)
+        mean[c], err[c] = m[keep], se[keep]
+    angle, counts = angle[keep], counts[keep]
+    order = np.argsort(angle)
+    if (~keep).any():
+        notes.append(f"{int((~keep).sum())} of {n} bins hold no sample")
+    sample_theta = sample_bin = None
+    if sampling == "time":
+        # bin numbers after dropping the empty bins and sorting by angle
+        renumber = np.full(n, -1, dtype=np.int64)
+        renumber[np.flatnonzero(keep)[order]] = np.arange(order.size)
+        sample_bin = renumber[index]
+        sample_theta = wrapped
+    return AveragedCycle(theta=angle[order], mean={c: v[order] for c, v in mean.items()},
+                         stderr={c: v[order] for c, v in err.items()}, counts=counts[order], rpm=60.0 * float(speed),
+                         revolutions=float(revolutions), sampling=sampling, source=recording.source, notes=tuple(notes),
+                         sample_theta=sample_theta, sample_bin=sample_bin)
+
+
+# --------------------------------------------------------------------------------------------
+# Least squares with linearised intervals
+# --------------------------------------------------------------------------------------------
+
+
+def _intervals(jac: np.ndarray, residual: np.ndarray, n_linear: int, confidence: float):
+    """Covariance, standard errors, t quantile and degrees of freedom of a least-squares optimum."""
+    n, p = jac.shape
+    dof = n - p - n_linear
+    if dof <= 0:
+        return np.full((p, p), np.nan), np.full(p, np.nan), math.nan, dof
+    s2 = float(residual @ residual) / dof
+    try:
+        cov = s2 * np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return np.full((p, p), np.nan), np.full(p, np.nan), math.nan, dof
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    q = float(stats.t.ppf(0.5 + 0.5 * confidence, dof))
+    return cov, se, q, dof
+
+
+def _project(r: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
+    """Remove the mean of each group (the offsets, eliminated in closed form)."""
+    out = r.copy()
+    for g in groups:
+        out[g] -= out[g].mean()
+    return out
+
+
+def _log_parameter(name, log_value, log_se, q, unit, confidence, note="") -> Parameter:
+    value = math.exp(log_value)
+    if math.isfinite(log_se):
+        return Parameter(name, value, stderr=value * log_se, interval=(math.exp(log_value - q * log_se),
+                                                                        math.exp(log_value + q * log_se)),
+                         confidence=confidence, unit=unit, note=note)
+    return Parameter(name, value, confidence=confidence, unit=unit, note=note or "undetermined")
+
+
+# --------------------------------------------------------------------------------------------
+# Tappet drag
+# --------------------------------------------------------------------------------------------
+
+
+class TappetFit(FitResult):
+    """The tappet drag of (K-6) fitted to measured plunger motion.
+
+    Parameters ``c_t`` [N s/m] and ``k_t`` [N/m] (fitted), ``alpha`` and ``beta`` (the same
+    divided by the rig's ``C_d+`` and ``K_e``), ``tau`` [s] (``c_t / k_t``, the compression time
+    constant) and the sensor offsets. Table ``cycles``: per recording and bin, the averaged and the
+    fitted ``Y_t``.
+    """
+
+    kind: ClassVar[str] = "finger_follower_tappet"
+    title: ClassVar[str] = "tappet drag fit (Kim, Jeon & Park 1990, K-6)"
+
+    def plot(self, **kwargs):
+        from impactid.rigs.finger_follower.figures import plot_tappet_fit
+
+        return plot_tappet_fit(self, **kwargs)
+
+
+def _tappet_residual_factory(train, cycles, tolerances):
+    starts: dict[int, Any] = {}
+
+    def model(x, k, cycle):
+        c_t, k_t = math.exp(x[0]), math.exp(x[1])
+        rig = train.rig
+        st = steady_state(train, cycle.rpm, alpha=c_t / rig.C_d_plus, beta=k_t / rig.K_e, tol=FIT_STEADY_TOL,
+                          start=starts.get(k), grid_deg=cycle.model_grid_deg(), tolerances=tolerances,
+                          max_revolutions=200)
+        starts[k] = st.start
+        if not st.converged:
+            raise SimulationError(f"no periodic steady state at {cycle.rpm:.6g} rpm with c_t = {c_t:.4g} N s/m, "
+                                  f"k_t = {k_t:.4g} N/m")
+        return cycle.average_model(st.revolution.channel("Y_t"))
+
+    return model
+
+
+def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, start: tuple[float, float] | None = None,
+                    confidence: float = 0.95, bins: int | None = None, tolerances=DEFAULT_TOLERANCES,
+                    clip_tension: bool = False, moment_cos: bool = False):
+    """Fit the tappet drag to the measured plunger motion (the paper's identification).
+
+    Parameters
+    ----------
+    recordings : one recording or a sequence (``tappet_displacement`` [m] and ``cam_angle`` [rad],
+        any speeds).
+    rig : the rig (default: the first recording's).
+    lift : the cam lift law (default the rig's cycloidal law).
+    joint : one ``(c_t, k_t)`` for all recordings (default: one per recording, as the paper did;
+        the tappet "stiffens" with speed, so joint fits of several speeds mix two states).
+    start : ``(c_t, k_t)`` to start from [N s/m, N/m]; default ``(0.5 % C_d+, 50 % K_e)``, a
+        neutral point that knows nothing of the truth.
+    confidence : coverage of the intervals.
+    bins : bins of the synchronous average (see :func:`synchronous_average`).
+
+    Returns
+    -------
+    :class:`TappetFit` (one recording or ``joint``), else a list of them, one per recording.
+    """
+    from impactid.io import Recording
+
+    if isinstance(recordings, Recording):
+        recordings = [recordings]
+    recordings = list(recordings)
+    if not recordings:
+        raise IdentificationError("no recording given")
+    if not joint and len(recordings) > 1:
+        return [fit_tappet_drag(r, rig, lift=lift, start=start, confidence=confidence, bins=bins,
+                                tolerances=tolerances, clip_tension=clip_tension, moment_cos=moment_cos)
+                for r in recordings]
+    rig = rig if rig is not None else recordings[0].require_rig("finger-follower-hla")
+    cycles = []
+    for rec in recordings:
+        if "tappet_displacement" not in rec:
+            raise IdentificationError(f"{rec.source or 'recording'}: no 'tappet_displacement' channel")
+        cycles.append(synchronous_average(rec, channels=("tappet_displacement",), bins=bins))
+    train = prepare(rig, lift, clip_tension=clip_tension, moment_cos=moment_cos)
+    model = _tappet_residual_factory(train, cycles, tolerances)
+    data = np.concatenate([c.mean["tappet_displacement"] for c in cycles])
+    sizes = np.cumsum([0] + [c.theta.size for c in cycles])
+    groups = [np.arange(sizes[i], sizes[i + 1]) for i in range(len(cycles))]
+    scale = max(float(np.ptp(data)), 1e-9)
+    n_eval = [0]
+
+    failed = [0]
+
+    def residual(x):
+        n_eval[0] += 1
+        try:
+            sim = np.concatenate([model(x, k, c) for k, c in enumerate(cycles)])
+        except SimulationError:
+            # a trial tappet the integrator cannot follow (chatter, no steady state): a penalty the
+            # optimiser's step control backs away from, counted and reported
+            failed[0] += 1
+            return np.full(data.size, 10.0)
+        return _project(data - sim, groups) / scale
+
+    c0, k0 = start if start is not None else (0.005 * rig.C_d_plus, 0.5 * rig.K_e)
+    if not (c0 > 0.0 and k0 > 0.0):
+        raise IdentificationError(f"start values must be positive, got c_t = {c0!r}, k_t = {k0!r}")
+    x0 = np.log([c0, k0])
+    sol = optimize.least_squares(residual, x0, method="trf", x_scale=1.0, diff_step=1e-5, xtol=1e-12, ftol=1e-12,
+                                 gtol=1e-12, max_nfev=200)
+    r = sol.fun * scale
+    jac = sol.jac * scale
+    cov, se, q, dof = _intervals(jac, r, len(cycles), confidence)
+    rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
+    notes = [n for c in cycles for n in c.notes]
+    separable = True
+    if not math.isfinite(rho) or abs(rho) > SEPARABILITY_CORRELATION:
+        separable = False
+        notes.append(f"c_t and k_t are not separable from these data (correlation {rho:.4f}); fit several "
+                     "speeds or fix one of them")
+    for name, err in (("c_t", se[0]), ("k_t", se[1])):
+        if not err <= SEPARABILITY_RELATIVE_ERROR:
+            separable = False
+            notes.append(f"{name} is not determined by these data (relative standard error {100 * err:.3g} %): "
+                         "c_t and k_t are not separable here; average more revolutions, fit several speeds or "
+                         "fix one of them")
+    if not sol.success:
+        notes.append(f"the optimiser stopped without converging: {sol.message}")
+    if failed[0]:
+        notes.append(f"{failed[0]} trial parameter set(s) could not be simulated and were penalised")
+    bound_note = "" if separable else "not separable"
+    c_t = _log_parameter("c_t", sol.x[0], se[0], q, "N s/m", confidence, bound_note)
+    k_t = _log_parameter("k_t", sol.x[1], se[1], q, "N/m", confidence, bound_note)
+    alpha = Parameter("alpha", c_t.value / rig.C_d_plus, c_t.stderr / rig.C_d_plus,
+                      tuple(v / rig.C_d_plus for v in c_t.interval), confidence, unit="", note=bound_note)
+    beta = Parameter("beta", k_t.value / rig.K_e, k_t.stderr / rig.K_e, tuple(v / rig.K_e for v in k_t.interval),
+                     confidence, unit="", note=bound_note)
+    tau_log_se = math.sqrt(max(cov[0, 0] + cov[1, 1] - 2 * cov[0, 1], 0.0)) if np.all(np.isfinite(cov)) else math.nan
+    tau = _log_parameter("tau", sol.x[0] - sol.x[1], tau_log_se, q, "s", confidence)
+    params = [c_t, k_t, alpha, beta, tau]
+    rows = []
+    sims = []
+    for k, (cycle, g) in enumerate(zip(cycles, groups)):
+        sim = model(sol.x, k, cycle)
+        offset = float(np.mean(data[g] - sim))
+        sims.append(sim + offset)
+        name = "offset" if len(cycles) == 1 else f"offset_{k}"
+        params.append(Parameter(name, offset, fixed=False, unit="m",
+                                note="gap-sensor zero, eliminated in closed form (no interval)"))
+        for th, y, s in zip(cycle.theta_deg, data[g], sim + offset):
+            rows.append({"recording": k, "rpm": cycle.rpm, "cam_angle_deg": th, "measured_m": y, "fitted_m": s})
+    rms = float(np.sqrt(np.mean(r * r)))
+    statistics = {"n_data": int(r.size), "dof": int(dof), "residual_rms_m": rms, "correlation_c_t_k_t": float(rho),
+                  "separable": separable, "evaluations": int(n_eval[0]), "failed_evaluations": int(failed[0]),
+                  "cost": float(0.5 * r @ r),
+                  "speeds_rpm": ", ".join(f"{c.rpm:.6g}" for c in cycles)}
+    details = {"cycles": [{"rpm": c.rpm, "revolutions": c.revolutions, "sampling": c.sampling, "source": c.source,
+                           "bins": int(c.theta.size)} for c in cycles],
+               "C_d_plus": rig.C_d_plus, "K_e": rig.K_e, "start": [c0, k0], "confidence": confidence,
+               "joint": bool(joint)}
+    return TappetFit(params=params, statistics=statistics, notes=tuple(dict.fromkeys(notes)),
+                     tables={"cycles": pd.DataFrame(rows)}, details=details,
+                     provenance=tuple(f"fit_tappet_drag({c.source or 'recording'}, {c.rpm:.6g} rpm)" for c in cycles))
+
+
+# --------------------------------------------------------------------------------------------
+# Cam lift from low-speed valve motion
+# --------------------------------------------------------------------------------------------
+
+
+class LiftFit(FitResult):
+    """A cycloidal cam lift fitted to the valve displacement at a low speed.
+
+    Parameters ``S_K`` [m], ``beta_open``, ``beta_close`` [rad], ``phase`` [rad] (the nose's
+    position against the recording's ``nose_angle_rad``: the true nose is at model angle
+    ``phase``) and the valve sensor ``offset`` [m]. Table ``cycle``: averaged and fitted ``Y_v``.
+    """
+
+    kind: ClassVar[str] = "finger_follower_lift"
+    title: ClassVar[str] = "cam lift fit (cycloidal law, low-speed valve motion)"
+
+    @property
+    def lift(self) -> CycloidalLift:
+        """The fitted lift law."""
+        return CycloidalLift(self.value("S_K"), self.value("beta_open"), self.value("beta_close"))
+
+    def plot(self, **kwargs):
+        from impactid.rigs.finger_follower.figures import plot_lift_fit
+
+        return plot_lift_fit(self, **kwargs)
+
+
+def _narrowest_convex_rise(S_K: float, R_c: float) -> float:
+    """Smallest rise angle [rad] of a cycloidal lift of height ``S_K`` that keeps the cam convex."""
+    from impactid.errors import RigParameterError
+    from impactid.rigs.finger_follower.cam import check_convex
+
+    def convex(b):
+        try:
+            check_convex(CycloidalLift(S_K, b, b), R_c, samples=4000)
+            return True
+        except RigParameterError:
+            return False
+
+    lo, hi = 0.05, 0.45 * TWO_PI
+    if not convex(hi):
+        return hi
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if convex(mid) else (mid, hi)
+    return hi
+
+
+def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, confidence: float = 0.95,
+                 bins: int | None = None, tolerances=DEFAULT_TOLERANCES, max_rpm: float = 1200.0) -> LiftFit:
+    """Fit a cycloidal lift (height, rise and return angles) and the nose phase to the valve lift.
+
+    The valve displacement is simulated with the full model in its steady state (the tappet with
+    the rig's drag at the recording's speed), so the train's compliance is accounted for; at low
+    speed the result depends little on the dynamic parameters. Only recordings up to ``max_rpm``
+    are accepted (beyond it the spring surge and the tappet dynamics would be fitted as cam shape).
+
+    ``start`` defaults to a cycloidal law read off the data: the valve's largest lift over the
+    rig's base-circle rocker ratio, and the rise and return angles from the width of the open
+    interval; nothing of the truth.
+    """
+    rig = rig if rig is not None else recording.require_rig("finger-follower-hla")
+    where = recording.source or "recording"
+    if "valve_displacement" not in recording:
+        raise IdentificationError(f"{where}: no 'valve_displacement' channel")
+    cycle = synchronous_average(recording, channels=("valve_displacement",), bins=bins)
+    if cycle.rpm > max_rpm:
+        raise IdentificationError(f"{where}: the lift is fitted at low speed (at most {max_rpm:g} rpm); this "
+                                  f"recording is at {cycle.rpm:.6g} rpm")
+    y = cycle.mean["valve_displacement"]
+    lift_m = float(np.max(y) - np.median(y))
+    if start is None:
+        base = np.median(y)
+        open_ = cycle.theta[y - base > 0.5 * lift_m]
+        half = 0.5 * float(np.ptp(open_)) if open_.size else 0.5 * math.pi / 2
+        centre = float(np.mean(open_)) if open_.size else 0.0
+        # a cycloidal rise reaches half its height half-way through the rise: the half-lift
+        # half-width is about half the rise angle
+        # half-way through the rise; the finger follower's kinematics narrow it further, so start
+        # wider, and at least 15 % above the narrowest rise that keeps the cam convex
+        S_K0 = lift_m / rig.RR0
+        b0 = min(max(2.2 * half, 1.15 * _narrowest_convex_rise(S_K0, rig.R_c)), 0.45 * TWO_PI)
+        start = CycloidalLift(S_K0, b0, b0)
+        phase0 = centre
+    else:
+        phase0 = 0.0
+    scale = max(lift_m, 1e-6)
+    theta_deg = cycle.theta_deg
+    state = {"start": None, "n": 0}
+
+    def simulate_lift(x):
+        S_K, b_open, b_close, phase = math.exp(x[0]), math.exp(x[1]), math.exp(x[2]), x[3]
+        train = prepare(rig, CycloidalLift(S_K, b_open, b_close))
+        # the model at data angle theta is the lift law's at theta - phase
+        shifted = (cycle.model_grid_deg() - math.degrees(phase) + 180.0) % 360.0 - 180.0
+        order = np.argsort(shifted, kind="stable")
+        st = steady_state(train, cycle.rpm, tol=FIT_STEADY_TOL, start=state["start"], grid_deg=shifted[order],
+                          tolerances=tolerances)
+        state["start"] = st.start
+        values = np.empty(shifted.size)
+        values[order] = st.revolution.channel("Y_v")
+        return cycle.average_model(values)
+
+    def residual(x):
+        state["n"] += 1
+        try:
+            sim = simulate_lift(x)
+        except ImpactidError:
+            return np.full(y.size, 10.0)  # a trial cam the train cannot follow (not convex, no contact)
+        return _project(y - sim, [np.arange(y.size)]) / scale
+
+    x0 = np.array([math.log(start.S_K), math.log(start.beta_open), math.log(start.beta_close), phase0])
+    sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-6, xtol=LIFT_XTOL,
+                                 ftol=1e-10, gtol=1e-10, max_nfev=300)
+    r = sol.fun * scale
+    jac = sol.jac * scale
+    cov, se, q, dof = _intervals(jac, r, 1, confidence)
+    params = [_log_parameter("S_K", sol.x[0], se[0], q, "m", confidence),
+              _log_parameter("beta_open", sol.x[1], se[1], q, "rad", confidence),
+              _log_parameter("beta_close", sol.x[2], se[2], q, "rad", confidence),
+              Parameter("phase", sol.x[3], se[3], (sol.x[3] - q * se[3], sol.x[3] + q * se[3]), confidence,
+                        unit="rad")]
+    sim = simulate_lift(sol.x)
+    offset = float(np.mean(y - sim))
+    params.append(Parameter("offset", offset, unit="m", note="valve-sensor zero, eliminated in closed form"))
+    notes = list(cycle.notes)
+    if not sol.success:
+        notes.append(f"the optimiser stopped without converging: {sol.message}")
+    corr = cov / np.outer(se, se) if np.all(se > 0) else np.full_like(cov, np.nan)
+    statistics = {"n_data": int(r.size), "dof": int(dof), "residual_rms_m": float(np.sqrt(np.mean(r * r))),
+                  "rpm": cycle.rpm, "evaluations": int(state["n"]), "cost": float(0.5 * r @ r)}
+    table = pd.DataFrame({"cam_angle_deg": theta_deg, "measured_m": y, "fitted_m": sim + offset})
+    return LiftFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": table},
+                   details={"correlation": corr.tolist(), "start": start.to_dict() | {"phase": phase0},
+                            "confidence": confidence, "source": cycle.source},
+                   provenance=(f"fit_cam_lift({where}, {cycle.rpm:.6g} rpm)",))
+
+
+# --------------------------------------------------------------------------------------------
+# Contact and spring damping from the ringing after valve closure
+# --------------------------------------------------------------------------------------------
+
+#: The contact damping ratio behind the rig's tabulated contact dampers (Kim et al.'s rule, K-1).
+TABLE_CONTACT_ZETA = 0.06
+
+
+class DampingFit(FitResult):
+    """Contact and valve-spring damping ratios fitted to the valve motion around closure.
+
+    Parameters ``zeta_contact`` (the three contact dampers scaled together from the rig's values,
+    which correspond to 0.06 by Kim et al.'s rule) and ``zeta_spring`` (first surge mode). Table
+    ``cycle``: the averaged and fitted channels in the window.
+    """
+
+    kind: ClassVar[str] = "finger_follower_damping"
+    title: ClassVar[str] = "contact and spring damping from the ringing after valve closure"
+
+
+def _closing_angle(theta: np.ndarray, lift: np.ndarray) -> float:
+    """Cam angle [rad] where the averaged valve lift last falls through a tenth of its maximum."""
+    base = float(np.median(lift))
+    level = base + 0.1 * (float(np.max(lift)) - base)
+    above = np.flatnonzero(lift > level)
+    return float(theta[above[-1]]) if above.size else math.nan
+
+
+def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, float] = (-20.0, 60.0),
+                confidence: float = 0.95, bins: int | None = None, tolerances=DEFAULT_TOLERANCES) -> DampingFit:
+    """Fit the contact damping ratio and the valve-spring damping ratio to the valve's ringing.
+
+    Parameters
+    ----------
+    recording : a recording at a speed where the valve closes hard enough to ring (``valve_displacement``
+        and, if present, ``valve_velocity`` are used; each channel is weighted by the scatter of its
+        synchronous average).
+    rig, lift : the rig (default the recording's) and its cam lift.
+    window_deg : cam-angle window [deg] relative to where the averaged valve lift last falls through a
+        tenth of its maximum (the end of the closing flank, found in the data).
+    confidence : coverage of the intervals.
+
+    The tappet drag is the rig's at the recording's speed (fit it first with :func:`fit_tappet_drag`
+    and put it in the rig). When a ratio is determined to worse than 50 %, the result says the data
+    do not carry it.
+    """
+    rig = rig if rig is not None else recording.require_rig("finger-follower-hla")
+    where = recording.source or "recording"
+    if "valve_displacement" not in recording:
+        raise IdentificationError(f"{where}: no 'valve_displacement' channel")
+    names = [c for c in ("valve_displacement", "valve_velocity") if c in recording]
+    cycle = synchronous_average(recording, channels=names, bins=bins)
+    closing = _closing_angle(cycle.theta, cycle.mean["valve_displacement"])
+    if not math.isfinite(closing):
+        raise IdentificationError(f"{where}: the valve does not open in this recording")
+    lo, hi = closing + math.radians(window_deg[0]), closing + math.radians(window_deg[1])
+    mask = (cycle.theta >= lo) & (cycle.theta <= hi)
+    if mask.sum() < 10:
+        raise IdentificationError(f"{where}: fewer than 10 averaged samples in the closing window")
+    weights = {}
+    for c in names:
+        se = cycle.stderr[c][mask]
+        se = se[np.isfinite(se) & (se > 0)]
+        weights[c] = 1.0 / float(np.median(se)) if se.size else 1.0 / max(float(np.ptp(cycle.mean[c])) * 1e-3, 1e-12)
+    data = np.concatenate([cycle.mean[c][mask] * weights[c] for c in names])
+    groups = [np.arange(k * int(mask.sum()), (k + 1) * int(mask.sum())) for k in range(len(names))]
+    base_train = prepare(rig, lift)
+    state = {"start": None, "n": 0, "failed": 0}
+    channel_of = {"valve_displacement": "Y_v", "valve_velocity": "Y_v_dot"}
+
+    def model(x):
+        zc, zs = math.exp(x[0]), math.exp(x[1])
+        scale = zc / TABLE_CONTACT_ZETA
+        trial = rig.replace(C_tf=rig.C_tf * scale, C_fc=rig.C_fc * scale, C_vf=rig.C_vf * scale, zeta_spring=zs)
+        st = steady_state(base_train.with_rig(trial), cycle.rpm, tol=FIT_STEADY_TOL, start=state["start"],
+                          grid_deg=cycle.model_grid_deg(), tolerances=tolerances, max_revolutions=200)
+        state["start"] = st.start
+        if not st.converged:
+            raise SimulationError(f"no periodic steady state with zeta_contact {zc:.4g}, zeta_spring {zs:.4g}")
+        return np.concatenate([cycle.average_model(st.revolution.channel(channel_of[c]))[mask] * weights[c]
+                               for c in names])
+
+    def residual(x):
+        state["n"] += 1
+        try:
+            return _project(data - model(x), [groups[0]])  # the displacement sensor's zero
+        except SimulationError:
+            state["failed"] += 1
+            return np.full(data.size, 1e3)
+
+    x0 = np.log([0.03, 0.08])
+    sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-5, xtol=1e-10,
+                                 ftol=1e-12, gtol=1e-12, max_nfev=100)
+    cov, se, q, dof = _intervals(sol.jac, sol.fun, 1, confidence)
+    notes = list(cycle.notes)
+    params = []
+    for k, name in enumerate(("zeta_contact", "zeta_spring")):
+        note = ""
+        if not se[k] <= SEPARABILITY_RELATIVE_ERROR:
+            note = "not determined"
+            notes.append(f"{name} is not determined by these data (relative standard error {100 * se[k]:.3g} %): "
+                         "the ringing after closure does not carry it")
+        params.append(_log_parameter(name, sol.x[k], se[k], q, "", confidence, note))
+    if state["failed"]:
+        notes.append(f"{state['failed']} trial parameter set(s) could not be simulated and were penalised")
+    if not sol.success:
+        notes.append(f"the optimiser stopped without converging: {sol.message}")
+    rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
+    fitted = model(sol.x)
+    table = {"cam_angle_deg": cycle.theta_deg[mask]}
+    for k, c in enumerate(names):
+        g = groups[k]
+        table[f"{c}_measured"] = data[g] / weights[c]
+        offset = float(np.mean(data[g] - fitted[g])) if k == 0 else 0.0
+        table[f"{c}_fitted"] = (fitted[g] + offset) / weights[c]
+    statistics = {"n_data": int(data.size), "dof": int(dof), "rpm": cycle.rpm, "channels": ", ".join(names),
+                  "closing_deg": math.degrees(closing), "correlation": float(rho), "evaluations": state["n"],
+                  "failed_evaluations": state["failed"], "weighted_rms": float(np.sqrt(np.mean(sol.fun ** 2)))}
+    return DampingFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": pd.DataFrame(table)},
+                      details={"window_deg": list(window_deg), "confidence": confidence,
+                               "weights": {c: w for c, w in weights.items()}},
+                      provenance=(f"fit_damping({where}, {cycle.rpm:.6g} rpm)",))
