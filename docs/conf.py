@@ -21,12 +21,14 @@ Choices:
 from __future__ import annotations
 
 import shutil
+import sys
 from pathlib import Path
-
-import impactid
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
+sys.path.insert(0, str(ROOT))  # document this checkout's package, wherever sphinx is run from
+
+import impactid  # noqa: E402
 
 project = "impactid"
 author = "the impactid developers"
