@@ -12,7 +12,8 @@ Choices:
   and dark modes make those readable, and it is one small pure-Python dependency. (alabaster, the
   default, has no navigation tree for a reference of this size.)
 * Notebooks: the tutorials are the notebooks of ``notebooks/``, copied into ``docs/tutorials/`` at
-  each build (``_copy_notebooks`` below; the copies are ignored by git). They are rendered without
+  each build (``_copy_notebooks`` below, which adds a note on how to run each one; the copies are
+  ignored by git). They are rendered without
   executing them (``nb_execution_mode = "off"``): the test command already executes every notebook
   (nbmake), and executing them again here would cost several minutes on the 2-core CI machine
   (measured times are in docs/contributing.md).
@@ -20,7 +21,7 @@ Choices:
 
 from __future__ import annotations
 
-import shutil
+import json
 import sys
 from pathlib import Path
 
@@ -61,19 +62,33 @@ nb_merge_streams = True
 
 
 def _copy_notebooks() -> None:
-    """Copy ``notebooks/*.ipynb`` into ``docs/tutorials/`` (only those that changed)."""
+    """Copy ``notebooks/*.ipynb`` into ``docs/tutorials/`` (only those that changed), each with a note
+    after its title cell saying that the page is rendered without outputs and how to run it."""
     target = HERE / "tutorials"
     target.mkdir(exist_ok=True)
     wanted = set()
     for source in sorted((ROOT / "notebooks").glob("*.ipynb")):
+        notebook = json.loads(source.read_text(encoding="utf-8"))
+        note = NOTEBOOK_NOTE.format(name=source.name)
+        notebook["cells"].insert(1, {"cell_type": "markdown", "id": "impactid-docs-note", "metadata": {},
+                                     "source": note.splitlines(keepends=True)})
+        text = json.dumps(notebook, indent=1, ensure_ascii=False) + "\n"
         copy = target / source.name
         wanted.add(copy.name)
-        if not copy.exists() or copy.read_bytes() != source.read_bytes():
-            shutil.copy2(source, copy)
+        if not copy.exists() or copy.read_text(encoding="utf-8") != text:
+            copy.write_text(text, encoding="utf-8")
     for stale in target.glob("*.ipynb"):
         if stale.name not in wanted:
             stale.unlink()
 
+
+NOTEBOOK_NOTE = """```{{note}}
+This page is the notebook `notebooks/{name}`, rendered **without outputs** (the documentation build
+does not execute notebooks; the test command does). Run it with `python -m pytest notebooks/{name}`
+(after `pip install ".[test]"`), or open it in Jupyter (`pip install ".[notebooks]"`) to see its
+outputs and figures.
+```
+"""
 
 _copy_notebooks()
 
