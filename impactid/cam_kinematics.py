@@ -7,7 +7,7 @@ and acceleration exactly from the profile's derivatives with respect to the cam 
     theta_f_dot  = omega   theta_hat'(theta_c)          [rad/s]
     theta_f_ddot = omega^2 theta_hat''(theta_c)         [rad/s^2]
 
-Lee (2005, Lee (2005)) argues for computing the contact-point acceleration from the local geometry
+Lee (2005) argues for computing the contact-point acceleration from the local geometry
 in this way rather than, as is common in cam design, by differentiating a cubic spline fitted
 through the displacement at ``N`` nodes per revolution: the spline needs the whole revolution, and
 its second derivative is much less accurate than the displacement (his Figs. 5 and 7; 0.05 % maximum
@@ -29,8 +29,8 @@ once ``h`` is small against the length over which the profile changes; a profile
 width ``c`` [rad] needs ``h << c``, so the node count for a given error grows like ``1 / c``.
 
 The "sharper profile" of the study, :func:`revised_nose_profile`, is rig F's eccentric cam with a
-narrow Gaussian depression at its nose (see its docstring for why it is a fair analogue of seed
-003's revised cam).
+narrow Gaussian depression at its nose (see its docstring for why it is a fair analogue of Lee's
+(2005) revised cam).
 """
 
 from __future__ import annotations

@@ -115,7 +115,8 @@ class FlatRun:
     t : output times [s]
     theta_f, rate : follower angle [rad] and rate [rad/s] at ``t``
     riding : True where the follower rides the cam (sticking) at ``t``
-    events : table (pandas) of impacts, sticks and releases: ``kind, t, theta_c, theta_f,
+    events : pandas DataFrame
+        impacts, sticks and releases: ``kind, t, theta_c, theta_f,
         rate_before, rate_after, gap_rate_before, gap_rate_after`` [s, rad, rad/s, m/s]
     cam_speed_hz, theta_c0 : cam speed [Hz] and cam angle at t = 0 [rad]
     restitution : coefficient of restitution of the run [-]
@@ -217,7 +218,8 @@ class BifurcationResult:
 
     Attributes
     ----------
-    table : pandas DataFrame, one row per speed: ``cam_speed_hz, cam_speed_rpm, restitution, regime
+    table : pandas DataFrame
+        one row per speed: ``cam_speed_hz, cam_speed_rpm, restitution, regime
         ("contact" | "period-1" | "period-k" | "irregular"), period_revolutions,
         impacts_per_revolution, releases_per_revolution, strobe_spread`` (spread of the kept
         stroboscopic angles [rad])
