@@ -84,3 +84,4 @@ def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, flo
 
 
 # ---- the registry: one line per rig (a rig's folder defines its MODEL; see impactid/rigs/base.py) ----
+from impactid.rigs.cycloidal import MODEL as _CYCLOIDAL; register(_CYCLOIDAL)  # noqa: E402, E702, I001
