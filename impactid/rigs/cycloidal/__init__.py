@@ -9,7 +9,7 @@
 * :mod:`.synth` - synthetic recordings; :mod:`.identify` - surge, preload and mass fits;
 * :mod:`.figures`, :mod:`.commands` - figures and the ``impactid valvetrain`` commands.
 
-See ``docs/rigs/cycloidal.md``.
+See ``docs/cycloidal_ehl.md``.
 """
 
 from impactid.rigs.base import ChannelSpec, RigModel

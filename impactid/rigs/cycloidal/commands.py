@@ -110,7 +110,10 @@ def _rig(args):
 
 def _rpm(args, operating) -> float:
     if getattr(args, "rpm", None) is not None:
-        return float(args.rpm)
+        rpm = float(args.rpm)
+        if not (math.isfinite(rpm) and rpm > 0.0):
+            raise _UsageError(f"argument --rpm: must be a positive camshaft speed, got {args.rpm!r}")
+        return rpm
     if "cam_speed_hz" in operating:
         return 60.0 * float(operating["cam_speed_hz"])
     raise _UsageError("no camshaft speed: give --rpm N (or a rig file with [operating] cam_speed_hz)")
@@ -321,7 +324,8 @@ _RIG_FILE = Argument(("--rig-file",), {"metavar": "RIG.toml", "default": None,
 _PRESET = Argument(("--preset",), {"default": None, "metavar": "NAME",
                                    "help": "named parameter set (cycloidal: kushwaha2000 (default), "
                                            "kushwaha2000-zeros-exact, kushwaha2000-thick-oil)"})
-_RPM = Argument(("--rpm",), {"type": _positive, "default": None, "help": "camshaft speed [rpm]"})
+#: shared with the other valve-train rigs, declared exactly alike (type float; checked in :func:`_rpm`)
+_RPM = Argument(("--rpm",), {"type": float, "default": None, "help": "camshaft speed [rpm]"})
 _JSON = Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})
 _OUT_JSON = Argument(("--out",), {"metavar": "RESULT.json", "default": None,
                                   "help": "write the result as JSON (atomically)"})
