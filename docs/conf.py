@@ -45,7 +45,8 @@ extensions = [
     "numpydoc",
 ]
 
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "**.ipynb_checkpoints", "jupyter_execute"]
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "**.ipynb_checkpoints", "jupyter_execute",
+                    "validation_valvetrain_*.md"]  # joined into validation_valvetrain.md
 templates_path = ["_templates"]
 html_static_path: list[str] = []
 

@@ -146,7 +146,8 @@ def _write(args, data: dict, inputs, figures=None, printed: dict | None = None) 
     """JSON to ``--out`` (committed first), then figures into ``--plots``; ``--json`` prints ``printed``
     (default: the same data)."""
     from impactid._files import StagedFiles
-    from impactid.commandline import json_text as _json_text, print_json as _print_json
+    from impactid.commandline import json_text as _json_text
+    from impactid.commandline import print_json as _print_json
 
     if getattr(args, "plots", None) and figures is not None:
         data["plots"] = []

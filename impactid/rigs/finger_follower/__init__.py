@@ -5,14 +5,17 @@ opens the valve against a spring with surge (two masses). Six degrees of freedom
 contacts at the tappet, the cam and the valve, a valve seat, and a tappet whose drag depends on
 the direction of the plunger's motion. The folder holds:
 
-* :mod:`.parameters` - the frozen parameter dataclass and the paper's tables as presets;
-* :mod:`.cam` - lift laws, the contact point, rocker ratio and lever arm (pure functions);
-* :mod:`.kernel` - the compiled event-driven integrator (on :mod:`impactid.simulate.dp5`);
-* :mod:`.simulate` - runs, periodic steady state, summaries, modes, jump and bounce speeds;
-* :mod:`.analysis` - the rocker-ratio comparison and the leak-down against speed;
-* :mod:`.synth` - synthetic recordings of the paper's test rig;
-* :mod:`.identify` - synchronous averaging, the tappet-drag fit, the cam-lift fit;
-* :mod:`.figures` and :mod:`.commands` - figures and the ``impactid valvetrain`` commands.
+* :mod:`~impactid.rigs.finger_follower.parameters` - the frozen parameter dataclass and the paper's tables as presets;
+* :mod:`~impactid.rigs.finger_follower.cam` - lift laws, the contact point, rocker ratio and lever arm (pure functions);
+* :mod:`~impactid.rigs.finger_follower.kernel` - the compiled event-driven integrator (on
+  :mod:`impactid.simulate.dp5`);
+* :mod:`~impactid.rigs.finger_follower.simulate` - runs, periodic steady state, summaries, modes, jump
+  and bounce speeds;
+* :mod:`~impactid.rigs.finger_follower.analysis` - the rocker-ratio comparison and the leak-down against speed;
+* :mod:`~impactid.rigs.finger_follower.synth` - synthetic recordings of the paper's test rig;
+* :mod:`~impactid.rigs.finger_follower.identify` - synchronous averaging, the tappet-drag fit, the cam-lift fit;
+* :mod:`~impactid.rigs.finger_follower.figures` and :mod:`~impactid.rigs.finger_follower.commands` - figures
+  and the ``impactid valvetrain`` commands.
 
 :data:`MODEL` is the rig's record for the registry (:mod:`impactid.rigs.registry`).
 """
