@@ -5,7 +5,7 @@
 Synthetic part (always): known laws, table-tennis ball with drag, timing jitter of 0.3 ms rounded
 to 1/48000 s, a bounce-to-bounce scatter of e of 0.002, and in every drop one missed bounce, one
 echo, one spurious and one displaced trigger, a release click and a junk end. Reports true against
-recovered parameters, the coverage of the 95 % intervals over the seeds, the selected laws, and
+recovered parameters, the coverage of the 95 % intervals over the papers, the selected laws, and
 how often the cleaning labels the injected faults exactly.
 
 Real part (with ``--real-data``, the folder holding ``pingpong_parquet/`` and ``unknown_ball/``):

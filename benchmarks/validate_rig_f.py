@@ -52,7 +52,7 @@ def cam_profile(lines):
               f"| seed's Table 3 (as printed, not wrapped) | {table3.rms * 1e3:.4f} | {table3.max_abs * 1e3:.4f} | "
               f"{table3.offset:.4f} | {table3.direction:+d} |", "",
               "The fitted offset of our profile is the cam-encoder zero (truth 2.0 rad). Table 3 matches A-17 only "
-              "with the cam angle reversed (the seed's encoder counts the other way), and most of its error is a "
+              "with the cam angle reversed (the paper's encoder counts the other way), and most of its error is a "
               f"constant follower-angle offset: removing {table3_level.level * 1e3:.3f} mrad leaves "
               f"{table3_level.rms * 1e3:.3f} mrad RMS ({table3_level.max_abs * 1e3:.3f} mrad max).", ""]
     print("\n".join(lines[-8:]))
@@ -69,7 +69,7 @@ def detachment_and_bifurcation(lines):
     counts = result.table["regime"].value_counts().to_dict()
     law = DEFAULT_RESTITUTION.to_dict()
     lines += ["## Detachment and bifurcation diagram (Alzate et al. (2007) Figs. 8, 16)", "",
-              f"Restitution law (our stand-in for the seed's Fig. 12, whose values are not printed): "
+              f"Restitution law (our stand-in for the paper's Fig. 12, whose values are not printed): "
               f"r = {law['a']:.4g} {law['b_per_rpm']:+.4g} * rpm.", "",
               "| quantity | ours | paper |", "|---|---|---|",
               f"| detachment speed (inverse kinematics, A-11) | {detach:.2f} rpm | 125 rpm (computed and observed) |",
@@ -78,7 +78,7 @@ def detachment_and_bifurcation(lines):
               f"| first irregular speed | {tr['irregular_rpm']:.2f} rpm | ~155 rpm (chaotic above) |",
               f"| diagram 200 speeds x 100 revolutions | {seconds:.2f} s | - |", "",
               f"Regimes over 110-165 rpm: {counts}. Above the end of the period-1 band the motion alternates between "
-              "long-period windows and irregular motion, as in the seed's Fig. 16.", ""]
+              "long-period windows and irregular motion, as in the paper's Fig. 16.", ""]
     print("\n".join(lines[-12:]))
     return result
 

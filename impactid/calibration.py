@@ -30,7 +30,7 @@ import numpy as np
 __all__ = ["PipelineBias", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
-#: of rig P need about 35 s; MODEL.md 1.8).
+#: of rig P need about 35 s; docs/estimation.md).
 SETTLE_S = 40.0
 
 

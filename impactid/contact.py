@@ -1,4 +1,4 @@
-"""Contact-force and restitution laws, and the conversions between them (MODEL.md 1.3, 1.7).
+"""Contact-force and restitution laws, and the conversions between them (docs/rig_p.md, docs/estimation.md).
 
 Sign conventions: ``delta = -psi_i >= 0`` is the indentation [m] and ``gap_rate = dpsi_i/dt``
 [m/s] (negative while approaching). Forces are compressive-positive [N].
@@ -62,15 +62,15 @@ def restitution_coefficient(approach_speed, gamma, xi0=1.0):
 
     ``xi0 = 1`` gives Hunt and Crossley's law ``xi = 1 - gamma v_a`` (S-25); ``gamma = 0`` gives a
     constant coefficient ``xi0``. Values below 0 are outside the law's range and are returned as
-    they are (the simulator refuses them; MODEL.md 1.9 forbids silent clamping).
+    they are (the simulator refuses them; docs/estimation.md forbids silent clamping).
     """
     return xi0 - gamma * np.asarray(approach_speed, dtype=float)
 
 
 def beta_from_gamma(gamma, k_H):
-    """Hunt–Crossley damping ``beta = 1.5 gamma k_H`` [N s m^-2.5] for n = 1.5 (MODEL.md 1.7).
+    """Hunt–Crossley damping ``beta = 1.5 gamma k_H`` [N s m^-2.5] for n = 1.5 (docs/estimation.md).
 
-    ``gamma`` [s/m], ``k_H`` [N m^-1.5]. With the seed rig's k_H (about 8.0e9) gamma = 0.758 s/m gives
+    ``gamma`` [s/m], ``k_H`` [N m^-1.5]. With the paper rig's k_H (about 8.0e9) gamma = 0.758 s/m gives
     about 9.1e9 N s m^-2.5, as in section 8.3 of Sundar, Dreyer & Singh (2016).
     """
     return 1.5 * np.asarray(gamma, dtype=float) * k_H
@@ -127,7 +127,7 @@ class HuntCrossley:
 
 @dataclass(frozen=True)
 class Restitution:
-    """Instantaneous restitution law ``xi = xi0 - gamma v_a`` (MODEL.md 1.7; S3 simulations).
+    """Instantaneous restitution law ``xi = xi0 - gamma v_a`` (docs/estimation.md; S3 simulations).
 
     Attributes
     ----------

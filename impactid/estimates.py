@@ -39,7 +39,7 @@ precise (fix ``n`` or fit several operating points jointly).
 
 Restitution
 -----------
-``xi`` and ``v_a`` per impact come from the reconstruction (MODEL.md 1.7); ``gamma`` of
+``xi`` and ``v_a`` per impact come from the reconstruction (docs/estimation.md); ``gamma`` of
 ``xi = 1 - gamma v_a`` by least squares through the law's fixed intercept, the constant-``r``
 fit, a free-intercept line (to test the law), ``xi_mean``, ``va_mean`` and the Hunt–Crossley
 equivalent ``beta = 1.5 gamma k_H``.
@@ -259,7 +259,7 @@ class DampingEstimate:
 
 @dataclass(frozen=True)
 class RestitutionEstimate:
-    """Restitution law fits over impacts (MODEL.md 1.7).
+    """Restitution law fits over impacts (docs/estimation.md).
 
     ``gamma`` [s/m] of ``xi = 1 - gamma v_a`` (least squares, intercept fixed at 1) with its
     standard error; ``r_constant`` the constant-r fit (mean xi) with its standard error;
@@ -355,7 +355,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     residual_floor : the residual's noise floor (default :data:`RESIDUAL_FLOOR` of the residual); the
         indifference level of the intervals is at least this.
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
-    bootstrap_resamples, bootstrap_seed : resamples of the events and the seed of the bootstrap.
+    bootstrap_resamples, bootstrap_seed : resamples of the events and the paper of the bootstrap.
 
     Raises
     ------
@@ -667,7 +667,7 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
         notes.append(f"{outside} impacts have xi outside [0, 1]")
     if gamma > 0 and np.any(v > 1.0 / gamma):
         notes.append(f"the fitted law gives xi < 0 for v_a > 1/gamma = {1 / gamma:.4g} m/s, reached by "
-                     f"{int(np.sum(v > 1 / gamma))} impacts: outside the law's range (MODEL.md 1.9)")
+                     f"{int(np.sum(v > 1 / gamma))} impacts: outside the law's range (docs/estimation.md)")
     for message in notes:
         warnings.warn(message, EstimationWarning, stacklevel=2)
     frame["used"] = ok
@@ -714,7 +714,7 @@ class Estimate:
         return "\n".join(parts)
 
     def to_dict(self, per_impact: bool = True) -> dict:
-        """The result as JSON-ready data: the keys of FORMAT.md (SI units) plus uncertainty and detail."""
+        """The result as JSON-ready data: the keys of docs/formats.md (SI units) plus uncertainty and detail."""
         d, r = self.damping, self.restitution
         out = {
             "beta": d.beta, "n": d.n, "gamma": r.gamma if r else None, "xi_mean": r.xi_mean if r else None,

@@ -339,7 +339,7 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
                 flags["overlapping"] = True
         flags["too_short"] = ka - k0 < 3
         if flags["too_short"] and ka > k0:
-            # an impulse (instantaneous impact, e.g. the restitution model S3, MODEL.md 1.9): its
+            # an impulse (instantaneous impact, e.g. the restitution model S3, docs/estimation.md): its
             # area sits in the samples around the impact time with linear-interpolation weights,
             # so the impact time is the centroid of the deviation
             dev_i = x[k0:ka] - before(np.arange(k0, ka))

@@ -1,4 +1,4 @@
-"""Recordings: the :class:`Recording` container and its readers and writers (FORMAT.md).
+"""Recordings: the :class:`Recording` container and its readers and writers (docs/formats.md).
 
 Readers are ``read_<format>(path) -> Recording``; :func:`read_recording` picks one by file type.
 Every problem with a file raises :class:`RecordingError` (an :class:`~impactid.errors.ImpactidError`)
@@ -40,7 +40,7 @@ __all__ = ["CAM_SPEED_TOLERANCE", "CHANNEL_QUANTITY", "CHANNEL_UNITS", "CLIP_RUN
 FORMAT_NAME = "recording"
 FORMAT_VERSION = 1
 
-#: Channels of FORMAT.md and their SI units.
+#: Channels of docs/formats.md and their SI units.
 CHANNEL_UNITS: Mapping[str, str] = MappingProxyType({
     "accel_tangential": "m/s^2",
     "force_x": "N",
@@ -265,7 +265,7 @@ class Recording:
     def with_rig(self, rig: Any) -> Recording:
         """A new recording with its rig (and, from a TOML rig file, its operating point) replaced.
 
-        ``rig`` is a rig dataclass or the path of a TOML rig file (FORMAT.md)."""
+        ``rig`` is a rig dataclass or the path of a TOML rig file (docs/formats.md)."""
         new_rig, operating, note = _resolve_rig(rig)
         merged = dict(self.operating)
         merged.update(operating)
@@ -443,7 +443,7 @@ def _open_hdf5(path: Path):
 
 
 def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
-    """Read an HDF5 recording (FORMAT.md, format version 1).
+    """Read an HDF5 recording (docs/formats.md, format version 1).
 
     Parameters
     ----------
@@ -611,7 +611,7 @@ def _write_group_tree(group, values: Mapping[str, Any]) -> None:
 
 def write_hdf5(recording: Recording, path: str | os.PathLike[str], *, truth: Mapping[str, Any] | None = None,
                compression: str | None = None) -> Path:
-    """Write a recording as HDF5 (FORMAT.md), atomically (temporary file in the same folder, then
+    """Write a recording as HDF5 (docs/formats.md), atomically (temporary file in the same folder, then
     rename). Refuses to overwrite the file the recording was read from.
 
     Parameters

@@ -1,4 +1,4 @@
-"""Residuals between measured impact events and their S1 simulations (MODEL.md 1.6).
+"""Residuals between measured impact events and their S1 simulations (docs/rig_p.md).
 
 Every reconstructed event (:mod:`impactid.reconstruct`) is replayed by the compiled simulator
 from its measured onset state ``alpha(0), alpha_dot(0), Theta(0)`` through the contact and the

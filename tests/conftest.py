@@ -6,7 +6,7 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley
 
-#: the seed's S2 contact law (Table 2): beta = 24.7 GN s m^-2.5, n = 1.5
+#: the paper's S2 contact law (Table 2): beta = 24.7 GN s m^-2.5, n = 1.5
 SEED_LAW = HuntCrossley(beta=24.7e9, n=1.5)
 
 #: Table 2 operating points of Sundar, Dreyer & Singh (2016): (e/r_c, cam speed [Hz])
@@ -25,7 +25,7 @@ def seed_law():
 
 @pytest.fixture(scope="session")
 def s2_synthetic():
-    """Noise-free S2 recording at the seed's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
+    """Noise-free S2 recording at the paper's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
     from impactid.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 1.0)

@@ -154,7 +154,7 @@ def draw_cases(n_hc: int = 60, n_s3: int = 15, seed: int = 2026, progress=None) 
                          accel_offset=float(rng.uniform(-2, 2)), accel_drift=float(rng.uniform(-0.5, 0.5)))
         elif klass == "low-rate":
             q = int(rng.choice([2, 4]))
-            rng.integers(16, 25)  # (drawn and unused: keeps the seed's cases)
+            rng.integers(16, 25)  # (drawn and unused: keeps the paper's cases)
             extra = dict(decimation=q, sample_rate_hz=204_800.0 / q, adc_bits=24)
         else:
             rng.integers(16, 25)

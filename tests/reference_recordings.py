@@ -8,7 +8,7 @@ If the recordings used to validate it were made by impactid's own compiled simul
 the estimator and the data generator share (a sign, a lever arm, a friction convention, an event
 or step-size artefact of the compiled kernel) would cancel out and the validation would pass
 anyway. The recordings made here come from a separate implementation of the physics,
-``tests/reference_rigp.py`` (MODEL.md 1.1-1.3, 1.7, 1.9 written out again with SciPy's
+``tests/reference_rigp.py`` (the model of docs/rig_p.md and docs/estimation.md written out again with SciPy's
 ``solve_ivp``, DOP853, event-driven, rtol 1e-12), so such a shared bias shows up as a
 disagreement.
 
@@ -21,7 +21,7 @@ What is shared with impactid, and what is not
   offset/drift, anti-alias decimation, encoder counts), which is not physics.
 * Not shared: the equations of motion, the contact and restitution laws, the event handling, the
   integrator, the steady-state search and the formulas of the channels. The accelerometer signal
-  ``l_a * alpha_ddot`` uses ``reference_rigp.angular_acceleration``, and the pivot reaction (MODEL.md
+  ``l_a * alpha_ddot`` uses ``reference_rigp.angular_acceleration``, and the pivot reaction (docs/rig_p.md
   1.4 with the friction term of 1.9) is written out in this module. Nothing here imports
   ``impactid.simulate``, the geometry functions of ``impactid.rigs`` or ``impactid.synth.pivoted``.
 
@@ -251,7 +251,7 @@ def periodic_orbit(p: dict, cam_speed_hz: float, law: dict, mu: float = 0.2, *, 
     d alpha_dot [rad/s])) and halves a step that does not reduce the residual.
 
     Start: ``guess`` (a state at ``section_phase``), or else ``warmup_revolutions`` revolutions
-    run from static equilibrium with the cam at Theta = 0 (MODEL.md 1.9; for the restitution law
+    run from static equilibrium with the cam at Theta = 0 (docs/estimation.md; for the restitution law
     the follower starts on the cam surface at rest, there being no indentation). Without a
     ``section_phase``, the section is the middle of the longest contact-free arc of the last
     warm-up revolution.
@@ -386,10 +386,10 @@ def periodic_orbit(p: dict, cam_speed_hz: float, law: dict, mu: float = 0.2, *, 
 
 
 # ---------------------------------------------------------------------------------------------
-# Channels (MODEL.md 1.4, 1.9)
+# Channels (docs/formats.md)
 # ---------------------------------------------------------------------------------------------
 def pivot_reaction(p, alpha, alpha_dot, alpha_ddot, contact_force, friction):
-    """Pivot reaction on the follower ``(N_x, N_y)`` [N], MODEL.md 1.4 with the friction of 1.9.
+    """Pivot reaction on the follower ``(N_x, N_y)`` [N], docs/rig_p.md with the friction of 1.9.
 
     Newton's law for the bar (CG at ``r_G = l_g u(alpha)``)::
 
@@ -584,7 +584,7 @@ def reference_recording(e_over_rc: float, cam_speed_hz: float, law: dict, *, mu:
     exact = {"accel_tangential": p["l_a"] * add, "force_x": fx, "force_y": fy,
              "cam_angle": theta_ref + W * t_fine}
 
-    if law["kind"] == "restitution":  # impulses over the two fine samples around each impact (MODEL.md 1.9)
+    if law["kind"] == "restitution":  # impulses over the two fine samples around each impact (docs/estimation.md)
         for imp in contacts:
             x = (imp["t"] - tau[0]) * fine_rate  # fine-sample position of the impact
             k = int(math.floor(x))

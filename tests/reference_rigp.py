@@ -2,10 +2,10 @@
 
 Rig P is the eccentric cylindrical cam on a pivoted follower with point contact,
 from Sundar, Dreyer & Singh (2016) (Sundar, Dreyer & Singh 2016). This module follows
-``shared/spec/MODEL.md`` section 1 (1.1-1.3, 1.7, 1.9). It is meant for cross-checking
+``shared/spec/docs/rig_p.md`` section 1 (1.1-1.3, 1.7, 1.9). It is meant for cross-checking
 the compiled simulator, so it favours clarity and accuracy over speed.
 
-Conventions (MODEL.md 1.1)
+Conventions (docs/rig_p.md)
 --------------------------
 * Fixed frame: origin at the follower pivot P, e_x horizontal towards the cam, e_y up.
 * ``alpha``: follower angle from e_x, clockwise positive (tip moving down).
@@ -68,7 +68,7 @@ TWO_PI = 2.0 * math.pi
 # Parameters
 # ---------------------------------------------------------------------------------------------
 def reference_params(e_over_rc: float) -> dict:
-    """Table 1 of Sundar, Dreyer & Singh (2016) with labels repaired (MODEL.md 1.2), SI units, plus derived keys."""
+    """Table 1 of Sundar, Dreyer & Singh (2016) with labels repaired (docs/rig_p.md), SI units, plus derived keys."""
     p = dict(
         m_b=0.257,
         I_b=3.3e-3,
@@ -107,7 +107,7 @@ def _derive(p: dict) -> dict:
 
 
 # ---------------------------------------------------------------------------------------------
-# Geometry and kinematics (MODEL.md 1.1)
+# Geometry and kinematics (docs/rig_p.md)
 # ---------------------------------------------------------------------------------------------
 def gap(alpha, theta, p):
     """psi_i = n(alpha) . G_c(Theta) - (h_p + r_c)."""
@@ -128,7 +128,7 @@ def gap_rate(alpha, alpha_dot, theta, theta_dot, p):
 
 
 def zero_state(p):
-    """0-state (alpha0, Theta0) of (S-3, S-4) as corrected in MODEL.md 1.1."""
+    """0-state (alpha0, Theta0) of (S-3, S-4) as corrected in docs/rig_p.md."""
     D = p["h_p"] + p["r_c"] + p["e"]
     X, Y = p["PE_x"], p["PE_y"]
     c = (Y * D + math.sqrt(X ** 4 + X ** 2 * Y ** 2 - X ** 2 * D ** 2)) / (X ** 2 + Y ** 2)
@@ -142,7 +142,7 @@ def _chi0(p):
 
 
 def psi_j(alpha, theta, p):
-    """psi_j = chi0 - chi (MODEL.md 1.1; equals (S-6))."""
+    """psi_j = chi0 - chi (docs/rig_p.md; equals (S-6))."""
     return _chi0(p) - lever_arm(alpha, theta, p)
 
 
@@ -179,7 +179,7 @@ def gap_rate_paper_S7(alpha, alpha_dot, theta, theta_dot, p):
 
 
 # ---------------------------------------------------------------------------------------------
-# Forces and equations of motion (MODEL.md 1.3)
+# Forces and equations of motion (docs/rig_p.md)
 # ---------------------------------------------------------------------------------------------
 def spring_force(alpha, p):
     """(S-10): F_s = k_s [L_s^u - d_y + d_x tan(alpha) + 0.5 w_b sec(alpha)]."""
@@ -218,7 +218,7 @@ def angular_acceleration(alpha, alpha_dot, theta, theta_dot, p, beta, n, mu, in_
 
 
 def free_flight_energy(alpha, alpha_dot, p, alpha_ref=0.0):
-    """E = 0.5 I_b alpha_dot^2 + int_{alpha_ref}^{alpha} (F_s d_x - m_b g l_g cos a) da (MODEL.md 1.9)."""
+    """E = 0.5 I_b alpha_dot^2 + int_{alpha_ref}^{alpha} (F_s d_x - m_b g l_g cos a) da (docs/estimation.md)."""
     def integrand(a):
         return float(spring_force(a, p)) * p["d_x"] - p["m_b"] * p["g"] * p["l_g"] * math.cos(a)
 
@@ -374,7 +374,7 @@ def _continuous_max(f, t_steps, t_lo, t_hi, nsub=8):
 # ---------------------------------------------------------------------------------------------
 def run_hybrid(alpha0, alpha_dot0, theta0, omega_hz, t_end, p, beta, n, mu, clip=False,
                rtol=1e-12, atol=1e-15, method="DOP853", max_phases=1_000_000) -> dict:
-    """Event-driven simulation of the contact / free-flight model (MODEL.md 1.3).
+    """Event-driven simulation of the contact / free-flight model (docs/rig_p.md).
 
     Returns a dict with 'contacts', 'alpha_m', 't_alpha_m', 'final', 'evaluate', 'nfev' and also
     'phases' (a list of (t_start, t_end, in_contact)). Each contact record also carries
@@ -483,7 +483,7 @@ def run_hybrid(alpha0, alpha_dot0, theta0, omega_hz, t_end, p, beta, n, mu, clip
 
 
 # ---------------------------------------------------------------------------------------------
-# Restitution model S3 (MODEL.md 1.7)
+# Restitution model S3 (docs/estimation.md)
 # ---------------------------------------------------------------------------------------------
 def run_restitution(alpha0, alpha_dot0, theta0, omega_hz, t_end, p, xi0, gamma, rtol=1e-12,
                     atol=1e-15, method="DOP853", max_impacts=1000) -> dict:

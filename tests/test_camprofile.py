@@ -86,7 +86,7 @@ def test_seam_continuity_value_and_derivatives(fit7):
         at2pi = profile(np.array([2 * math.pi]), 2)
         for v0, v1 in zip(at0, at2pi, strict=True):
             assert abs(float(v0[0]) - float(v1[0])) < 1e-12
-    # the seed's unwrapped Table 3 model jumps at the seam (a term centred at 6.311 is cut there)
+    # the paper's unwrapped Table 3 model jumps at the seam (a term centred at 6.311 is cut there)
     assert abs(ALZATE2007_CAM(2 * math.pi) - ALZATE2007_CAM(0.0)) > 1e-4
 
 

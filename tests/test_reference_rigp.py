@@ -41,7 +41,7 @@ def test_closed_forms_match_paper_expressions(p):
     ad = rng.uniform(-10, 10, 50)
     th = rng.uniform(0, 2 * np.pi, 50)
     W = 2 * np.pi * 16.0
-    # (S-5) and (S-7) against the closed forms of MODEL.md 1.1
+    # (S-5) and (S-7) against the closed forms of docs/rig_p.md
     np.testing.assert_allclose(R.gap(a, th, p), R.gap_paper_S5(a, th, p), rtol=0, atol=1e-15)
     np.testing.assert_allclose(R.gap_rate(a, ad, th, W, p), R.gap_rate_paper_S7(a, ad, th, W, p),
                                rtol=0, atol=1e-13)

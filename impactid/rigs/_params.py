@@ -17,7 +17,7 @@ from impactid.rigs._toml import format_toml
 __all__ = ["RigParameters"]
 
 class RigParameters:
-    """Mixin for frozen rig dataclasses with a class attribute ``model`` (the FORMAT.md name)."""
+    """Mixin for frozen rig dataclasses with a class attribute ``model`` (the docs/formats.md name)."""
 
     model: str
 
@@ -49,7 +49,7 @@ class RigParameters:
             raise RigParameterError(f"{where}{exc}") from None
 
     def to_dict(self) -> dict[str, float]:
-        """Parameters as a plain dict (FORMAT.md names, SI units)."""
+        """Parameters as a plain dict (docs/formats.md names, SI units)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     def replace(self, **changes: float):
@@ -61,4 +61,4 @@ class RigParameters:
         tables: dict[str, Mapping[str, Any]] = {"rig": {"model": self.model, **self.to_dict()}}
         if operating:
             tables["operating"] = dict(operating)
-        return format_toml(tables, header="impactid rig file (SI units; FORMAT.md parameter names)")
+        return format_toml(tables, header="impactid rig file (SI units; docs/formats.md parameter names)")

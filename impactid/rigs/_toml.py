@@ -1,4 +1,4 @@
-"""TOML reading and writing of rig files (``[rig]`` and ``[operating]`` tables, FORMAT.md).
+"""TOML reading and writing of rig files (``[rig]`` and ``[operating]`` tables, docs/formats.md).
 
 Reading uses the standard library's :mod:`tomllib`; writing is a small emitter because a rig file
 is a flat table of floats and strings (no extra dependency). Files are written atomically.

@@ -3,7 +3,7 @@
 A rig is one folder of ``impactid/rigs/`` (its parameters, geometry, compiled kernel, measurement
 model, figures and commands) behind one :class:`RigModel`, registered with one line in
 :mod:`impactid.rigs.registry`. The pipeline, the recordings and the command line dispatch through
-the registry by the FORMAT.md model name; nothing outside a rig's folder names the rig.
+the registry by the docs/formats.md model name; nothing outside a rig's folder names the rig.
 
 A rig model is a frozen record of functions and tables rather than a class hierarchy: the physics
 are pure functions in the rig's modules, and the record says which of them play which role.
@@ -92,7 +92,7 @@ class RigModel:
 
     Attributes
     ----------
-    name : the FORMAT.md model name (``"pivoted-follower"``, ``"finger-follower-hla"``, ...).
+    name : the docs/formats.md model name (``"pivoted-follower"``, ``"finger-follower-hla"``, ...).
     title : one line for users, citing the paper (``"... (Sundar, Dreyer & Singh 2016)"``).
     citation : key of the paper in the bibliography (``docs/bibliography.md``).
     parameters : the frozen dataclass of the rig's parameters (``from_mapping``, ``to_dict``, TOML).

@@ -1,4 +1,4 @@
-"""Registry of rig models and the TOML rig-file reader/writer (FORMAT.md)."""
+"""Registry of rig models and the TOML rig-file reader/writer (docs/formats.md)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from impactid.rigs.base import RigModel
 
 __all__ = ["MODELS", "RIG_MODELS", "load_rig_toml", "register", "rig_from_mapping", "rig_model", "save_rig_toml"]
 
-#: The registered rig models by FORMAT.md model name (:class:`~impactid.rigs.base.RigModel`).
+#: The registered rig models by docs/formats.md model name (:class:`~impactid.rigs.base.RigModel`).
 MODELS: dict[str, RigModel] = {}
 
 
@@ -43,7 +43,7 @@ def rig_model(name: str) -> RigModel:
 
 
 def rig_from_mapping(values: Mapping[str, Any], source: str = ""):
-    """Build the rig named by ``values['model']`` (a FORMAT.md rig model name)."""
+    """Build the rig named by ``values['model']`` (a docs/formats.md rig model name)."""
     where = f"{source}: " if source else ""
     model = values.get("model")
     if model is None:
@@ -54,7 +54,7 @@ def rig_from_mapping(values: Mapping[str, Any], source: str = ""):
 
 
 def load_rig_toml(path: str | os.PathLike[str]):
-    """Read the ``[rig]`` table of a TOML rig file (FORMAT.md).
+    """Read the ``[rig]`` table of a TOML rig file (docs/formats.md).
 
     Returns
     -------

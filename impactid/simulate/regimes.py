@@ -45,7 +45,7 @@ __all__ = ["SEED_S2_LAW", "DetachmentResult", "Law", "RegimeResult", "classify_r
 
 Law = HuntCrossley | Restitution
 
-#: the seed's S2 contact law (Table 2 of Sundar, Dreyer & Singh (2016)), the default of every regime computation
+#: the paper's S2 contact law (Table 2 of Sundar, Dreyer & Singh (2016)), the default of every regime computation
 SEED_S2_LAW = HuntCrossley(beta=24.7e9, n=1.5)
 
 
@@ -124,7 +124,7 @@ def classify_regime(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law | Non
 
     Parameters
     ----------
-    law : contact law; default the seed's S2 law ``beta = 24.7e9 N s m^-2.5, n = 1.5``.
+    law : contact law; default the paper's S2 law ``beta = 24.7e9 N s m^-2.5, n = 1.5``.
     settle_revolutions : revolutions discarded before the first window.
     window : revolutions per examined window.
     max_revolutions : longest run before giving up on settling.

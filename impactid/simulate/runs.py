@@ -355,7 +355,7 @@ def simulate(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, duration: f
     duration : simulated time [s] after ``t_start``.
     t_eval : times [s] at which to return the state (dense output); none by default.
     initial_state : ``(alpha, alpha_dot)`` at ``t_start``; default: static equilibrium with the cam at
-        ``theta_ref`` and ``alpha_dot = 0`` (MODEL.md 1.9).
+        ``theta_ref`` and ``alpha_dot = 0`` (docs/estimation.md).
     theta_ref : cam angle at ``t = 0`` [rad]; ``Theta(t) = theta_ref + 2 pi cam_speed_hz t``.
     mu : friction coefficient; default ``rig.mu``.
     tolerances : integrator settings.

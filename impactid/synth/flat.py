@@ -2,7 +2,7 @@
 
 Below the detachment speed the follower rides on the cam, so its angle is the contact angle
 ``theta_hat(theta_c)`` of (A-17) exactly; no integration is needed. The two incremental encoders
-count whole pulses: the cam encoder from an unknown zero (``cam_zero_offset``, drawn from the seed
+count whole pulses: the cam encoder from an unknown zero (``cam_zero_offset``, drawn from the paper
 unless given, recorded only in ``/truth``), the follower encoder from the follower's zero angle.
 Impacting recordings of rig F need its impact simulator (cam-profile and bifurcation work).
 """

@@ -1,5 +1,5 @@
 """Synthetic recordings of rig P: the S2 (Hunt–Crossley) and S3 (restitution) simulations of
-Sundar, Dreyer & Singh (2016) sampled as an acquisition system would (MODEL.md 1.4 and 1.9).
+Sundar, Dreyer & Singh (2016) sampled as an acquisition system would (docs/rig_p.md and 1.9).
 
 The simulator runs from static equilibrium (cam at ``theta_ref``), the first ``settle_s`` seconds
 are discarded, and the exact dense output is sampled at the sample instants
@@ -51,7 +51,7 @@ class SyntheticRecording:
 
 
 def pivot_reaction(rig: PivotedFollowerRig, alpha, alpha_dot, alpha_ddot, contact_force, friction_force):
-    """Pivot reaction on the follower ``(N_x, N_y)`` [N] (MODEL.md 1.4 and 1.9).
+    """Pivot reaction on the follower ``(N_x, N_y)`` [N] (docs/rig_p.md and 1.9).
 
     ``N = m_b r_G_ddot - F_s e_y + m_b g e_y + F_lam n(alpha) + F_f u(alpha)`` with
     ``r_G_ddot = -l_g alpha_ddot n - l_g alpha_dot^2 u``; ``F_f`` is the signed friction magnitude
@@ -84,7 +84,7 @@ def _exact_channels(rig, law, cam_speed_hz, t, alpha, alpha_dot, mode, theta_ref
 
 
 def _add_impulses(channels, impacts, rig, t0, rate, n):
-    """S3: each impact as an impulse spread over the two samples around it (MODEL.md 1.9)."""
+    """S3: each impact as an impulse spread over the two samples around it (docs/estimation.md)."""
     for t_i, a_i, before, after, chi in impacts:
         x = (t_i - t0) * rate
         k = int(math.floor(x))
@@ -116,7 +116,7 @@ def synth_pivoted(rig: PivotedFollowerRig, cam_speed_hz: float, law: HuntCrossle
     settle_s : simulated time discarded before recording [s].
     sample_rate_hz : output sample rate [Hz].
     sensors : sensor imperfections (none by default: the exact signals at the sample instants).
-    channels : which FORMAT.md channels to write.
+    channels : which docs/formats.md channels to write.
     theta_ref : cam angle at simulation time 0 [rad].
     mu : friction coefficient (default ``rig.mu``).
     """

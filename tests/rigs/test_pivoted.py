@@ -19,7 +19,7 @@ def test_table1_defaults_and_derived_values(rig):
     assert rig.PE_x == 0.089 and rig.PE_y == 0.027
     assert rig.e == pytest.approx(0.2 * 0.0175, rel=1e-15)
     assert rig.h_p == pytest.approx(0.5 * 0.0127 + 2 * 0.0032)
-    # MODEL.md 1.2: k_H about 8.0e9 N m^-1.5
+    # docs/rig_p.md: k_H about 8.0e9 N m^-1.5
     assert rig.k_H == pytest.approx(8.0e9, rel=0.01)
     assert rig.with_eccentricity_ratio(0.1).e == pytest.approx(0.1 * 0.0175, rel=1e-15)
     assert rig.with_eccentricity_ratio(0.1).e_over_rc == pytest.approx(0.1)
@@ -95,7 +95,7 @@ def test_zero_state_closes_the_gap(rig):
 
 @pytest.mark.parametrize("ratio", [0.05, 0.2, 0.25])
 def test_closed_forms_equal_paper_expressions(rig, ratio):
-    """(S-5)..(S-8) expand to the closed forms of MODEL.md 1.1 (to round-off)."""
+    """(S-5)..(S-8) expand to the closed forms of docs/rig_p.md (to round-off)."""
     r = rig.with_eccentricity_ratio(ratio)
     rng = np.random.default_rng(1)
     alpha = rng.uniform(-0.2, 0.3, 500)
@@ -147,7 +147,7 @@ def test_static_equilibrium_balances_torques(rig):
             # the cam is high enough that the follower hangs free on its spring
             assert abs(rig.free_torque(a)) < 1e-12
         in_contact.append(delta > 0)
-    assert in_contact[0]  # the seed's start: cam at Theta = 0 holds the follower down
+    assert in_contact[0]  # the paper's start: cam at Theta = 0 holds the follower down
     assert not all(in_contact)
     alpha_c = rig.contact_angle(np.array([0.0, 2.0]))
     np.testing.assert_allclose(rig.gap(alpha_c, np.array([0.0, 2.0])), 0.0, atol=1e-17)

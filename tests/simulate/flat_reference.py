@@ -1,4 +1,4 @@
-"""Independent SciPy reference of the rig F impacting model (Alzate et al. 2007, MODEL.md section 2).
+"""Independent SciPy reference of the rig F impacting model (Alzate et al. 2007, docs/rig_f.md).
 
 A plain ``solve_ivp`` implementation, written for cross-checking the compiled simulator: it favours
 clarity and accuracy over speed. From the rig it uses only the contact angle ``theta_hat`` (A-17)

@@ -1,5 +1,5 @@
 """The compiled simulator against an independent solve_ivp implementation (tests/reference_rigp.py,
-written from MODEL.md without reading impactid's code; DOP853 at rtol 1e-12 with event location).
+written from docs/rig_p.md without reading impactid's code; DOP853 at rtol 1e-12 with event location).
 
 Required agreement (issue 2): alpha_m within 1e-8 relative, contact start/end times within 1e-9 s,
 peak contact force within 1e-6 relative, at several operating points and for n = 0, 1.5, 2. The

@@ -90,7 +90,7 @@ def test_hertz_impact_without_damping_is_elastic():
 
 
 def _free_energy(rig, alpha, alpha_dot):
-    """0.5 I a'^2 + integral (F_s d_x - m g l_g cos a) da, in closed form (MODEL.md 1.9)."""
+    """0.5 I a'^2 + integral (F_s d_x - m g l_g cos a) da, in closed form (docs/estimation.md)."""
     ks, dx = rig.k_s, rig.d_x
     potential = ks * dx * ((rig.L_s_u - rig.d_y) * alpha - dx * np.log(np.cos(alpha))
                            + 0.5 * rig.w_b * np.log(1 / np.cos(alpha) + np.tan(alpha)))

@@ -37,7 +37,7 @@ from impactid.rigs.cycloidal.simulate import (
 )
 from impactid.rigs.cycloidal.synth import synth_recording
 
-#: The channels this rig's recordings may hold (FORMAT.md "Additions").
+#: The channels this rig's recordings may hold (docs/formats.md "Additions").
 CHANNELS = {
     "valve_displacement": ChannelSpec("valve_displacement", "length", "m",
                                       "valve (= retainer) lift, positive opening, 0 on the seat"),

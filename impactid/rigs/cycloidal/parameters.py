@@ -9,7 +9,7 @@ whose central thickness follows the extrapolated regression of Rahnejat (1984).
 The paper gives almost no geometry or lubricant data. :data:`KUSHWAHA2000` is the assumed set of
 the project's specification (each value chosen to satisfy a statement the paper makes); the
 variants are named after what they change. Every parameter is one float in SI units (the rig
-file's names, FORMAT.md); ``ws_clip`` and ``steps_per_rev`` are floats holding a flag (0/1) and a
+file's names, docs/formats.md); ``ws_clip`` and ``steps_per_rev`` are floats holding a flag (0/1) and a
 count, so that a rig file stays a flat table of numbers.
 """
 

@@ -3,7 +3,7 @@
 A recording is the steady cycle of level A (the valve adheres to the cam: the valve displacement is
 the lift, the contact load the constraint reaction) or level B (the valve released: its displacement
 deviates from the lift by the Hertz approach, the seat and any jump) sampled at a constant rate over
-whole revolutions, with optional white Gaussian noise per channel. Channels (SI, FORMAT.md):
+whole revolutions, with optional white Gaussian noise per channel. Channels (SI, docs/formats.md):
 ``cam_angle`` [rad, unwrapped], ``valve_displacement`` [m, positive opening], ``valve_velocity``
 [m/s], ``contact_load`` [N, synthetic only]. The truth (parameters, level, speed, noise, seed) goes to
 the file's ``/truth`` group, which the estimators never read.
@@ -56,7 +56,7 @@ class SyntheticRecording:
     truth: Mapping[str, Any] = field(default_factory=dict)
 
     def write(self, path):
-        """Write as HDF5 (FORMAT.md) with the ``/truth`` group; returns the path."""
+        """Write as HDF5 (docs/formats.md) with the ``/truth`` group; returns the path."""
         from impactid.io import write_hdf5
 
         return write_hdf5(self.recording, path, truth=dict(self.truth))

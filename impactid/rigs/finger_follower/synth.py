@@ -12,7 +12,7 @@ Two samplings are offered:
   clocked acquisition records; the ``cam_angle`` channel is the encoder angle, exact at each
   sample. The recording's ``sample_rate_hz`` is the nominal ``encoder_ppr * cam_speed_hz`` and its
   ``/operating`` table carries ``samples_per_revolution``: this is how an angle-domain recording is
-  recognised (FORMAT.md addition).
+  recognised (docs/formats.md addition).
 * ``"time"``: uniform time samples at ``sample_rate_hz`` with the encoder angle quantised to its
   step (floor, as a counter reads it).
 

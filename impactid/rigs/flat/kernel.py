@@ -1,4 +1,4 @@
-"""Compiled (numba) event-driven integrator for rig F (Alzate et al. 2007, MODEL.md section 2).
+"""Compiled (numba) event-driven integrator for rig F (Alzate et al. 2007, docs/rig_f.md).
 
 The follower is either in free flight (A-10, ``J theta_ddot = -M_s(theta)``) or riding the cam
 (``theta = theta_hat(theta_c)`` exactly, A-11/A-17). Impacts are instantaneous velocity resets with

@@ -1,4 +1,4 @@
-"""Rig F: eccentric cam on an oscillating flat-faced follower (Alzate et al. 2007, MODEL.md section 2).
+"""Rig F: eccentric cam on an oscillating flat-faced follower (Alzate et al. 2007, docs/rig_f.md).
 
 Angles are counter-clockwise; ``theta_f`` is the follower angle, ``theta_c`` the cam angle [rad].
 With ``X = e cos theta_c + x0`` and ``Y = e sin theta_c + y0`` (the cam centre), the gap (A-26,
@@ -123,7 +123,7 @@ _UNITS = {"R": "m", "e": "m", "x0": "m", "y0": "m", "d": "m", "J": "kg m^2", "K"
 
 @dataclass(frozen=True)
 class FlatFollowerRig(RigParameters):
-    """Parameters of rig F (SI units; names as in FORMAT.md).
+    """Parameters of rig F (SI units; names as in docs/formats.md).
 
     Attributes
     ----------
@@ -214,6 +214,6 @@ class FlatFollowerRig(RigParameters):
 
 
 
-#: Table 5 of Alzate et al. (2007) (MODEL.md section 2).
+#: Table 5 of Alzate et al. (2007) (docs/rig_f.md).
 ALZATE2007 = FlatFollowerRig(R=0.045, e=0.015, x0=0.249, y0=0.0, d=0.021, J=0.043, K=105.0, x_A=-0.031,
                                  spring_length=0.173)

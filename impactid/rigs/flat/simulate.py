@@ -7,7 +7,7 @@ speeds in parallel, samples the follower stroboscopically once per cam revolutio
 seed) and classifies each speed as permanent contact, periodic impacting (period k revolutions) or
 irregular.
 
-The coefficient of restitution depends on the cam speed as in the seed:
+The coefficient of restitution depends on the cam speed as in the paper:
 :class:`SpeedRestitution` ``r(omega) = a + b omega`` (``b = 0`` for a constant ``r``).
 """
 
@@ -56,7 +56,7 @@ class SpeedRestitution:
 
     @classmethod
     def from_rpm(cls, a: float, b_per_rpm: float = 0.0) -> SpeedRestitution:
-        """Law given with its slope per rpm of cam speed (the seed's Fig. 12 axis)."""
+        """Law given with its slope per rpm of cam speed (the paper's Fig. 12 axis)."""
         return cls(a=a, b=b_per_rpm / RPM)
 
     def __call__(self, cam_speed_hz: float) -> float:

@@ -1,6 +1,6 @@
 """Rig P: eccentric cylindrical cam on a pivoted follower with point contact (Sundar, Dreyer & Singh 2016).
 
-Frame (MODEL.md 1.1): origin at the follower pivot P, ``e_x`` horizontal towards the cam, ``e_y`` up.
+Frame (docs/rig_p.md): origin at the follower pivot P, ``e_x`` horizontal towards the cam, ``e_y`` up.
 ``alpha`` is the follower angle from ``e_x``, clockwise positive (tip moving down); the bar's unit
 vectors are ``u = (cos a, -sin a)`` and ``n = (sin a, cos a)`` (towards the cam). The cam centre is
 ``G_c(Theta) = PE - e (cos Theta, sin Theta)``.
@@ -11,7 +11,7 @@ The module has two layers:
   or numpy arrays. They use only numpy ufuncs, so the compiled simulator compiles these very
   functions with numba: the formulas exist once.
 * :class:`PivotedFollowerRig`, a frozen dataclass of the rig parameters (SI units, names of
-  FORMAT.md) with validation, TOML round trip and convenience methods that call the functions above.
+  docs/formats.md) with validation, TOML round trip and convenience methods that call the functions above.
 """
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ def free_torque(alpha, spring, m_b, g, l_g, d_x):
 
 
 def zero_state_angle(PE_x, PE_y, contact_distance):
-    """0-state follower angle ``alpha0`` (S-3, corrected as in MODEL.md 1.1) [rad].
+    """0-state follower angle ``alpha0`` (S-3, corrected as in docs/rig_p.md) [rad].
 
     ``contact_distance`` is ``D = h_p + r_c + e`` [m]; requires ``D < |PE|``.
     """
@@ -151,7 +151,7 @@ _UNITS = {
 
 @dataclass(frozen=True)
 class PivotedFollowerRig(RigParameters):
-    """Parameters of rig P (SI units; names as in FORMAT.md).
+    """Parameters of rig P (SI units; names as in docs/formats.md).
 
     Attributes
     ----------
@@ -223,7 +223,7 @@ class PivotedFollowerRig(RigParameters):
             raise RigParameterError(
                 f"rig parameters 'I_b' = {self.I_b!r} kg m^2 and 'm_b' l_g^2 = {self.m_b * self.l_g**2!r} kg m^2: "
                 "the moment of inertia about the pivot cannot be smaller than m_b l_g^2 "
-                "(are l_g and l_b swapped, as in the seed's Table 1?)"
+                "(are l_g and l_b swapped, as in the paper's Table 1?)"
             )
         if self.contact_distance >= math.hypot(self.PE_x, self.PE_y):
             raise RigParameterError(
@@ -343,7 +343,7 @@ class PivotedFollowerRig(RigParameters):
         """Static equilibrium follower angle ``alpha*`` with the cam at ``theta`` [rad].
 
         Gravity and spring torque balanced by the Hertz contact force ``k_H delta^1.5`` at the
-        lever arm ``chi``; friction is left out of the statics (MODEL.md 1.9). If the spring
+        lever arm ``chi``; friction is left out of the statics (docs/estimation.md). If the spring
         does not hold the follower against the cam, the free equilibrium is returned.
         """
         alpha_c = float(self.contact_angle(theta))
@@ -367,7 +367,7 @@ class PivotedFollowerRig(RigParameters):
     # ---- TOML ---------------------------------------------------------------------------------
 
 
-#: Table 1 of Sundar, Dreyer & Singh (2016) with its labels repaired (MODEL.md 1.2); ``e`` for e/r_c = 0.2.
+#: Table 1 of Sundar, Dreyer & Singh (2016) with its labels repaired (docs/rig_p.md); ``e`` for e/r_c = 0.2.
 SUNDAR2016 = PivotedFollowerRig(
     m_b=0.257, I_b=3.3e-3, l_g=0.086, l_a=0.063, w_b=0.0127, r_d=0.0032, r_c=0.0175,
     e=0.2 * 0.0175, k_s=3319.0, L_s_u=0.053, d_x=0.035, d_y=0.058, PE_x=0.089, PE_y=0.027,
