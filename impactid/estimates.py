@@ -496,7 +496,9 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                 f"beta and n are not separable from these data ({why}): along the valley beta(n) the mean "
                 f"{residual} stays within {indifference:.3g} of its minimum for n from {n_iv[0]:.3g} to {n_iv[1]:.3g} "
                 f"(beta {beta_iv[0]:.4g} to {beta_iv[1]:.4g}); the joint point estimate is not precise. Fix n "
-                "(--fix-n) or fit recordings at several operating points together.")
+                + ("(--fix-n) or fit recordings at several operating points together." if len(sets) == 1 else
+                   "(--fix-n), add operating points whose approach speeds differ more (lower e/r_c or cam speed), "
+                   "or record with less noise."))
     if logc_hat <= lc_lo + 1e-6 or logc_hat >= lc_hi - 1e-6:
         notes.append(f"the estimate lies on the search bound of c = beta delta_ref^n ({10 ** logc_hat:.3g} N s/m): "
                      "widen the bounds or check the data")
