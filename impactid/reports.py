@@ -49,12 +49,10 @@ def save_figure_atomic(fig, path: str | os.PathLike[str], staged: StagedFiles | 
 
 def plot_regime_map(frame: pd.DataFrame):
     """Regime map figure (cam speed versus e/r_c, as Fig. 3 of Sundar, Dreyer & Singh (2016))."""
-    import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8.0, 4.8), constrained_layout=True)
+    fig = Figure(figsize=(8.0, 4.8), constrained_layout=True)
+    ax = fig.subplots()
     for regime, colour in REGIME_COLOURS.items():
         sel = frame[frame["regime"] == regime]
         if len(sel):
@@ -72,29 +70,23 @@ def plot_regime_map(frame: pd.DataFrame):
 def write_regime_map(frame: pd.DataFrame, out_dir: str | os.PathLike[str],
                      staged: StagedFiles | None = None) -> list[Path]:
     """Write ``regime_map.csv`` and ``regime_map.png`` into ``out_dir`` (one transaction)."""
-    import matplotlib.pyplot as plt
 
     out_dir = Path(out_dir)
     with _transaction(staged) as st:
         csv = write_csv_atomic(frame, out_dir / "regime_map.csv", st)
         fig = plot_regime_map(frame)
-        try:
-            png = save_figure_atomic(fig, out_dir / "regime_map.png", st, dpi=120)
-        finally:
-            plt.close(fig)
+        png = save_figure_atomic(fig, out_dir / "regime_map.png", st, dpi=120)
     return [csv, png]
 
 
 def plot_bifurcation(result, transitions: dict | None = None):
     """Stroboscopic follower angle against cam speed (Fig. 16 of Alzate et al. (2007)), coloured by regime."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     colours = {"contact": "tab:green", "period-1": "tab:blue", "period-k": "tab:orange", "irregular": "tab:red"}
     table = result.table
-    fig, ax = plt.subplots(figsize=(8, 4.5), constrained_layout=True)
+    fig = Figure(figsize=(8, 4.5), constrained_layout=True)
+    ax = fig.subplots()
     for regime, colour in colours.items():
         rows = np.flatnonzero(table["regime"].to_numpy() == regime)
         if rows.size == 0:
@@ -121,7 +113,6 @@ def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFil
     """Write ``bifurcation.csv`` (one row per speed and kept revolution: ``cam_speed_rpm``,
     ``revolution``, ``theta_f`` [rad], ``theta_f_dot`` [rad/s], ``regime``), ``regimes.csv`` (one
     row per speed) and ``bifurcation.png`` into ``out_dir``, atomically."""
-    import matplotlib.pyplot as plt
 
     out_dir = Path(out_dir)
     table = result.table
@@ -137,10 +128,7 @@ def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFil
         paths = [write_csv_atomic(points, out_dir / "bifurcation.csv", st),
                  write_csv_atomic(table, out_dir / "regimes.csv", st)]
         fig = plot_bifurcation(result, result.transitions())
-        try:
-            paths.append(save_figure_atomic(fig, out_dir / "bifurcation.png", st, dpi=130))
-        finally:
-            plt.close(fig)
+        paths.append(save_figure_atomic(fig, out_dir / "bifurcation.png", st, dpi=130))
     return paths
 
 
@@ -168,10 +156,6 @@ def estimate_figures(result, out_dir: str | os.PathLike[str], staged: StagedFile
     ``landscape.png``: mean residual over (n, beta) with the valley and the estimate;
     ``residuals.png``: per-impact residual at the estimate.
     """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
     from impactid.estimates import objective_landscape
 
@@ -179,17 +163,20 @@ def estimate_figures(result, out_dir: str | os.PathLike[str], staged: StagedFile
     d, r = result.damping, result.restitution
     written = []
     with _transaction(staged) as st:
-        _estimate_figures(result, d, r, out, st, written, plt, objective_landscape)
+        _estimate_figures(result, d, r, out, st, written, objective_landscape)
     return written
 
 
-def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) -> None:
+def _estimate_figures(result, d, r, out, st, written, objective_landscape) -> None:
+    from matplotlib.figure import Figure
+
     # hysteresis loop of the median-speed event of the first recording
     es = result.event_sets[0]
     i = int(np.argsort(es.approach_speed)[len(es) // 2])
     one = es.subset(i)
     batch = one.simulate(np.array([[d.beta, d.n]]), histories=True)
-    fig, ax = plt.subplots(figsize=(6, 4.5))
+    fig = Figure(figsize=(6, 4.5))
+    ax = fig.subplots()
     if es.force is not None:
         ax.plot(1e6 * es.indentation[i], es.force[i], "o-", ms=3, label="measured (S-21)")
     ax.plot(1e6 * np.maximum(-batch.gap[0], 0.0), batch.contact_force[0], "-", label="S1 at the estimate")
@@ -197,11 +184,11 @@ def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) 
            title=f"{es.source}: event {int(es.events[i])}, beta={d.beta:.4g}, n={d.n:.3g}")
     ax.legend()
     written.append(save_figure_atomic(fig, out / "hysteresis.png", st, dpi=120))
-    plt.close(fig)
     # restitution (absent when no impact had a determined xi)
     if r is not None:
         frame = r.per_impact[r.per_impact["used"]]
-        fig, ax = plt.subplots(figsize=(6, 4.5))
+        fig = Figure(figsize=(6, 4.5))
+        ax = fig.subplots()
         ax.plot(frame["approach_speed"], frame["xi"], "o", ms=4, label="impacts")
         v = np.linspace(0.0, max(float(frame["approach_speed"].max()) * 1.2, 1e-3), 50)
         ax.plot(v, 1.0 - r.gamma * v, "-", label=f"xi = 1 - gamma v_a, gamma = {r.gamma:.4g} s/m")
@@ -210,10 +197,10 @@ def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) 
                title="restitution (Fig. 10 of Sundar, Dreyer & Singh (2016))")
         ax.legend()
         written.append(save_figure_atomic(fig, out / "restitution.png", st, dpi=120))
-        plt.close(fig)
     # landscape with the valley
     land = d.landscape or objective_landscape(list(result.event_sets), d.residual, delta_ref=d.delta_ref)
-    fig, ax = plt.subplots(figsize=(6.5, 4.8))
+    fig = Figure(figsize=(6.5, 4.8))
+    ax = fig.subplots()
     nn = np.repeat(land.n[:, None], land.log10_c.size, axis=1)
     mesh = ax.pcolormesh(nn, np.log10(land.beta), np.log10(land.objective), shading="auto", cmap="viridis")
     fig.colorbar(mesh, ax=ax, label=f"log10 mean {d.residual}")
@@ -222,16 +209,15 @@ def _estimate_figures(result, d, r, out, st, written, plt, objective_landscape) 
     ax.set(xlabel="n", ylabel="log10 beta [N s m^-(n+1)]", title="objective landscape")
     ax.legend(loc="lower right")
     written.append(save_figure_atomic(fig, out / "landscape.png", st, dpi=120))
-    plt.close(fig)
     # per-impact residuals
-    fig, ax = plt.subplots(figsize=(6.5, 4))
+    fig = Figure(figsize=(6.5, 4))
+    ax = fig.subplots()
     for source, part in d.per_event.groupby("source", sort=False):
         ax.plot(part["event"], part["residual"], "o", ms=4, label=str(source))
     ax.axhline(0.0, color="0.4", lw=0.8)
     ax.set(xlabel="event", ylabel=f"{d.residual} (signed)", title=f"per-impact residuals, mean |.| = {d.objective:.3g}")
     ax.legend(fontsize=8)
     written.append(save_figure_atomic(fig, out / "residuals.png", st, dpi=120))
-    plt.close(fig)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -247,12 +233,10 @@ def plot_kinematics_spline_study(studies: dict[str, pd.DataFrame]):
     Solid lines: maximum relative error; dashed: RMS relative error; dotted grey: slopes N^-2
     (acceleration) and N^-3 (velocity), the orders of a periodic cubic spline on a smooth profile.
     """
-    import matplotlib
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(10.0, 4.4), constrained_layout=True)
+    fig = Figure(figsize=(10.0, 4.4), constrained_layout=True)
+    axes = fig.subplots(1, 2)
     panels = (("acceleration", 2.0), ("velocity", 3.0))
     for ax, (quantity, order) in zip(axes, panels):
         for k, (label, frame) in enumerate(studies.items()):
@@ -283,15 +267,13 @@ def plot_cam_fit(fit):
     """Figure of a :class:`impactid.camprofile.CamProfileFit`: follower angle against cam angle with the
     fitted profile (top), residuals at the fitted points (middle), and the profile's analytic first
     and second derivatives with respect to the cam angle (bottom)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     data = fit.data
     theta, value = fit.profile.sample(3600)
     _, first, second = fit.profile(theta, derivatives=2)
-    fig, axes = plt.subplots(3, 1, figsize=(8.0, 9.0), sharex=True, constrained_layout=True)
+    fig = Figure(figsize=(8.0, 9.0), constrained_layout=True)
+    axes = fig.subplots(3, 1, sharex=True)
     ax = axes[0]
     step = max(1, data.nsamples // 4000)  # a readable subsample of the (quantised) samples
     ax.plot(data.cam_angle[::step], data.follower_angle[::step], ".", ms=1.5, color="0.6",
@@ -319,13 +301,11 @@ def plot_cam_fit(fit):
 
 def plot_cam_fit_order(fit):
     """AIC and BIC against the number of Gaussian terms (``terms="auto"`` fits only)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     table = fit.order_table
-    fig, ax = plt.subplots(figsize=(6.0, 4.2), constrained_layout=True)
+    fig = Figure(figsize=(6.0, 4.2), constrained_layout=True)
+    ax = fig.subplots()
     ax.plot(table["terms"], table["aic"], "o-", label="AIC")
     ax.plot(table["terms"], table["bic"], "s-", label="BIC")
     chosen = table[table["chosen"]]
@@ -339,7 +319,6 @@ def plot_cam_fit_order(fit):
 def cam_fit_figures(fit, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None) -> list[Path]:
     """Write ``cam_fit.png`` (:func:`plot_cam_fit`) and, for ``terms="auto"``, ``cam_fit_order.png``
     (:func:`plot_cam_fit_order`) into ``out_dir``, atomically."""
-    import matplotlib.pyplot as plt
 
     out = Path(out_dir)
     written = []
@@ -349,8 +328,5 @@ def cam_fit_figures(fit, out_dir: str | os.PathLike[str], staged: StagedFiles | 
     with _transaction(staged) as st:
         for name, make in figures:
             fig = make(fit)
-            try:
-                written.append(save_figure_atomic(fig, out / name, st, dpi=120))
-            finally:
-                plt.close(fig)
+            written.append(save_figure_atomic(fig, out / name, st, dpi=120))
     return written

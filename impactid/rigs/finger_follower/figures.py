@@ -13,13 +13,13 @@ import pandas as pd
 __all__ = ["plot_cycle", "plot_leakdown", "plot_lift_fit", "plot_rocker_ratio", "plot_tappet_fit", "save"]
 
 
-def _plt():
-    import matplotlib
+def _figure(nrows: int = 1, ncols: int = 1, **kwargs):
+    """A :class:`matplotlib.figure.Figure` and its axes, without pyplot (nothing global is touched)."""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
-
-    return plt
+    figure_keys = ("figsize", "constrained_layout", "dpi")
+    fig = Figure(**{k: v for k, v in kwargs.items() if k in figure_keys})
+    return fig, fig.subplots(nrows, ncols, **{k: v for k, v in kwargs.items() if k not in figure_keys})
 
 
 def plot_cycle(table: pd.DataFrame, *, rpm: float, constant_ratio: pd.DataFrame | None = None):
@@ -28,8 +28,7 @@ def plot_cycle(table: pd.DataFrame, *, rpm: float, constant_ratio: pd.DataFrame 
     ``table`` is :func:`~impactid.rigs.finger_follower.analysis.cycle_table`; ``constant_ratio`` the
     same for the constant-rocker-ratio train (dashed cam force, Fig. 12's comparison).
     """
-    plt = _plt()
-    fig, axes = plt.subplots(4, 1, figsize=(7.5, 9.0), sharex=True, constrained_layout=True)
+    fig, axes = _figure(4, 1, figsize=(7.5, 9.0), sharex=True, constrained_layout=True)
     th = table["cam_angle_deg"].to_numpy()
     order = np.argsort(th)
     th = th[order]
@@ -64,8 +63,7 @@ def plot_cycle(table: pd.DataFrame, *, rpm: float, constant_ratio: pd.DataFrame 
 
 def plot_leakdown(frame: pd.DataFrame):
     """Maximum tappet leak-down against camshaft speed (Fig. 8)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.5, 4.0), constrained_layout=True)
+    fig, ax = _figure(figsize=(6.5, 4.0), constrained_layout=True)
     ax.plot(frame["rpm"], 1e6 * frame["max_tappet_leakdown_m"], "o-")
     ax.set_xlabel("camshaft speed [rpm]")
     ax.set_ylabel("maximum tappet leak-down [um]")
@@ -76,9 +74,8 @@ def plot_leakdown(frame: pd.DataFrame):
 
 def plot_tappet_fit(fit):
     """Measured (averaged) and fitted tappet motion against cam angle (Fig. 7)."""
-    plt = _plt()
     table = fit.tables["cycles"]
-    fig, ax = plt.subplots(figsize=(7.0, 4.2), constrained_layout=True)
+    fig, ax = _figure(figsize=(7.0, 4.2), constrained_layout=True)
     for (_, rpm), sel in table.groupby(["recording", "rpm"]):
         o = np.argsort(sel["cam_angle_deg"].to_numpy())
         th = sel["cam_angle_deg"].to_numpy()[o]
@@ -96,9 +93,8 @@ def plot_tappet_fit(fit):
 
 def plot_lift_fit(fit):
     """Measured (averaged) and fitted valve lift against cam angle."""
-    plt = _plt()
     table = fit.tables["cycle"]
-    fig, ax = plt.subplots(figsize=(7.0, 4.2), constrained_layout=True)
+    fig, ax = _figure(figsize=(7.0, 4.2), constrained_layout=True)
     th = table["cam_angle_deg"].to_numpy()
     ax.plot(th, 1e3 * table["measured_m"], ".", ms=2, label="measured (averaged)")
     ax.plot(th, 1e3 * table["fitted_m"], "-", lw=1.2, label="fitted lift law")
@@ -112,8 +108,7 @@ def plot_lift_fit(fit):
 
 def plot_rocker_ratio(kinematics):
     """Instantaneous rocker ratio and lever arm against cam angle (Fig. 5)."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.5, 4.0), constrained_layout=True)
+    fig, ax = _figure(figsize=(6.5, 4.0), constrained_layout=True)
     th = np.degrees(kinematics.theta)
     ax.plot(th, kinematics.values["RR"], "b")
     ax.set_xlabel("cam angle from the nose [deg]")
@@ -125,11 +120,7 @@ def plot_rocker_ratio(kinematics):
 
 
 def save(fig, path: str | os.PathLike[str], staged=None) -> Path:
-    """Write a figure (PNG) atomically, or staged in ``staged``; closes it."""
+    """Write a figure (PNG) atomically, or staged in ``staged``."""
     from impactid.reports import save_figure_atomic
 
-    plt = _plt()
-    try:
-        return save_figure_atomic(fig, path, staged, dpi=110)
-    finally:
-        plt.close(fig)
+    return save_figure_atomic(fig, path, staged, dpi=110)
