@@ -441,16 +441,16 @@ def test_outputs_get_the_umask_permissions(good, tmp_path):
 
 def test_non_finite_results_are_null_in_json_and_undetermined_in_text(good, tmp_path, capsys, monkeypatch):
     """A non-finite standard error (one impact with a determined xi) is written as null with the reason."""
-    import impactid.estimates as E
+    import impactid.pipeline as P
 
-    real = E.fit_restitution
+    real = P.fit_restitution
 
     def one_impact(frame, k_H, **kw):
         frame = frame.copy()
         frame.loc[frame.index[1:], "xi"] = np.nan
         return real(frame, k_H, **kw)
 
-    monkeypatch.setattr(E, "fit_restitution", one_impact)
+    monkeypatch.setattr(P, "fit_restitution", one_impact)
     rec = _write(good, tmp_path / "r.h5")
     out = tmp_path / "r.json"
     assert main(["estimate", str(rec), "--fix-n", "1.5", "--out", str(out)]) == 0
@@ -462,16 +462,16 @@ def test_non_finite_results_are_null_in_json_and_undetermined_in_text(good, tmp_
 
 
 def test_restitution_failure_keeps_the_damping_estimate(good, tmp_path, capsys, monkeypatch):
-    import impactid.estimates as E
+    import impactid.pipeline as P
 
-    real = E.fit_restitution
+    real = P.fit_restitution
 
     def no_xi(frame, k_H, **kw):
         frame = frame.copy()
         frame["xi"] = np.nan
         return real(frame, k_H, **kw)
 
-    monkeypatch.setattr(E, "fit_restitution", no_xi)
+    monkeypatch.setattr(P, "fit_restitution", no_xi)
     rec = _write(good, tmp_path / "r.h5")
     out = tmp_path / "r.json"
     assert main(["estimate", str(rec), "--fix-n", "1.5", "--out", str(out)]) == 0

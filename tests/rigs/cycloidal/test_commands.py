@@ -96,9 +96,9 @@ def test_errors_are_one_line(argv, message, capsys):
 
 
 def test_wrong_rig_file_and_output_checks(tmp_path, capsys):
-    from impactid.rigs import SEED000_TABLE5
+    from impactid.rigs import ALZATE2007
 
-    other = save_rig_toml(SEED000_TABLE5, tmp_path / "flat.toml")
+    other = save_rig_toml(ALZATE2007, tmp_path / "flat.toml")
     assert main(["valvetrain", "simulate", "--rig", RIG, "--rpm", "1000", "--rig-file", str(other)]) == 2
     assert "'flat-follower' rig" in capsys.readouterr().err
     folder = tmp_path / "a_folder"
