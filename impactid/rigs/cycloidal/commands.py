@@ -14,51 +14,17 @@ import argparse
 import math
 from pathlib import Path
 
-from impactid.errors import ImpactidError
+from impactid.commandline import UsageError
+from impactid.commandline import integer_in as _count
+from impactid.commandline import nonnegative as _nonnegative
+from impactid.commandline import number as _number
+from impactid.commandline import positive as _positive
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["COMMANDS"]
 
 
-class _UsageError(ImpactidError, ValueError):
-    """A command-line argument of this rig's commands that cannot be used."""
-
-
-def _number(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return value
-
-
-def _positive(text: str) -> float:
-    value = _number(text)
-    if value <= 0.0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text!r}")
-    return value
-
-
-def _nonnegative(text: str) -> float:
-    value = _number(text)
-    if value < 0.0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
-    return value
-
-
-def _count(lo: int, hi: int):
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"must lie in [{lo}, {hi}], got {text!r}")
-        return value
-
-    return parse
+_UsageError = UsageError
 
 
 def _fraction(text: str) -> float:
