@@ -959,6 +959,9 @@ def _command_environment() -> Iterator[None]:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("always")
+            # numba's pedantic SSA check warns, on first compilation, about variables of the DP5 core's
+            # inlined overloads (harmless, numba issue 7236): not a message for the user
+            warnings.filterwarnings("ignore", message=r"variable '.*' is not in scope")
             warnings.showwarning = show
             yield
             if termination_requested():
