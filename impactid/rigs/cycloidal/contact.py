@@ -46,7 +46,7 @@ from types import MappingProxyType
 import numpy as np
 from numba import njit
 
-__all__ = ["EHL_CONSTANTS", "TABLE3_RANGES", "WS_MODES", "FilmEvaluation", "FilmScheme", "ehl_film",
+__all__ = ["EHL_CONSTANTS", "TABLE3_RANGES", "WS_MODES", "FilmEvaluation", "FilmScheme", "RangeFlags", "ehl_film",
            "ehl_groups", "ehl_validity", "film_scheme", "hertz_approach", "hertz_half_width", "hertz_load",
            "hertz_max_pressure", "hertz_load_scalar"]
 
@@ -278,8 +278,26 @@ def _film_scheme(W, R, u, dt, E_prime, L_c, eta0, G_star, w_floor, mode, n_rev, 
         h_prev = hk
 
 
+class RangeFlags:
+    """What a result with per-step validity flags ``valid`` (one boolean array per dimensionless
+    group of the film formula) says about the regression ranges of the paper's Table 3."""
+
+    valid: dict
+
+    @property
+    def inside(self) -> np.ndarray:
+        """True where every group is inside its regression range."""
+        return self.valid["W"] & self.valid["U"] & self.valid["G"] & self.valid["ws"]
+
+    def fraction_outside(self) -> dict:
+        """Fraction of the steps outside each regression range, and outside any (``"any"``)."""
+        out = {k: float(np.mean(~v)) for k, v in self.valid.items()}
+        out["any"] = float(np.mean(~self.inside))
+        return out
+
+
 @dataclass(frozen=True)
-class FilmScheme:
+class FilmScheme(RangeFlags):
     """The film over one revolution from the explicit squeeze scheme (R-37..R-39).
 
     Attributes (arrays over the steps of the revolution)
@@ -304,16 +322,6 @@ class FilmScheme:
     mode: str
     n_rev: int
 
-    @property
-    def inside(self) -> np.ndarray:
-        """True where every group is inside its regression range."""
-        return self.valid["W"] & self.valid["U"] & self.valid["G"] & self.valid["ws"]
-
-    def fraction_outside(self) -> dict:
-        """Fraction of the steps outside each regression range, and outside any (``"any"``)."""
-        out = {k: float(np.mean(~v)) for k, v in self.valid.items()}
-        out["any"] = float(np.mean(~self.inside))
-        return out
 
 
 def film_scheme(W, R, u, dt: float, E_prime: float, L_c: float, eta0: float, alpha_pv: float, *,

@@ -35,6 +35,7 @@ from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.cycloidal import cam
 from impactid.rigs.cycloidal import kernel as K
 from impactid.rigs.cycloidal.contact import (
+    RangeFlags,
     film_scheme,
     hertz_approach,
     hertz_half_width,
@@ -385,7 +386,7 @@ def level_b_steady_cycle(rig: CycloidalEHLRig, rpm: float, tol: Tolerances = DEF
 
 
 @dataclass(frozen=True)
-class CycleResult:
+class CycleResult(RangeFlags):
     """Film thickness, velocities, load and Hertz quantities over one steady camshaft revolution.
 
     Arrays are over the ``N = steps_per_rev`` steps of the film scheme, ``psi = 2 pi n/N`` from 0
@@ -456,16 +457,6 @@ class CycleResult:
     def nose_index(self) -> int:
         return int(np.argmin(np.abs(self.psi - math.pi)))
 
-    @property
-    def inside(self) -> np.ndarray:
-        """True where every group of (R-10) is inside Table 3."""
-        return self.valid["W"] & self.valid["U"] & self.valid["G"] & self.valid["ws"]
-
-    def fraction_outside(self) -> dict:
-        """Fraction of the steps outside each regression range of Table 3, and outside any."""
-        out = {k: float(np.mean(~v)) for k, v in self.valid.items()}
-        out["any"] = float(np.mean(~self.inside))
-        return out
 
     @property
     def zero_entrainment_angles(self) -> np.ndarray:
