@@ -600,7 +600,7 @@ def cmd_estimate(args) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EstimationWarning)  # collected in the result and printed below
         result = estimate(paths, residual=args.residual, fix_n=args.fix_n,
-                          method="grid" if args.grid else "optimise", grid=args.grid or (41, 21),
+                          method="grid" if args.grid else args.method, grid=args.grid or (41, 21),
                           rig=_recording_rig(args), integration=args.integration, anchor=args.anchor,
                           c_bounds=C_BOUNDS, n_bounds=(lo, hi), progress=progress)
     data = result.to_dict()
@@ -846,8 +846,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--residual", default="lambda1", choices=["lambda1", "lambda2", "lambda3"],
                    help="residual minimised (default lambda1: accelerometer only)")
     p.add_argument("--fix-n", type=_exponent, default=None, metavar="N", help="fix the exponent n (0: viscous)")
+    p.add_argument("--method", choices=["least-squares", "optimise"], default="least-squares",
+                   help="least-squares (default: trust-region Gauss-Newton, profile intervals) or optimise "
+                        "(nested Brent searches, lattice and bootstrap intervals; about 100x the simulations)")
     p.add_argument("--grid", type=_grid_counts, default=None, metavar="NB[,NN]",
-                   help="paper-style grid search with NB values of beta (log) and NN of n instead of the optimiser")
+                   help="paper-style grid search with NB values of beta (log) and NN of n instead of --method")
     p.add_argument("--n-range", type=_exponent, nargs=2, default=[0.5, 2.5], metavar=("LO", "HI"),
                    help="search bounds of n (default 0.5 2.5)")
     _add_kinematics_args(p, anchor="cam-phase")

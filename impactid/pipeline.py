@@ -33,6 +33,7 @@ from impactid.estimates import (
     BOOTSTRAP_SEED,
     C_BOUNDS,
     CALIBRATION_THRESHOLD,
+    METHODS,
     N_BOUNDS,
     SEPARABILITY_WIDTH,
     Estimate,
@@ -54,7 +55,9 @@ class Pipeline:
     ----------
     residual : ``"lambda1"`` (accelerometer only, default), ``"lambda2"`` or ``"lambda3"``.
     fix_n : fix the Hunt–Crossley exponent (1.5: Hertzian; None: estimate it jointly with beta).
-    method : ``"optimise"`` (bounded Brent searches along the valley) or ``"grid"`` (the paper's grid).
+    method : ``"least-squares"`` (trust-region Gauss–Newton on the per-event residuals, with the
+        profile along the valley; :mod:`impactid.gauss_newton`), ``"optimise"`` (nested bounded Brent
+        searches along the valley, lattice and bootstrap intervals) or ``"grid"`` (the paper's grid).
     grid : grid points ``(n_c, n_n)`` of the grid method.
     integration, anchor : per-event kinematics (:func:`impactid.reconstruct.reconstruct`).
     c_bounds : bounds of ``c = beta delta_ref^n`` [N s/m]; n_bounds : bounds of ``n``.
@@ -68,7 +71,7 @@ class Pipeline:
 
     residual: str = "lambda1"
     fix_n: float | None = None
-    method: str = "optimise"
+    method: str = "least-squares"
     grid: tuple[int, int] = (41, 21)
     integration: str = "rk"
     anchor: str = "cam-phase"
@@ -83,8 +86,8 @@ class Pipeline:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "residual", residual_name(self.residual))
-        if self.method not in ("optimise", "grid"):
-            raise ValueError(f"method must be 'optimise' or 'grid', got {self.method!r}")
+        if self.method not in METHODS:
+            raise ValueError(f"method must be one of {', '.join(METHODS)}; got {self.method!r}")
         if self.fix_n is not None and not (math.isfinite(self.fix_n) and self.fix_n >= 0.0):
             raise ValueError(f"fix_n must be a finite number >= 0, got {self.fix_n!r}")
         if self.bootstrap_resamples < 10:
