@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -72,7 +72,7 @@ class LeastSquaresFit:
         across the valley where ``rss - rss_min <= threshold``, else 0), sorted by ``n``.
     n_interval : 95 % profile interval of ``n`` (``(n, n)`` when fixed); reaches_bound : whether
         the profile reached a bound of ``n`` before the threshold, on the low or high side.
-    logc_iterations : Gauss–Newton function evaluations of the main search.
+    evaluations : trial laws simulated (each for every event), search and profile together.
     """
 
     x: tuple[float, ...]
@@ -194,20 +194,8 @@ def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds):
     return x, r, J, count[0]
 
 
-@dataclass(frozen=True)
-class _Stats:
-    x: np.ndarray
-    residuals: np.ndarray
-    used: np.ndarray
-    jacobian: np.ndarray
-    rss: float
-    dof: int
-    s2: float
-    threshold: float
-    covariance: np.ndarray
-
-
-def _statistics(x, r, J, used) -> _Stats:
+def _statistics(x, r, J, used) -> LeastSquaresFit:
+    """The fit at ``x`` with its statistics; the profile and the interval of ``n`` still empty."""
     m, p = J.shape
     rss = float(np.sum(r ** 2))
     dof = max(m - p, 1)
@@ -215,29 +203,27 @@ def _statistics(x, r, J, used) -> _Stats:
     threshold = float(stats.t.ppf(0.975, dof) ** 2 * s2)
     with np.errstate(all="ignore"):
         cov = s2 * np.linalg.pinv(J.T @ J)
-    return _Stats(x=np.asarray(x), residuals=r, used=used, jacobian=J, rss=rss, dof=dof, s2=s2, threshold=threshold,
-                  covariance=cov)
+    return LeastSquaresFit(x=tuple(float(v) for v in x), residuals=r, used=used, jacobian=J, rss=rss, dof=dof, s2=s2,
+                           threshold=threshold, covariance=cov, profile=pd.DataFrame(), n_interval=(math.nan, math.nan),
+                           reaches_bound=(False, False), evaluations=0)
 
 
-def _cross_valley(fit: _Stats, x, n, r, J) -> pd.DataFrame:
+def _cross_valley(fit: LeastSquaresFit, x, n, r, J) -> pd.DataFrame:
     jc = float(np.sqrt(np.sum(J[:, 0] ** 2)))
     half = math.sqrt(fit.threshold) / jc if jc > 0 else math.inf
     return pd.DataFrame({"n": [float(n)], "log10_c": [float(x[0])], "rss": [fit.rss],
                          "objective": [float(np.mean(np.abs(r)))], "half_width": [half]})
 
 
-def _finish(fit: _Stats, profile, n_interval, reaches, evaluations) -> LeastSquaresFit:
-    return LeastSquaresFit(x=tuple(float(v) for v in fit.x), residuals=fit.residuals, used=fit.used,
-                           jacobian=fit.jacobian, rss=fit.rss, dof=fit.dof, s2=fit.s2, threshold=fit.threshold,
-                           covariance=fit.covariance, profile=profile.reset_index(drop=True),
-                           n_interval=(float(n_interval[0]), float(n_interval[1])),
-                           reaches_bound=(bool(reaches[0]), bool(reaches[1])), evaluations=int(evaluations))
+def _finish(fit: LeastSquaresFit, profile, n_interval, reaches, evaluations) -> LeastSquaresFit:
+    return replace(fit, profile=profile.reset_index(drop=True), n_interval=(float(n_interval[0]), float(n_interval[1])),
+                   reaches_bound=(bool(reaches[0]), bool(reaches[1])), evaluations=int(evaluations))
 
 
 class _Profile:
     """Continuation along the valley from the optimum: ``log10 c`` minimised at each ``n``."""
 
-    def __init__(self, per_event, used, fit: _Stats, n_bounds):
+    def __init__(self, per_event, used, fit: LeastSquaresFit, n_bounds):
         self.per_event = per_event
         self.used = used
         self.fit = fit
