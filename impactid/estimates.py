@@ -626,6 +626,14 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
 
     phase_logbeta, sys_logbeta = quadrature(phase_shifts), quadrature(sys_shifts)
     log_iv = _widen(log_iv, math.log(beta_hat), math.hypot(1.96 * phase_logbeta, sys_logbeta))
+    # a linear propagation through a nearly singular valley can reach beyond the search box: the interval
+    # stops at the box's extreme beta (beta = c / delta_ref^n, least at (c_lo, n_lo), largest at (c_hi, n_hi))
+    n_box = (n_hat, n_hat) if fix_n is not None else n_bounds
+    box = (math.log(obj.beta(lc_bounds[0], n_box[0])), math.log(obj.beta(lc_bounds[1], n_box[1])))
+    if log_iv[0] < box[0] or log_iv[1] > box[1]:
+        notes.append("the interval of beta reaches the search box of c = beta delta_ref^n: the data bound beta "
+                     "only weakly")
+    log_iv = (max(log_iv[0], box[0]), min(log_iv[1], box[1]))
     beta_iv = (math.exp(log_iv[0]), math.exp(log_iv[1]))
     phase_n_sd = quadrature(phase_shifts, 1) if fix_n is None else 0.0
     if fix_n is None:
@@ -678,7 +686,7 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
         method="least-squares", beta_interval=beta_iv, n_interval=n_iv,
         beta_bootstrap_interval=(float(b_boot[0]), float(b_boot[1])),
         n_bootstrap_interval=(float(n_boot[0]), float(n_boot[1])), indifference=float(systematic),
-        separable=separable, phase_beta_sd=beta_hat * math.expm1(phase_logbeta), phase_n_sd=phase_n_sd,
+        separable=separable, phase_beta_sd=beta_hat * math.expm1(min(phase_logbeta, 700.0)), phase_n_sd=phase_n_sd,
         valley=valley, per_event=per_event, delta_ref=obj.delta_ref, bootstrap=boot, landscape=land,
         n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes),
         n_failed_simulations=obj.n_failed, beta_stderr=beta_se, n_stderr=n_se)
