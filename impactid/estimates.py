@@ -581,7 +581,9 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
     from impactid.gauss_newton import fit_least_squares
 
     residual = obj.residual
-    fit = fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=lc_bounds, n_bounds=n_bounds, progress=progress)
+    fit = fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=lc_bounds, n_bounds=n_bounds, progress=progress,
+                            choose=lambda points: _by_contact_duration(obj, sets, points, fix_n, notes),
+                            rss_tolerance=obj.n_events * systematic ** 2)
     logc_hat = fit.x[0]
     n_hat = float(fix_n) if fix_n is not None else fit.x[1]
     beta_hat = float(obj.beta(logc_hat, n_hat))
@@ -599,6 +601,13 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
         lc_in = np.concatenate([lc_in, np.interp(ends, prof["n"], prof["log10_c"])])
         n_in = np.concatenate([n_in, ends])
         half = np.concatenate([half, [0.0, 0.0]])
+    if not fit.resolved:  # equally good minima that nothing told apart: the interval holds them all
+        lc_in = np.concatenate([lc_in, [a[0] for a in fit.alternatives]])
+        n_in = np.concatenate([n_in, [a[1] if len(a) > 1 else n_hat for a in fit.alternatives]])
+        half = np.concatenate([half, np.zeros(len(fit.alternatives))])
+        notes.append(f"the {residual} residuals are matched equally well by other laws ("
+                     + ", ".join(f"beta {obj.beta(a[0], a[1] if len(a) > 1 else n_hat):.4g}" for a in fit.alternatives)
+                     + ") that the measured contact durations do not tell apart: the interval of beta holds them all")
     log_beta = np.log(obj.beta(np.concatenate([lc_in - half, lc_in + half]), np.concatenate([n_in, n_in])))
     log_iv = (float(log_beta.min()), float(log_beta.max()))
     n_iv = fit.n_interval
@@ -690,6 +699,36 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
         valley=valley, per_event=per_event, delta_ref=obj.delta_ref, bootstrap=boot, landscape=land,
         n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes),
         n_failed_simulations=obj.n_failed, beta_stderr=beta_se, n_stderr=n_se)
+
+
+def _by_contact_duration(obj: _Objective, sets: list[EventSet], points, fix_n, notes: list[str]) -> int | None:
+    """Which of several equally good minima ``(log10 c[, n])`` reproduces the measured contact durations.
+
+    A heavily damped law can make the follower chatter and still reach the measured ``alpha_m``
+    (with friction especially); the duration of the first contact tells it apart. Returns the index
+    of the point whose simulated first contacts differ least from the measured ones (median relative
+    difference over the events with a measured duration), if it is clearly the best (less than half
+    the next and below 20 %); None otherwise.
+    """
+    measured = np.concatenate([s.contact_duration if s.contact_duration is not None else np.full(len(s), np.nan)
+                               for s in sets])
+    if not np.isfinite(measured).any():
+        return None
+    trials = np.array([[float(obj.beta(p[0], p[1] if len(p) > 1 else fix_n)), p[1] if len(p) > 1 else fix_n]
+                       for p in points])
+    simulated = np.concatenate([s.simulate(trials).contact_duration for s in sets], axis=1)
+    obj.n_simulations += trials.shape[0] * measured.size
+    with np.errstate(all="ignore"):
+        score = np.nanmedian(np.abs(simulated / measured[None, :] - 1.0), axis=1)
+    order = np.argsort(score)
+    best = int(order[0])
+    if not (np.isfinite(score[best]) and score[best] < 0.2 and score[best] < 0.5 * score[order[1]]):
+        return None
+    others = ", ".join(f"beta {trials[i, 0]:.4g} ({100 * score[i]:.0f} %)" for i in order[1:])
+    notes.append(f"other laws match the {obj.residual} residuals as well ({others} median difference of the first "
+                 f"contact's duration); the estimate is the one whose contacts last as measured "
+                 f"({100 * score[best]:.1f} %)")
+    return best
 
 
 def _widen(interval, centre, extra):
