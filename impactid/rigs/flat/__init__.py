@@ -10,6 +10,7 @@ cam profile fit is :mod:`impactid.camprofile`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
+from impactid.rigs.flat.commands import COMMANDS
 from impactid.rigs.flat.parameters import (
     ALZATE2007,
     MODEL_NAME,
@@ -71,4 +72,5 @@ MODEL = RigModel(
     kernel="impactid.rigs.flat.kernel",
     simulate=_simulate,
     measure=_measure,
+    commands=COMMANDS,
 )

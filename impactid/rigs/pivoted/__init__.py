@@ -12,6 +12,7 @@ The measurement model (accelerometer and force channels to per-impact kinematics
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
+from impactid.rigs.pivoted.commands import COMMANDS
 from impactid.rigs.pivoted.parameters import (
     MODEL_NAME,
     SUNDAR2016,
@@ -88,4 +89,5 @@ MODEL = RigModel(
     kernel="impactid.rigs.pivoted.kernel",
     simulate=_simulate,
     measure=_measure,
+    commands=COMMANDS,
 )
