@@ -48,7 +48,7 @@ from impactid.camprofile import encoder_step
 from impactid.errors import ImpactidError
 from impactid.io import Recording
 from impactid.results import FitResult, Parameter
-from impactid.rigs.flat import FlatFollowerRig
+from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
 
 __all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
            "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
@@ -92,7 +92,7 @@ def _channel(recording: Recording, name: str) -> np.ndarray:
 
 
 def _analytic_profile(recording: Recording):
-    if not isinstance(recording.rig, FlatFollowerRig):
+    if getattr(recording.rig, "model", None) != MODEL_NAME:
         raise EncoderImpactError(f"{recording.source or 'recording'}: no cam profile given and the rig is not a "
                                  "flat-follower rig with an analytic profile; pass a fitted profile (impactid cam-fit)")
     return recording.rig.contact_angle
@@ -464,7 +464,7 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
         se = float(np.std(values, ddof=1) / math.sqrt(values.size)) if values.size > 1 else math.nan
     else:
         rig = recording.rig if rig is None else rig
-        if not isinstance(rig, FlatFollowerRig):
+        if getattr(rig, "model", None) != MODEL_NAME:
             raise EncoderImpactError(f"{where}: the first-bounce method needs a flat-follower rig description")
         speed = motion.cam_speed_hz
 

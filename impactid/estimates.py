@@ -773,8 +773,8 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     ----------
     recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
     residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
-    rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
-        rig file, whose ``[operating]`` table also supplies or overrides the operating point.
+    rig : overrides the recordings' rig: rig parameters (e.g. :data:`~impactid.rigs.SUNDAR2016`), or the path of
+        a TOML rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
     progress : callback ``(stage, fraction)`` for a progress display.
     calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first

@@ -124,7 +124,6 @@ class Pipeline:
         """
         from impactid.events import EventWarning
         from impactid.io import Recording, read_recording
-        from impactid.reconstruct import reconstruct
 
         if isinstance(recordings, (Recording, str)) or hasattr(recordings, "__fspath__"):
             recordings = [recordings]
@@ -137,7 +136,7 @@ class Pipeline:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always", EventWarning)
             for rec in recs:
-                recon = reconstruct(rec, integration=self.integration, anchor=self.anchor)
+                recon = _per_impact_kinematics(rec, integration=self.integration, anchor=self.anchor)
                 es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
                 recons.append(recon)
                 sets.append(es)
@@ -147,7 +146,7 @@ class Pipeline:
                                             "separation_speed": tab["separation_speed"]}))
         collected += [str(w.message) for w in caught if issubclass(w.category, EventWarning)]
         # operating points may differ in cam speed and eccentricity; the contact pair must be the same
-        models = {repr({k: v for k, v in r.rig.to_dict().items() if k != "e"}) for r in recons}
+        models = {repr(r.fixed_parameters) for r in recons}
         if len(models) > 1:
             raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
                                 "e equal); they differ between " + ", ".join(s.source for s in sets))
@@ -168,8 +167,7 @@ class Pipeline:
         collected += [str(w.message) for w in caught if issubclass(w.category, EstimationWarning)]
         for message in collected:
             warnings.warn(message, EstimationWarning, stacklevel=2)
-        ops = tuple({"cam_speed_hz": r.cam_speed_hz, "e_over_rc": r.rig.e / r.rig.r_c, "events": len(s)}
-                    for r, s in zip(recons, sets))
+        ops = tuple({**r.operating_point, "events": len(s)} for r, s in zip(recons, sets))
         prov = tuple(p for r in recons for p in r.provenance) + (
             f"fit_contact_damping(residual={damping.residual!r}, method={self.method!r}, fix_n={self.fix_n}): "
             f"{damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",
@@ -178,6 +176,29 @@ class Pipeline:
                         operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
                         warnings=tuple(collected), provenance=prov, calibration=tuple(calibration),
                         pipeline=self.to_dict())
+
+
+#: The contact law the pipeline estimates: a recording's rig model must offer it
+#: (:attr:`~impactid.rigs.base.RigModel.laws`) and a measurement model of per-impact kinematics.
+ESTIMATED_LAW = "hunt-crossley"
+
+
+def _estimable(model) -> bool:
+    return model.measure is not None and any(law.name == ESTIMATED_LAW for law in model.laws)
+
+
+def _per_impact_kinematics(recording, *, integration: str, anchor: str):
+    """The per-impact kinematics of one recording by its rig's measurement model (the registry's
+    :attr:`~impactid.rigs.base.RigModel.measure`: rig P's is :func:`impactid.reconstruct.reconstruct`)."""
+    from impactid.io import RecordingError
+    from impactid.rigs.registry import MODELS, rig_model
+
+    model = rig_model(recording.require_rig().model)
+    if not _estimable(model):
+        able = " or ".join(repr(m.name) for m in MODELS.values() if _estimable(m))
+        raise RecordingError(f"{recording.source or 'recording'}: needs a {able} rig (per-impact kinematics for a "
+                             f"{ESTIMATED_LAW} law), the recording's rig is {model.name!r}")
+    return model.measure(recording, integration=integration, anchor=anchor)
 
 
 def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, anchor: str):
