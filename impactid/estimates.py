@@ -337,7 +337,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                         landscape: bool = False, progress: Progress | None = None,
                         systematic: float = 0.0, residual_floor: float | None = None,
                         separability_width: float = SEPARABILITY_WIDTH, bootstrap_resamples: int = BOOTSTRAP_RESAMPLES,
-                        bootstrap_seed: int = BOOTSTRAP_SEED) -> DampingEstimate:
+                        bootstrap_seed: int = BOOTSTRAP_SEED, warn: bool = True) -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -356,6 +356,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         indifference level of the intervals is at least this.
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
     bootstrap_resamples, bootstrap_seed : resamples of the events and the paper of the bootstrap.
+    warn : issue an :class:`EstimationWarning` for each note (the result's ``warnings``); callers that
+        carry the notes on pass False.
 
     Raises
     ------
@@ -522,7 +524,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                      f"(step budget or step-size underflow); each counted as a residual of "
                      f"{FAILED_SIMULATION_RESIDUAL:g} for its event, so the search avoided those laws")
     progress("done", 1.0)
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=j_hat, method=method,
@@ -622,7 +624,8 @@ def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference, resam
 # ---------------------------------------------------------------------------------------------
 
 
-def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05) -> RestitutionEstimate:
+def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05,
+                    warn: bool = True) -> RestitutionEstimate:
     """Fit restitution laws to per-impact ``approach_speed`` (v_a [m/s]) and ``xi``.
 
     ``per_impact`` needs columns ``approach_speed`` and ``xi`` (others are kept). Impacts with a
@@ -632,7 +635,8 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     Warns (:class:`EstimationWarning`) when the approach speeds spread too little for the data to
     test the linear law (relative spread below ``min_spread`` or a free-intercept slope no larger
     than twice its standard error: ``gamma`` then rests on the assumed intercept 1), when some
-    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed.
+    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed; the
+    result carries these notes (``warnings``), and callers that carry them on pass ``warn=False``.
     """
     frame = per_impact.copy()
     ok = np.isfinite(frame["xi"]) & np.isfinite(frame["approach_speed"]) & (frame["approach_speed"] > 0)
@@ -670,7 +674,7 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     if gamma > 0 and np.any(v > 1.0 / gamma):
         notes.append(f"the fitted law gives xi < 0 for v_a > 1/gamma = {1 / gamma:.4g} m/s, reached by "
                      f"{int(np.sum(v > 1 / gamma))} impacts: outside the law's range (docs/estimation.md)")
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     frame["used"] = ok
     return RestitutionEstimate(

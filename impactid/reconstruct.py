@@ -344,7 +344,7 @@ def _event_histories(rec, events, row, rig, integration, cam_speed_hz) -> EventK
 
 
 def reconstruct(recording: Recording, events: EventTable | None = None, *, integration="rk",
-                anchor: str = "return-time", rig: RigParameters | None = None) -> Reconstruction:
+                anchor: str = "return-time", rig: RigParameters | None = None, warn: bool = True) -> Reconstruction:
     """Per-impact kinematics, contact force, approach and separation speeds of every usable event.
 
     Parameters
@@ -355,6 +355,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     integration : integration method name (:data:`impactid.signal.INTEGRATORS`) or callable.
     anchor : ``"return-time"`` (the paper's) or ``"cam-geometry"`` (needs ``cam_angle``).
     rig : overrides the recording's rig.
+    warn : issue an :class:`~impactid.events.EventWarning` for each note of the result
+        (:attr:`Reconstruction.warnings`; those of ``events`` given here were issued by
+        :func:`~impactid.events.find_events`). Callers that carry the notes on pass False.
 
     Raises
     ------
@@ -372,10 +375,13 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     if anchor == "cam-geometry":
         recording.require("cam_angle", method="the 'cam-geometry' anchor")
     cam_speed_hz = recording.require_cam_speed()
+    given = events is not None
     if events is None:
-        events = find_events(recording)
+        events = find_events(recording, warn=False)  # its notes are this result's first ones
     usable = events.usable
     if usable.empty:
+        for message in events.warnings if warn and not given else ():  # they say why (clipped, overlapping)
+            warnings.warn(message, EventWarning, stacklevel=2)
         raise ImpactidError(f"{recording.source or 'recording'}: no usable impact events "
                             f"({len(events)} found, none complete and clean)")
     rate_hz = recording.sample_rate_hz
@@ -504,8 +510,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     if failed:
         messages.append(f"{recording.source or 'recording'}: the {anchor} anchor did not converge at events {failed}")
     int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
-    for message in messages[len(events.warnings):]:
-        warnings.warn(message, EventWarning, stacklevel=2)
+    if warn:
+        for message in messages[len(events.warnings) if given else 0:]:
+            warnings.warn(message, EventWarning, stacklevel=2)
     return Reconstruction(
         table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
         events=events, warnings=tuple(messages), cam_phase=float(ctx.get("phase", math.nan)),

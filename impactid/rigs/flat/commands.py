@@ -12,7 +12,6 @@ from __future__ import annotations
 import argparse
 import math
 import sys
-import warnings
 
 import numpy as np
 
@@ -119,7 +118,7 @@ def run_bifurcation(args, model) -> int:
 
 def run_restitution(args, model) -> int:
     from impactid._files import StagedFiles
-    from impactid.encoder_impacts import EncoderImpactWarning, fit_speed_law, restitution_at_speed
+    from impactid.encoder_impacts import fit_speed_law, restitution_at_speed
     from impactid.io import read_recording
     from impactid.rigs.registry import resolve_rig
 
@@ -137,10 +136,9 @@ def run_restitution(args, model) -> int:
     notes = []
     for path in args.recordings:
         recording = read_recording(path)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", EncoderImpactWarning)
-            points.append(restitution_at_speed(recording, profile, method=args.method, rig=rig))
-        notes += [str(w.message) for w in caught]
+        point = restitution_at_speed(recording, profile, method=args.method, rig=rig, warn=False)
+        points.append(point)
+        notes += [f"{recording.source or 'recording'}: {note}" for note in point.warnings]
     fit = fit_speed_law(points) if len(points) > 1 else None
     data = {"method": args.method, "profile": args.profile or "analytic A-17 of the recording's rig",
             "points": [p.to_dict() for p in points], "warnings": notes}
