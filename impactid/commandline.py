@@ -163,12 +163,15 @@ def recording_rig(args):
     """``--rig`` of a recording command, for :func:`impactid.io.read_recording`: the parameter set a
     model or preset name stands for, the rig file's path (read with the recording: it also supplies
     the operating point), or None to use the recording's own rig."""
-    from impactid.rigs.registry import rig_by_name
+    from impactid.rigs.registry import RIG_MODELS, rig_by_name
 
     spec = getattr(args, "rig", None)
     if spec is None:
         return None
     named = rig_by_name(spec)
+    if named is not None and named[0].name not in RIG_MODELS:
+        raise UsageError(f"argument --rig: {spec!r} names the {named[0].name!r} rig, which has no recordings of "
+                         f"this kind (give a model or preset name of {', '.join(RIG_MODELS)}, or a rig file)")
     return named[1] if named is not None else spec
 
 
