@@ -348,7 +348,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                         landscape: bool = False, progress: Progress | None = None,
                         systematic: float = 0.0, residual_floor: float | None = None,
                         separability_width: float = SEPARABILITY_WIDTH, bootstrap_resamples: int = BOOTSTRAP_RESAMPLES,
-                        bootstrap_seed: int = BOOTSTRAP_SEED) -> DampingEstimate:
+                        bootstrap_seed: int = BOOTSTRAP_SEED, warn: bool = True) -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -369,6 +369,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         indifference level of the intervals is at least this.
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
     bootstrap_resamples, bootstrap_seed : resamples of the events and the paper of the bootstrap.
+    warn : issue an :class:`EstimationWarning` for each note (the result's ``warnings``); callers that
+        carry the notes on pass False.
 
     Raises
     ------
@@ -405,7 +407,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                                       systematic=max(floor, float(systematic)), notes=notes, progress=progress,
                                       landscape=landscape, separability_width=separability_width,
                                       bootstrap_resamples=bootstrap_resamples, bootstrap_seed=bootstrap_seed,
-                                      t_start=t_start)
+                                      t_start=t_start, warn=warn)
         except SimulationError as exc:
             raise ImpactidError(f"simulation failed inside the search bounds: {exc}") from exc
 
@@ -519,7 +521,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     land = objective_landscape(sets, residual, delta_ref=delta_ref) if landscape else None
     _failure_note(obj, notes)
     progress("done", 1.0)
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=j_hat, method=method,
@@ -576,7 +578,8 @@ def _identifiability(sets, residual, fix_n, n_hat, logc_hat, n_iv, beta_iv, lc_b
 
 def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bounds, n_bounds, systematic: float,
                        notes: list[str], progress, landscape: bool, separability_width: float,
-                       bootstrap_resamples: int, bootstrap_seed: int, t_start: float) -> DampingEstimate:
+                       bootstrap_resamples: int, bootstrap_seed: int, t_start: float,
+                       warn: bool = True) -> DampingEstimate:
     """The ``"least-squares"`` method (:mod:`impactid.gauss_newton`) as a :class:`DampingEstimate`."""
     from impactid.gauss_newton import fit_least_squares
 
@@ -688,7 +691,7 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
     land = objective_landscape(sets, residual, delta_ref=obj.delta_ref) if landscape else None
     _failure_note(obj, notes)
     progress("done", 1.0)
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=3)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=float(np.mean(np.abs(r))),
@@ -819,7 +822,8 @@ def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference, resam
 # ---------------------------------------------------------------------------------------------
 
 
-def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05) -> RestitutionEstimate:
+def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05,
+                    warn: bool = True) -> RestitutionEstimate:
     """Fit restitution laws to per-impact ``approach_speed`` (v_a [m/s]) and ``xi``.
 
     ``per_impact`` needs columns ``approach_speed`` and ``xi`` (others are kept). Impacts with a
@@ -829,7 +833,8 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     Warns (:class:`EstimationWarning`) when the approach speeds spread too little for the data to
     test the linear law (relative spread below ``min_spread`` or a free-intercept slope no larger
     than twice its standard error: ``gamma`` then rests on the assumed intercept 1), when some
-    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed.
+    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed; the
+    result carries these notes (``warnings``), and callers that carry them on pass ``warn=False``.
     """
     frame = per_impact.copy()
     ok = np.isfinite(frame["xi"]) & np.isfinite(frame["approach_speed"]) & (frame["approach_speed"] > 0)
@@ -867,7 +872,7 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     if gamma > 0 and np.any(v > 1.0 / gamma):
         notes.append(f"the fitted law gives xi < 0 for v_a > 1/gamma = {1 / gamma:.4g} m/s, reached by "
                      f"{int(np.sum(v > 1 / gamma))} impacts: outside the law's range (docs/estimation.md)")
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     frame["used"] = ok
     return RestitutionEstimate(
@@ -970,8 +975,8 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     ----------
     recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
     residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
-    rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
-        rig file, whose ``[operating]`` table also supplies or overrides the operating point.
+    rig : overrides the recordings' rig: rig parameters (e.g. :data:`~impactid.rigs.SUNDAR2016`), or the path of
+        a TOML rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
     progress : callback ``(stage, fraction)`` for a progress display.
     calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first

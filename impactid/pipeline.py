@@ -123,11 +123,11 @@ class Pipeline:
         -------
         Estimate
             with the damping estimate, the restitution law (None, with the reason among the
-            warnings, when it cannot be fitted), per-event tables, notes and provenance.
+            warnings, when it cannot be fitted), per-event tables, notes and provenance. The notes
+            of every step are collected in the result's ``warnings`` and issued here, each once, as
+            :class:`~impactid.estimates.EstimationWarning` (the steps themselves do not warn).
         """
-        from impactid.events import EventWarning
         from impactid.io import Recording, read_recording
-        from impactid.reconstruct import reconstruct
 
         if isinstance(recordings, (Recording, str)) or hasattr(recordings, "__fspath__"):
             recordings = [recordings]
@@ -137,42 +137,40 @@ class Pipeline:
             raise ImpactidError("no recording given")
         collected: list[str] = []
         recons, sets, frames = [], [], []
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", EventWarning)
-            for rec in recs:
-                recon = reconstruct(rec, integration=self.integration, anchor=self.anchor)
-                es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
-                recons.append(recon)
-                sets.append(es)
-                tab = recon.table.reset_index()
-                frames.append(pd.DataFrame({"source": es.source, "event": tab["event"],
-                                            "approach_speed": tab["approach_speed"], "xi": tab["xi"],
-                                            "separation_speed": tab["separation_speed"]}))
-        collected += [str(w.message) for w in caught if issubclass(w.category, EventWarning)]
+        for rec in recs:
+            recon = _per_impact_kinematics(rec, integration=self.integration, anchor=self.anchor)
+            collected += recon.warnings
+            es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
+            recons.append(recon)
+            sets.append(es)
+            tab = recon.table.reset_index()
+            frames.append(pd.DataFrame({"source": es.source, "event": tab["event"],
+                                        "approach_speed": tab["approach_speed"], "xi": tab["xi"],
+                                        "separation_speed": tab["separation_speed"]}))
         # operating points may differ in cam speed and eccentricity; the contact pair must be the same
-        models = {repr({k: v for k, v in r.rig.to_dict().items() if k != "e"}) for r in recons}
+        models = {repr(r.fixed_parameters) for r in recons}
         if len(models) > 1:
             raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
                                 "e equal); they differ between " + ", ".join(s.source for s in sets))
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", EstimationWarning)
-            damping = fit_contact_damping(sets, self.residual, **self.fit_options(), progress=progress)
-            calibration: list[dict] = []
-            if self.calibrate and residual_name(self.residual) == "lambda1":
-                damping, sets, calibration = _calibrated(damping, recons, sets, self.fit_options(),
-                                                         integration=self.integration, anchor=self.anchor)
-            # a part of the job that cannot be done does not take the others with it: without a
-            # determined xi the restitution law is missing from the result, with the reason
-            try:
-                restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H)
-            except ImpactidError as exc:
-                restitution = None
-                warnings.warn(f"restitution law not estimated: {exc}", EstimationWarning, stacklevel=1)
-        collected += [str(w.message) for w in caught if issubclass(w.category, EstimationWarning)]
-        for message in collected:
+        damping = fit_contact_damping(sets, self.residual, **self.fit_options(), progress=progress, warn=False)
+        collected += damping.warnings
+        calibration: list[dict] = []
+        if self.calibrate and residual_name(self.residual) == "lambda1":
+            first = damping
+            damping, sets, calibration = _calibrated(damping, recons, sets, self.fit_options(),
+                                                     integration=self.integration, anchor=self.anchor)
+            collected += damping.warnings if damping is not first else ()
+        # a part of the job that cannot be done does not take the others with it: without a
+        # determined xi the restitution law is missing from the result, with the reason
+        try:
+            restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H, warn=False)
+            collected += restitution.warnings
+        except ImpactidError as exc:
+            restitution = None
+            collected.append(f"restitution law not estimated: {exc}")
+        for message in dict.fromkeys(collected):
             warnings.warn(message, EstimationWarning, stacklevel=2)
-        ops = tuple({"cam_speed_hz": r.cam_speed_hz, "e_over_rc": r.rig.e / r.rig.r_c, "events": len(s)}
-                    for r, s in zip(recons, sets))
+        ops = tuple({**r.operating_point, "events": len(s)} for r, s in zip(recons, sets))
         prov = tuple(p for r in recons for p in r.provenance) + (
             f"fit_contact_damping(residual={damping.residual!r}, method={self.method!r}, fix_n={self.fix_n}): "
             f"{damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",
@@ -181,6 +179,30 @@ class Pipeline:
                         operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
                         warnings=tuple(collected), provenance=prov, calibration=tuple(calibration),
                         pipeline=self.to_dict())
+
+
+#: The contact law the pipeline estimates: a recording's rig model must offer it
+#: (:attr:`~impactid.rigs.base.RigModel.laws`) and a measurement model of per-impact kinematics.
+ESTIMATED_LAW = "hunt-crossley"
+
+
+def _estimable(model) -> bool:
+    return model.measure is not None and any(law.name == ESTIMATED_LAW for law in model.laws)
+
+
+def _per_impact_kinematics(recording, *, integration: str, anchor: str):
+    """The per-impact kinematics of one recording by its rig's measurement model (the registry's
+    :attr:`~impactid.rigs.base.RigModel.measure`: rig P's is :func:`impactid.reconstruct.reconstruct`),
+    with their notes in the result rather than warned."""
+    from impactid.io import RecordingError
+    from impactid.rigs.registry import MODELS, rig_model
+
+    model = rig_model(recording.require_rig().model)
+    if not _estimable(model):
+        able = " or ".join(repr(m.name) for m in MODELS.values() if _estimable(m))
+        raise RecordingError(f"{recording.source or 'recording'}: needs a {able} rig (per-impact kinematics for a "
+                             f"{ESTIMATED_LAW} law), the recording's rig is {model.name!r}")
+    return model.measure(recording, integration=integration, anchor=anchor, warn=False)
 
 
 def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, anchor: str):
@@ -198,7 +220,7 @@ def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, a
         return damping, sets, record
     corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
     systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
-    again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic)
+    again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
     note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
             f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
             + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
@@ -209,5 +231,4 @@ def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, a
 
     again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
                     seconds=again.seconds + damping.seconds)
-    warnings.warn(note, EstimationWarning, stacklevel=3)
     return again, corrected, record
