@@ -44,7 +44,7 @@ LAW = HuntCrossley(BETA, N)
 
 def events(e_over_rc: float, hz: float, seconds: float, noise: float = 0.0, seed: int = 0,
            adc_bits: int | None = None) -> EventSet:
-    sensors = SensorModel(noise=noise, adc_bits=adc_bits, seed=seed) if noise or adc_bits else None
+    sensors = SensorModel(noise=noise, adc_bits=adc_bits, seed=seed)
     rec = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(e_over_rc), hz, LAW, seconds, sensors=sensors).recording
     return EventSet.from_reconstruction(reconstruct(rec), source=f"{e_over_rc}/{hz:g} Hz")
 
