@@ -62,10 +62,3 @@ def s2_noisy():
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 4.0,
                          sensors=SensorModel(noise=0.005, seed=3))
 
-
-def pytest_collection_modifyitems(config, items):
-    """Executed notebooks are slow tests (``pytest -m "not slow"`` is the warm loop; CI runs all)."""
-    slow = pytest.mark.slow
-    for item in items:
-        if str(item.fspath).endswith(".ipynb"):
-            item.add_marker(slow)
