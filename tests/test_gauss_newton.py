@@ -105,6 +105,7 @@ def test_central_difference_jacobian_of_the_simulator_is_step_independent(s2_eve
     assert np.all(scale > 0)
 
 
+@pytest.mark.slow
 def test_fixed_n_agrees_with_the_optimiser_within_each_others_intervals(s2_events):
     ls = fit_contact_damping(s2_events, fix_n=N, method="least-squares")
     opt = fit_contact_damping(s2_events, fix_n=N, method="optimise")
@@ -117,6 +118,7 @@ def test_fixed_n_agrees_with_the_optimiser_within_each_others_intervals(s2_event
     assert ls.n_simulations < 0.5 * opt.n_simulations
 
 
+@pytest.mark.slow
 def test_single_recording_joint_least_squares_says_not_separable(s2_events):
     with pytest.warns(EstimationWarning, match="not separable"):
         est = fit_contact_damping(s2_events, method="least-squares")
