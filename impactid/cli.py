@@ -69,6 +69,7 @@ from impactid.commandline import (
     print_json as _print_json,
 )
 from impactid.contact import HuntCrossley
+from impactid.distributed import add_scheduler_arguments
 from impactid.errors import ImpactidError
 
 __all__ = ["UsageError", "build_parser", "main", "resolve_rig"]
@@ -350,7 +351,10 @@ def cmd_bifurcation(args) -> int:
     _check_outputs(args, _inputs(args, []), out_is_dir=True)
     speeds = np.linspace(args.start, args.stop, args.speeds) * scale
     law = _restitution_law(args)
-    result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept)
+    from impactid.distributed import scheduler_client
+
+    with scheduler_client(args, what="impactid bifurcation") as client:
+        result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept, client=client)
     from impactid.reports import write_bifurcation
 
     with StagedFiles(protect=_inputs(args, [])) as staged:
@@ -434,8 +438,11 @@ def cmd_regime_map(args) -> int:
         if not args.quiet:
             print(f"\r  {done}/{total} operating points", end="", file=sys.stderr, flush=True)
 
-    frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu, progress=progress,
-                       max_revolutions=args.max_revolutions)
+    from impactid.distributed import scheduler_client
+
+    with scheduler_client(args, what="impactid regime-map") as client:
+        frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu, progress=progress,
+                           max_revolutions=args.max_revolutions, client=client)
     if not args.quiet:
         print(file=sys.stderr)
     from impactid.reports import write_regime_map
@@ -633,6 +640,41 @@ def cmd_estimate(args) -> int:
     return 0
 
 
+def cmd_campaign(args) -> int:
+    from impactid.campaign import load_campaign, run_campaign
+    from impactid.distributed import cluster_from_args, require
+
+    require("pyarrow", what="impactid campaign")
+    spec = load_campaign(args.source)
+    out = args.out or spec.out
+    if out is None:
+        raise UsageError("argument --out: no output folder: give --out DIR, or out = \"DIR\" in the [campaign] "
+                         "table of the campaign file")
+    check_output(out, option="--out", inputs=spec.inputs(), directory=True)
+    if args.serial:
+        args.workers = 0
+    cluster = cluster_from_args(args, local_default=True, what="impactid campaign")
+    progress = args.progress if args.progress is not None else sys.stderr.isatty()
+    result = run_campaign(spec, out, cluster=cluster, fresh=args.fresh, progress=progress,
+                          log=lambda text: print(f"impactid campaign: {text}", file=sys.stderr, flush=True))
+    fits = len(result.table)
+    data = {"campaign": spec.name, "out": str(result.out), "fits": fits, "ran": result.ran,
+            "skipped": result.skipped, "failed": result.failed, "prepared": result.prepared,
+            "prepared_from_cache": result.cached, "seconds": result.seconds, "where": result.where,
+            "files": [str(f) for f in result.files],
+            "failures": [{"kind": k, "name": n, "reason": r} for k, n, r in result.failures()]}
+    if args.json:
+        _print_json(data)
+    else:
+        print(f"campaign {spec.name}: {len(spec.recordings)} recordings, {fits} fits: {result.ran} done, "
+              f"{result.skipped} skipped (finished earlier), {result.failed} failed "
+              f"({result.seconds:.1f} s, {result.where})")
+        for kind, name, reason in result.failures():
+            print(f"  failed: {kind} fit {name}: {reason}")
+        print(f"  table written to {result.files[0]} and {result.files[1]}")
+    return 0 if result.ok else 1
+
+
 def cmd_cam_fit(args) -> int:
     from impactid.camprofile import fit_cam_profile
     from impactid.io import read_recording
@@ -755,6 +797,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="r = A + B * rpm (default: our stand-in law, see the docs)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--json", action="store_true", help="print JSON")
+    add_scheduler_arguments(p)
     p.set_defaults(func=cmd_bifurcation)
 
     p = sub.add_parser("restitution", help="rig F: coefficient of restitution per cam speed from impacting "
@@ -781,6 +824,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="longest run per point while settling")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    add_scheduler_arguments(p)
     p.set_defaults(func=cmd_regime_map)
 
     p = sub.add_parser("simulate", help="long S2 run from static equilibrium; prints the contact table")
@@ -860,6 +904,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
     p.set_defaults(func=cmd_estimate)
+
+    from impactid.campaign import FORMAT_HELP
+
+    p = sub.add_parser("campaign", help="fit every recording of a campaign alone and its groups jointly, on a dask "
+                                        "cluster; a rerun skips finished fits",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description=FORMAT_HELP + "\nExit status: 0 when every fit ended in an estimate, 1 when some "
+                                                 "failed (the table and the\nfailed: lines say why), 2 when the "
+                                                 "campaign could not be run.")
+    p.add_argument("source", metavar="CAMPAIGN.toml|DIR", help="campaign file, or a folder of recordings")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: [campaign] out of the campaign file)")
+    add_scheduler_arguments(p, local_default=True)
+    p.add_argument("--serial", action="store_true", help="run in this process, without dask (as --workers 0)")
+    p.add_argument("--fresh", action="store_true", help="run every task again (ignore finished fits and caches)")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_campaign)
 
     p = sub.add_parser("cam-fit", help="fit a Gaussian-sum cam profile (Alzate et al. 2007, eq. 1) to rig F "
                                        "encoder data")
