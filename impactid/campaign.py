@@ -43,7 +43,7 @@ import time
 import tomllib
 import traceback
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -56,8 +56,9 @@ from impactid.commandline import json_text
 from impactid.errors import ImpactidError
 from impactid.pipeline import Pipeline, PreparedRecording
 
-__all__ = ["CampaignError", "CampaignResult", "CampaignSpec", "FitJob", "FitOutcome", "PrepareJob", "PrepareOutcome",
-           "RecordingSpec", "load_campaign", "read_fits", "run_campaign", "summary_table"]
+__all__ = ["FORMAT_HELP", "CampaignError", "CampaignResult", "CampaignSpec", "FitJob", "FitOutcome", "PrepareJob",
+           "PrepareOutcome", "RecordingSpec", "fit_task", "load_campaign", "plan", "prepare_task", "read_fits",
+           "read_recording_spec", "run_campaign", "summary_table"]
 
 #: Recording files a campaign folder is scanned for.
 RECORDING_SUFFIXES = (".h5", ".hdf5", ".csv")
@@ -380,6 +381,17 @@ class _Digests:
         self.entries[resolved] = {"size": st.st_size, "mtime_ns": st.st_mtime_ns, "sha256": digest}
         self.changed = True
         return digest
+
+    def uncached(self, paths: Sequence[Path]) -> list[Path]:
+        """The existing files of ``paths`` whose digest is not cached (they will be read)."""
+        out = []
+        for path in paths:
+            with contextlib.suppress(OSError):
+                st = path.stat()
+                entry = self.entries.get(str(path.resolve()))
+                if not (entry and entry.get("size") == st.st_size and entry.get("mtime_ns") == st.st_mtime_ns):
+                    out.append(path)
+        return out
 
     def save(self) -> None:
         if self.changed:
@@ -706,14 +718,18 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
     say = log or (lambda text: None)
     (out / "fits").mkdir(parents=True, exist_ok=True)
     digests = _Digests(out)
+    unhashed = digests.uncached([p for r in spec.recordings for p in r.inputs()])
+    if unhashed:
+        size = sum(p.stat().st_size for p in unhashed)
+        say(f"hashing {len(unhashed)} input file(s), {size / 1e9:.3g} GB (once: the digests are cached in {out})")
     prepares, unreadable, fits = plan(spec, out, digests)
     digests.save()
-    records: dict[str, dict] = {}
+    rows: dict[str, dict] = {}  # the summary row of every finished fit (the results stay on disk)
     todo: list[tuple[FitJob, list[str]]] = []
     for job, keys in fits:
         done = None if fresh else _finished(out / "fits" / f"{job.key}.json", job.key)
         if done is not None:
-            records[job.key] = done
+            rows[job.key] = _row(done)
         else:
             todo.append((job, keys))
     skipped = len(fits) - len(todo)
@@ -721,7 +737,7 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
     jobs = [replace(prepares[k], cache=None) if fresh else prepares[k] for k in prepares if k in needed]
     missing_outcomes = {k: v for k, v in unreadable.items() if any(k in keys for _, keys in todo)}
     counts = {"prepared": 0, "cached": 0, "ran": 0}
-    where = "serial"
+    where = "nothing to run"
     if todo:
         bar = progress_bar(len(jobs) + len(todo), enabled=progress, desc=f"campaign {spec.name}", unit="task")
         plain = say
@@ -744,12 +760,12 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
 
         def on_fit(outcome: FitOutcome) -> None:
             atomic_write(out / "fits" / f"{outcome.key}.json", json_text(outcome.record))
-            records[outcome.key] = outcome.record
+            rows[outcome.key] = _row(outcome.record)
             counts["ran"] += 1
             bar.update(1)
             if not outcome.ok:
                 say(f"{outcome.record['kind']} fit {outcome.record['name']} failed: {outcome.record['reason']}")
-            failed = sum(1 for r in records.values() if r.get("status") != "ok")
+            failed = sum(1 for r in rows.values() if r["status"] != "ok")
             if failed:
                 bar.set_postfix_str(f"{failed} failed")
 
@@ -764,10 +780,10 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
                     say(f"running {len(jobs)} prepare and {len(todo)} fit tasks on {where}")
                     _run_on(started, jobs, todo, missing_outcomes, on_prepare, on_fit)
             else:
+                where = "serial"
                 say(f"running {len(jobs)} prepare and {len(todo)} fit tasks serially in this process")
                 _run_serial(jobs, todo, missing_outcomes, on_prepare, on_fit)
-    ordered = [records[job.key] for job, _ in fits if job.key in records]
-    table = summary_table(ordered, out)
+    table = _frame([rows[job.key] for job, _ in fits if job.key in rows])
     with StagedFiles(protect=spec.inputs()) as staged:
         parquet = staged.write_with(out / f"{TABLE_NAME}.parquet", lambda tmp: table.to_parquet(tmp, index=False))
         csv = staged.write_with(out / f"{TABLE_NAME}.csv", lambda tmp: table.to_csv(tmp, index=False))
@@ -850,7 +866,7 @@ COLUMNS = ("campaign", "kind", "name", "status", "reason", "recordings", "n_reco
            "method", "simulations", "warnings", "seconds", "key", "json")
 
 
-def _row(record: dict, out: Path | None) -> dict:
+def _row(record: dict) -> dict:
     res = record.get("result") or {}
     unc = res.get("uncertainty") or {}
     recs = res.get("recordings") or []
@@ -887,14 +903,18 @@ def _row(record: dict, out: Path | None) -> dict:
     }
 
 
-def summary_table(records: Sequence[dict], out: Path | None = None) -> pd.DataFrame:
+def summary_table(records: Sequence[dict]) -> pd.DataFrame:
     """The summary table of fit records (one row per fit, the columns of :data:`COLUMNS`).
 
     Units: ``beta*`` N s m^-(n+1), ``gamma*`` s/m, ``va_mean`` m/s, ``cam_speed_hz`` Hz,
     ``seconds`` s of the fit task; ``e_over_rc`` and ``cam_speed_hz`` are those of a single fit's
     recording (NaN for joint fits, whose points are listed in ``operating_points`` as ``e/r_c/Hz``).
     """
-    frame = pd.DataFrame([_row(r, out) for r in records], columns=list(COLUMNS))
+    return _frame([_row(r) for r in records])
+
+
+def _frame(rows: Sequence[dict]) -> pd.DataFrame:
+    frame = pd.DataFrame(list(rows), columns=list(COLUMNS))
     frame["separable"] = frame["separable"].astype("boolean")
     return frame
 
@@ -913,10 +933,3 @@ def read_fits(out: str | os.PathLike[str], keys: Sequence[str] | None = None) ->
             if isinstance(record, dict) and "key" in record:
                 records.append(record)
     return records
-
-
-def iter_keys(spec: CampaignSpec, out: str | os.PathLike[str]) -> Iterator[tuple[str, str, str]]:
-    """``(kind, name, key)`` of every fit of a campaign (hashing its files; for tools and tests)."""
-    digests = _Digests(Path(out))
-    for job, _ in plan(spec, Path(out), digests)[2]:
-        yield job.kind, job.name, job.key

@@ -351,10 +351,12 @@ def cmd_bifurcation(args) -> int:
     _check_outputs(args, _inputs(args, []), out_is_dir=True)
     speeds = np.linspace(args.start, args.stop, args.speeds) * scale
     law = _restitution_law(args)
-    from impactid.distributed import scheduler_client
+    from impactid.distributed import progress_bar, scheduler_client
 
-    with scheduler_client(args, what="impactid bifurcation") as client:
-        result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept, client=client)
+    with scheduler_client(args, what="impactid bifurcation") as client, \
+            progress_bar(args.speeds, desc="bifurcation", unit="speed") as bar:
+        result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept, client=client,
+                             progress=lambda done, total: bar.update(done - bar.n))
     from impactid.reports import write_bifurcation
 
     with StagedFiles(protect=_inputs(args, [])) as staged:
@@ -434,17 +436,13 @@ def cmd_regime_map(args) -> int:
     for ratio in args.e_over_rc_values:  # every ratio checked before the long run
         rig.with_eccentricity_ratio(ratio)
 
-    def progress(done, total):
-        if not args.quiet:
-            print(f"\r  {done}/{total} operating points", end="", file=sys.stderr, flush=True)
+    from impactid.distributed import progress_bar, scheduler_client
 
-    from impactid.distributed import scheduler_client
-
-    with scheduler_client(args, what="impactid regime-map") as client:
-        frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu, progress=progress,
+    with scheduler_client(args, what="impactid regime-map") as client, \
+            progress_bar(points, enabled=not args.quiet, desc="regime map", unit="point") as bar:
+        frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu,
+                           progress=lambda done, total: bar.update(done - bar.n),
                            max_revolutions=args.max_revolutions, client=client)
-    if not args.quiet:
-        print(file=sys.stderr)
     from impactid.reports import write_regime_map
 
     with StagedFiles(protect=_inputs(args, [])) as staged:

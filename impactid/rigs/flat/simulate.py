@@ -285,7 +285,7 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
                 kept: int | None = None, strobe_phase: float | None = None, v_stick: float = V_STICK,
                 periodicity_tol: float = 1e-4,
                 max_period: int = 12, tolerances: Tolerances = DEFAULT_TOLERANCES,
-                client=None) -> BifurcationResult:
+                client=None, progress=None) -> BifurcationResult:
     """Bifurcation diagram of rig F (Fig. 16 of Alzate et al. (2007)).
 
     Each speed is run from permanent contact at ``theta_c = 0`` for ``revolutions`` cam revolutions
@@ -300,7 +300,8 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
 
     With a ``client`` (a :class:`distributed.Client`, :mod:`impactid.distributed`), the speeds are
     split into parts run on its workers (each part in parallel on its worker's threads); the
-    diagram is the same.
+    diagram is the same. ``progress(done, total)`` is called as cam speeds are done (serially: once,
+    at the end of the one parallel run).
     """
     law = DEFAULT_RESTITUTION if restitution is None else restitution
     if not isinstance(law, SpeedRestitution):
@@ -318,13 +319,17 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
                             phase=phase, tolerances=tolerances)
     if client is None:
         strobe, counts, status, steps = run((speeds, rs))
+        if progress is not None:
+            progress(speeds.size, speeds.size)
     else:
         from impactid.distributed import map_tasks
 
         workers = max(1, len(client.scheduler_info().get("workers", {})))
         parts = [(a, b) for a, b in zip(np.array_split(speeds, min(speeds.size, 4 * workers)),
                                         np.array_split(rs, min(speeds.size, 4 * workers)))]
-        pieces = map_tasks(run, parts, client=client)
+        sizes = [a.size for a, _ in parts]
+        step = None if progress is None else (lambda done, _: progress(sum(sizes[:done]), speeds.size))
+        pieces = map_tasks(run, parts, client=client, progress=step)
         strobe, counts, status, steps = (np.concatenate([piece[k] for piece in pieces]) for k in range(4))
     bad = np.flatnonzero(status != FK.OK)
     if bad.size:
