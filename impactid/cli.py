@@ -650,6 +650,8 @@ def cmd_campaign(args) -> int:
                          "table of the campaign file")
     check_output(out, option="--out", inputs=spec.inputs(), directory=True)
     if args.serial:
+        if args.scheduler is not None or args.workers:
+            raise UsageError("argument --serial: not allowed with --scheduler or --workers N")
         args.workers = 0
     cluster = cluster_from_args(args, local_default=True, what="impactid campaign")
     progress = args.progress if args.progress is not None else sys.stderr.isatty()

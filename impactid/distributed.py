@@ -22,7 +22,9 @@ for, so the serial path works without it.
 Worker processes of the local cluster run with ``NUMBA_NUM_THREADS=1``: each worker is one core,
 and numba's parallel kernels inside it would otherwise start one thread per core in every
 worker. An existing cluster is left as it was started (give its workers that variable yourself:
-``NUMBA_NUM_THREADS=1 dask worker ADDRESS --nthreads 1``). Functions sent to workers are pickled
+``NUMBA_NUM_THREADS=1 dask worker ADDRESS --nthreads 1``; one thread per worker process also keeps
+the warnings each estimate collects apart, which Python's warning filters cannot do between
+threads of one process). Functions sent to workers are pickled
 by reference to their module, so the workers must import the same impactid (and, for the envelope
 validation, the repository's ``tests`` package); recordings are read by the workers from their
 paths, so every worker must see them under the same paths (a shared file system).
@@ -125,8 +127,9 @@ def connect(address: str | None = None, workers: int | None = None, *, what: str
     # import numba while starting, e.g. when the main module imports impactid)
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_ENV}
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        # no dashboard; the scheduler's small HTTP server (health checks) on a free port, not on 8787
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               memory_limit=memory_limit)
+                               scheduler_kwargs={"dashboard_address": ":0"}, memory_limit=memory_limit)
     try:
         client = Client(cluster)
         try:

@@ -252,6 +252,7 @@ def test_command_serial_reports_and_exits_1_with_a_failed_fit(tmp_path, recordin
     (["campaign", "{c}", "--serial", "--out", "{a}"], "is an input of this command"),
     (["campaign", "{c}", "--scheduler", "tcp://x:1", "--workers", "2"], "not allowed with argument"),
     (["campaign", "{c}", "--workers", "-1"], "argument --workers: must lie in [0, 4096]"),
+    (["campaign", "{c}", "--serial", "--workers", "3"], "argument --serial: not allowed with"),
 ])
 def test_command_errors_are_one_line_and_exit_2(tmp_path, recordings, argv, message, capsys):
     path = _campaign(tmp_path, recordings, names=("a",), group=())
