@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
+import logging
 import os
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -137,7 +138,14 @@ def connect(address: str | None = None, workers: int | None = None, *, what: str
         finally:
             client.close()
     finally:
-        cluster.close()
+        # a worker busy with a cancelled task is killed after a few seconds: not worth a warning
+        nanny = logging.getLogger("distributed.nanny")
+        level = nanny.level
+        nanny.setLevel(logging.ERROR)
+        try:
+            cluster.close()
+        finally:
+            nanny.setLevel(level)
 
 
 def add_scheduler_arguments(parser, *, local_default: bool = False) -> None:
