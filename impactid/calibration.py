@@ -124,7 +124,7 @@ def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase"
                                   channels=("accel_tangential",))
         try:
             recon = reconstruct(synthetic.recording, find_events(synthetic.recording, warn=False),
-                                integration=integration, anchor=anchor)
+                                integration=integration, anchor=anchor, warn=False)
         except Exception:  # noqa: BLE001 - a calibration that cannot run leaves the estimate as it is
             return PipelineBias(math.nan, math.nan, 0)
     apex_t = np.asarray(synthetic.truth["apexes"]["t"], dtype=float)

@@ -505,9 +505,7 @@ def read_recording_spec(spec: RecordingSpec):
     """The :class:`~impactid.io.Recording` of a campaign entry, with its rig file and overrides applied."""
     from impactid.io import read_recording
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        rec = read_recording(spec.path, rig=spec.rig)
+    rec = read_recording(spec.path, rig=spec.rig)
     if spec.e_over_rc is not None:
         if rec.rig is None or not hasattr(rec.rig, "with_eccentricity_ratio"):
             raise CampaignError(f"{spec.path}: e_over_rc given, but the recording's rig has no eccentricity")
@@ -532,11 +530,15 @@ def prepare_task(job: PrepareJob) -> PrepareOutcome:
                 return PrepareOutcome(job.key, job.recording.name, stored["prepared"],
                                       seconds=time.perf_counter() - t0, cached=True)
     try:
-        rec = read_recording_spec(job.recording)
-        pipeline = Pipeline(integration=job.integration, anchor=job.anchor, calibrate=True)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            rec = read_recording_spec(job.recording)
+            pipeline = Pipeline(integration=job.integration, anchor=job.anchor, calibrate=True)
             prepared = pipeline.prepare(rec, name=job.recording.name, keep_samples=False)
+        # the reader's notes on the data (a clipped channel, ...) go with the product into its fits' results
+        notes = tuple(dict.fromkeys(" ".join(str(w.message).split()) for w in caught
+                                    if w.category.__module__.startswith("impactid")))
+        prepared = replace(prepared, warnings=notes + tuple(m for m in prepared.warnings if m not in notes))
         return PrepareOutcome(job.key, job.recording.name, prepared, seconds=time.perf_counter() - t0)
     except Exception as exc:  # noqa: BLE001 - a part that cannot be done does not take the others with it
         return PrepareOutcome(job.key, job.recording.name, None, error=_reason(exc),
@@ -567,8 +569,8 @@ def fit_task(job: FitJob, *prepared: PrepareOutcome) -> FitOutcome:
         return FitOutcome(job.key, _record(job, "failed", reason, 0.0, None))
     try:
         with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # the estimate's warnings are in its result
-            estimate = job.pipeline.fit([p.prepared for p in prepared])
+            warnings.simplefilter("ignore")  # the estimate's notes are in its result
+            estimate = job.pipeline.fit([p.prepared for p in prepared], warn=False)
             result = estimate.to_dict()
     except Exception as exc:  # noqa: BLE001 - a part that cannot be done does not take the others with it
         reason = _reason(exc)

@@ -43,7 +43,7 @@ from typing import Any
 from impactid.errors import ImpactidError
 
 __all__ = ["ProgressFn", "add_scheduler_arguments", "cluster_from_args", "connect", "default_workers", "iter_tasks",
-           "map_tasks", "missing", "progress_bar", "require", "scheduler_client"]
+           "map_tasks", "missing", "progress_bar", "require", "scheduler_arguments", "scheduler_client"]
 
 #: Callback ``progress(done, total)`` of the long runs.
 ProgressFn = Callable[[int, int], None]
@@ -148,27 +148,35 @@ def connect(address: str | None = None, workers: int | None = None, *, what: str
             nanny.setLevel(level)
 
 
-def add_scheduler_arguments(parser, *, local_default: bool = False) -> None:
-    """Add ``--scheduler ADDRESS`` and ``--workers N`` (mutually exclusive) to an argparse parser.
+def scheduler_arguments(*, local_default: bool = False) -> tuple:
+    """``--scheduler ADDRESS`` and ``--workers N`` (mutually exclusive), as the
+    :class:`~impactid.rigs.base.Argument` declarations of a command.
 
     Parameters
     ----------
-    parser : an :class:`argparse.ArgumentParser` (or a sub-command's).
     local_default : without either option, run on a local cluster of one worker per core (the
         campaign); False: run serially in this process (the sweeps; ``--workers N`` asks for a
         local cluster).
     """
     from impactid.commandline import integer_in
+    from impactid.rigs.base import Argument
 
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("--scheduler", metavar="ADDRESS", default=None,
-                       help="run on an existing dask cluster (tcp://HOST:8786 or a scheduler file .json), used as "
-                            "it is")
     default = (f"default: {default_workers()}, one per core" if local_default
                else "default: serially in this process")
-    group.add_argument("--workers", type=integer_in(0, 4096), default=None, metavar="N",
-                       help=f"run on a local dask cluster of N single-threaded worker processes; 0: serially in "
-                            f"this process ({default})")
+    return (
+        Argument(("--scheduler",), {"metavar": "ADDRESS", "default": None,
+                                    "help": "run on an existing dask cluster (tcp://HOST:8786 or a scheduler file "
+                                            ".json), used as it is"}, exclusive="scheduler"),
+        Argument(("--workers",), {"type": integer_in(0, 4096), "default": None, "metavar": "N",
+                                  "help": f"run on a local dask cluster of N single-threaded worker processes; 0: "
+                                          f"serially in this process ({default})"}, exclusive="scheduler"),
+    )
+
+
+def add_scheduler_arguments(parser, *, local_default: bool = False) -> None:
+    """Add :func:`scheduler_arguments` to an argparse parser (or a sub-command's)."""
+    for argument in scheduler_arguments(local_default=local_default):
+        argument.add_to(parser)
 
 
 def cluster_from_args(args, *, local_default: bool = False, what: str = "this command"):

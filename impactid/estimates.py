@@ -348,7 +348,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                         landscape: bool = False, progress: Progress | None = None,
                         systematic: float = 0.0, residual_floor: float | None = None,
                         separability_width: float = SEPARABILITY_WIDTH, bootstrap_resamples: int = BOOTSTRAP_RESAMPLES,
-                        bootstrap_seed: int = BOOTSTRAP_SEED) -> DampingEstimate:
+                        bootstrap_seed: int = BOOTSTRAP_SEED, warn: bool = True) -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -369,6 +369,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         indifference level of the intervals is at least this.
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
     bootstrap_resamples, bootstrap_seed : resamples of the events and the paper of the bootstrap.
+    warn : issue an :class:`EstimationWarning` for each note (the result's ``warnings``); callers that
+        carry the notes on pass False.
 
     Raises
     ------
@@ -405,7 +407,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                                       systematic=max(floor, float(systematic)), notes=notes, progress=progress,
                                       landscape=landscape, separability_width=separability_width,
                                       bootstrap_resamples=bootstrap_resamples, bootstrap_seed=bootstrap_seed,
-                                      t_start=t_start)
+                                      t_start=t_start, warn=warn)
         except SimulationError as exc:
             raise ImpactidError(f"simulation failed inside the search bounds: {exc}") from exc
 
@@ -519,7 +521,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     land = objective_landscape(sets, residual, delta_ref=delta_ref) if landscape else None
     _failure_note(obj, notes)
     progress("done", 1.0)
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=j_hat, method=method,
@@ -576,12 +578,15 @@ def _identifiability(sets, residual, fix_n, n_hat, logc_hat, n_iv, beta_iv, lc_b
 
 def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bounds, n_bounds, systematic: float,
                        notes: list[str], progress, landscape: bool, separability_width: float,
-                       bootstrap_resamples: int, bootstrap_seed: int, t_start: float) -> DampingEstimate:
+                       bootstrap_resamples: int, bootstrap_seed: int, t_start: float,
+                       warn: bool = True) -> DampingEstimate:
     """The ``"least-squares"`` method (:mod:`impactid.gauss_newton`) as a :class:`DampingEstimate`."""
     from impactid.gauss_newton import fit_least_squares
 
     residual = obj.residual
-    fit = fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=lc_bounds, n_bounds=n_bounds, progress=progress)
+    fit = fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=lc_bounds, n_bounds=n_bounds, progress=progress,
+                            choose=lambda points: _by_contact_duration(obj, sets, points, fix_n, notes),
+                            rss_tolerance=obj.n_events * systematic ** 2)
     logc_hat = fit.x[0]
     n_hat = float(fix_n) if fix_n is not None else fit.x[1]
     beta_hat = float(obj.beta(logc_hat, n_hat))
@@ -599,6 +604,13 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
         lc_in = np.concatenate([lc_in, np.interp(ends, prof["n"], prof["log10_c"])])
         n_in = np.concatenate([n_in, ends])
         half = np.concatenate([half, [0.0, 0.0]])
+    if not fit.resolved:  # equally good minima that nothing told apart: the interval holds them all
+        lc_in = np.concatenate([lc_in, [a[0] for a in fit.alternatives]])
+        n_in = np.concatenate([n_in, [a[1] if len(a) > 1 else n_hat for a in fit.alternatives]])
+        half = np.concatenate([half, np.zeros(len(fit.alternatives))])
+        notes.append(f"the {residual} residuals are matched equally well by other laws ("
+                     + ", ".join(f"beta {obj.beta(a[0], a[1] if len(a) > 1 else n_hat):.4g}" for a in fit.alternatives)
+                     + ") that the measured contact durations do not tell apart: the interval of beta holds them all")
     log_beta = np.log(obj.beta(np.concatenate([lc_in - half, lc_in + half]), np.concatenate([n_in, n_in])))
     log_iv = (float(log_beta.min()), float(log_beta.max()))
     n_iv = fit.n_interval
@@ -626,6 +638,14 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
 
     phase_logbeta, sys_logbeta = quadrature(phase_shifts), quadrature(sys_shifts)
     log_iv = _widen(log_iv, math.log(beta_hat), math.hypot(1.96 * phase_logbeta, sys_logbeta))
+    # a linear propagation through a nearly singular valley can reach beyond the search box: the interval
+    # stops at the box's extreme beta (beta = c / delta_ref^n, least at (c_lo, n_lo), largest at (c_hi, n_hi))
+    n_box = (n_hat, n_hat) if fix_n is not None else n_bounds
+    box = (math.log(obj.beta(lc_bounds[0], n_box[0])), math.log(obj.beta(lc_bounds[1], n_box[1])))
+    if log_iv[0] < box[0] or log_iv[1] > box[1]:
+        notes.append("the interval of beta reaches the search box of c = beta delta_ref^n: the data bound beta "
+                     "only weakly")
+    log_iv = (max(log_iv[0], box[0]), min(log_iv[1], box[1]))
     beta_iv = (math.exp(log_iv[0]), math.exp(log_iv[1]))
     phase_n_sd = quadrature(phase_shifts, 1) if fix_n is None else 0.0
     if fix_n is None:
@@ -671,17 +691,47 @@ def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bound
     land = objective_landscape(sets, residual, delta_ref=obj.delta_ref) if landscape else None
     _failure_note(obj, notes)
     progress("done", 1.0)
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=3)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=float(np.mean(np.abs(r))),
         method="least-squares", beta_interval=beta_iv, n_interval=n_iv,
         beta_bootstrap_interval=(float(b_boot[0]), float(b_boot[1])),
         n_bootstrap_interval=(float(n_boot[0]), float(n_boot[1])), indifference=float(systematic),
-        separable=separable, phase_beta_sd=beta_hat * math.expm1(phase_logbeta), phase_n_sd=phase_n_sd,
+        separable=separable, phase_beta_sd=beta_hat * math.expm1(min(phase_logbeta, 700.0)), phase_n_sd=phase_n_sd,
         valley=valley, per_event=per_event, delta_ref=obj.delta_ref, bootstrap=boot, landscape=land,
         n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes),
         n_failed_simulations=obj.n_failed, beta_stderr=beta_se, n_stderr=n_se)
+
+
+def _by_contact_duration(obj: _Objective, sets: list[EventSet], points, fix_n, notes: list[str]) -> int | None:
+    """Which of several equally good minima ``(log10 c[, n])`` reproduces the measured contact durations.
+
+    A heavily damped law can make the follower chatter and still reach the measured ``alpha_m``
+    (with friction especially); the duration of the first contact tells it apart. Returns the index
+    of the point whose simulated first contacts differ least from the measured ones (median relative
+    difference over the events with a measured duration), if it is clearly the best (less than half
+    the next and below 20 %); None otherwise.
+    """
+    measured = np.concatenate([s.contact_duration if s.contact_duration is not None else np.full(len(s), np.nan)
+                               for s in sets])
+    if not np.isfinite(measured).any():
+        return None
+    trials = np.array([[float(obj.beta(p[0], p[1] if len(p) > 1 else fix_n)), p[1] if len(p) > 1 else fix_n]
+                       for p in points])
+    simulated = np.concatenate([s.simulate(trials).contact_duration for s in sets], axis=1)
+    obj.n_simulations += trials.shape[0] * measured.size
+    with np.errstate(all="ignore"):
+        score = np.nanmedian(np.abs(simulated / measured[None, :] - 1.0), axis=1)
+    order = np.argsort(score)
+    best = int(order[0])
+    if not (np.isfinite(score[best]) and score[best] < 0.2 and score[best] < 0.5 * score[order[1]]):
+        return None
+    others = ", ".join(f"beta {trials[i, 0]:.4g} ({100 * score[i]:.0f} %)" for i in order[1:])
+    notes.append(f"other laws match the {obj.residual} residuals as well ({others} median difference of the first "
+                 f"contact's duration); the estimate is the one whose contacts last as measured "
+                 f"({100 * score[best]:.1f} %)")
+    return best
 
 
 def _widen(interval, centre, extra):
@@ -772,7 +822,8 @@ def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference, resam
 # ---------------------------------------------------------------------------------------------
 
 
-def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05) -> RestitutionEstimate:
+def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05,
+                    warn: bool = True) -> RestitutionEstimate:
     """Fit restitution laws to per-impact ``approach_speed`` (v_a [m/s]) and ``xi``.
 
     ``per_impact`` needs columns ``approach_speed`` and ``xi`` (others are kept). Impacts with a
@@ -782,7 +833,8 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     Warns (:class:`EstimationWarning`) when the approach speeds spread too little for the data to
     test the linear law (relative spread below ``min_spread`` or a free-intercept slope no larger
     than twice its standard error: ``gamma`` then rests on the assumed intercept 1), when some
-    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed.
+    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed; the
+    result carries these notes (``warnings``), and callers that carry them on pass ``warn=False``.
     """
     frame = per_impact.copy()
     ok = np.isfinite(frame["xi"]) & np.isfinite(frame["approach_speed"]) & (frame["approach_speed"] > 0)
@@ -820,7 +872,7 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     if gamma > 0 and np.any(v > 1.0 / gamma):
         notes.append(f"the fitted law gives xi < 0 for v_a > 1/gamma = {1 / gamma:.4g} m/s, reached by "
                      f"{int(np.sum(v > 1 / gamma))} impacts: outside the law's range (docs/estimation.md)")
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     frame["used"] = ok
     return RestitutionEstimate(
@@ -923,8 +975,8 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     ----------
     recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
     residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
-    rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
-        rig file, whose ``[operating]`` table also supplies or overrides the operating point.
+    rig : overrides the recordings' rig: rig parameters (e.g. :data:`~impactid.rigs.SUNDAR2016`), or the path of
+        a TOML rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
     progress : callback ``(stage, fraction)`` for a progress display.
     calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first

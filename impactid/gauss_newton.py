@@ -5,9 +5,14 @@ It minimises the sum of squares of the **per-event residual vector** ``r(x)`` (`
 :mod:`impactid.residuals`) over ``x = (log10 c, n)``, ``c = beta delta_ref^n`` the damping at the
 reference indentation: coordinates in which the ``beta``-``n`` valley is nearly straight.
 
-Search. A 15-point scan of ``log10 c`` over its bounds at the starting ``n`` (1.5, or the fixed
-``n``) brackets the valley; scipy's trust-region reflective ``least_squares`` (bounded) then
-converges in a few Gauss–Newton steps. The Jacobian ``dr/dx`` is computed by **central
+Search. A 41-point scan of ``log10 c`` over its bounds at the starting ``n`` (1.5, or the fixed
+``n``) brackets the valley; from each of its lowest local minima (at most three: with friction a
+plateau or a second minimum of chattering laws can compete with the narrow true minimum) scipy's
+trust-region reflective ``least_squares`` (bounded) converges in a few Gauss–Newton steps. The
+lowest end point is kept, unless another fits as well at another ``c`` (within the 95 % threshold
+or the caller's tolerance): then the caller's other evidence decides (the estimator compares the
+simulated and measured contact durations), or the fit reports the minima as unresolved.
+The Jacobian ``dr/dx`` is computed by **central
 differences in one batched S1 call** per iteration (four trial laws for ``(log10 c, n)``, two for
 ``log10 c`` alone): with the simulator at ``rtol`` 1e-10, steps of 1e-3 (decades of ``c``, and in
 ``n``) give derivatives accurate to about 1e-6 relative (truncation ``h^2`` against round-off
@@ -38,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -48,8 +53,12 @@ __all__ = ["JACOBIAN_STEP", "LeastSquaresFit", "fit_least_squares", "jacobian"]
 
 #: Central-difference steps of the Jacobian: decades of ``c``, and ``n``.
 JACOBIAN_STEP = (1.0e-3, 1.0e-3)
-#: Points of the starting scan of ``log10 c``.
-START_SCAN_POINTS = 15
+#: Points of the starting scan of ``log10 c`` (0.15 decades apart over the default 6 decades: the
+#: minimum of a noise-free recording is about 0.1 decade wide at the level of the plateau of
+#: chattering laws, so a coarser scan can start the search on the plateau; envelope case hc06).
+START_SCAN_POINTS = 41
+#: Most starting points: the lowest local minima of the scan, each searched from.
+MAX_STARTS = 3
 #: The profile continues until ``RSS`` rises by this many times the 95 % threshold.
 PROFILE_REACH = 1.5
 #: Most points on each side of the profile.
@@ -72,7 +81,9 @@ class LeastSquaresFit:
         across the valley where ``rss - rss_min <= threshold``, else 0), sorted by ``n``.
     n_interval : 95 % profile interval of ``n`` (``(n, n)`` when fixed); reaches_bound : whether
         the profile reached a bound of ``n`` before the threshold, on the low or high side.
-    logc_iterations : Gauss–Newton function evaluations of the main search.
+    evaluations : trial laws simulated (each for every event), search and profile together.
+    alternatives : other minima that fit as well at another ``c`` (friction cases: a heavily damped,
+        chattering law can reproduce ``alpha_m`` too); resolved : whether ``choose`` told them apart.
     """
 
     x: tuple[float, ...]
@@ -88,6 +99,8 @@ class LeastSquaresFit:
     n_interval: tuple[float, float]
     reaches_bound: tuple[bool, bool]
     evaluations: int
+    alternatives: tuple[tuple[float, ...], ...] = ()
+    resolved: bool = True
 
 
 def jacobian(residual_of: Callable[[np.ndarray, np.ndarray], np.ndarray], x: np.ndarray,
@@ -110,7 +123,9 @@ def jacobian(residual_of: Callable[[np.ndarray, np.ndarray], np.ndarray], x: np.
 
 def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray], *, fix_n: float | None,
                       lc_bounds: tuple[float, float], n_bounds: tuple[float, float], n_start: float = 1.5,
-                      progress: Callable[[str, float], None] | None = None) -> LeastSquaresFit:
+                      progress: Callable[[str, float], None] | None = None,
+                      choose: Callable[[list[np.ndarray]], int | None] | None = None,
+                      rss_tolerance: float = 0.0) -> LeastSquaresFit:
     """Minimise the sum of squares of the per-event residuals over ``(log10 c, n)``.
 
     Parameters
@@ -121,6 +136,11 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
     lc_bounds : bounds of ``log10 c`` [log10 (N s/m)]; n_bounds : bounds of ``n``.
     n_start : starting ``n`` of a joint fit (clipped into the bounds).
     progress : callback ``(stage, fraction)``.
+    choose : when end points of several starts fit equally well (within the 95 % threshold) at
+        different ``c``, ``choose(points)`` returns the index of the right one by other evidence, or
+        None when it cannot tell (the fit then reports them as unresolved ``alternatives``).
+    rss_tolerance : differences of the sum of squares below this (or the 95 % threshold) do not tell
+        minima apart (e.g. the number of events times the square of the residual's systematic floor).
 
     Returns
     -------
@@ -136,13 +156,31 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
     if not used.any():
         raise ValueError("no event has a residual at the starting point")
     cost = np.sum(scan[:, used] ** 2, axis=1)
-    x0 = [float(grid[int(np.argmin(cost))])] if fix_n is not None else [float(grid[int(np.argmin(cost))]), n0]
     evaluations = grid.size
+    starts = [[float(grid[k])] if fix_n is not None else [float(grid[k]), n0] for k in _local_minima(cost)]
     for attempt in range(3):
-        x, r, jac, nfev = _solve(per_event, used, x0, fix_n, (lc_lo, lc_hi), (n_lo, n_hi))
-        evaluations += nfev
+        ends = []
+        for x0 in starts:
+            x, r, jac, nfev = _solve(per_event, used, x0, fix_n, (lc_lo, lc_hi), (n_lo, n_hi))
+            evaluations += nfev
+            ends.append((x, r, jac))
+        rss = np.array([np.sum(r ** 2) for _, r, _ in ends])
+        k = int(np.argmin(rss))
+        fit = _statistics(*ends[k], used)
+        # other end points that fit as well (within the 95 % threshold) at another c: ambiguous minima
+        rivals = [i for i in range(len(ends)) if i != k and rss[i] - rss[k] <= max(fit.threshold, rss_tolerance)
+                  and abs(ends[i][0][0] - ends[k][0][0]) > 0.02]
+        alternatives: tuple = ()
+        if rivals:
+            group = [k] + rivals
+            pick = choose([ends[i][0] for i in group]) if choose is not None else None
+            if pick is not None:
+                k = group[pick]
+                fit = _statistics(*ends[k], used)
+            alternatives = tuple(tuple(float(v) for v in ends[i][0]) for i in group if i != k)
+            fit = replace(fit, alternatives=alternatives, resolved=pick is not None)
+        x, r, jac = ends[k]
         progress("search", 0.5)
-        fit = _statistics(x, r, jac, used)
         if fix_n is not None:
             profile = _cross_valley(fit, x, fix_n, r, jac)
             return _finish(fit, profile, (fix_n, fix_n), (False, False), evaluations)
@@ -155,13 +193,28 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
         if better is None or attempt == 2:
             return _finish(fit, pd.concat([lower, upper], ignore_index=True).drop_duplicates("n").sort_values("n"),
                            walk.interval, walk.reaches_bound, evaluations)
-        x0 = list(better)  # the profile found a lower point: the search restarts there
+        starts = [list(better)]  # the profile found a lower point: the search restarts there
     raise AssertionError("unreachable")
 
 
 # ---------------------------------------------------------------------------------------------
 # internals
 # ---------------------------------------------------------------------------------------------
+
+
+def _local_minima(cost: np.ndarray) -> list[int]:
+    """Indices of the lowest local minima of a scan (a flat run counts once), at most
+    :data:`MAX_STARTS`, best first (no threshold on their values: a scan point samples a narrow
+    minimum's depth arbitrarily)."""
+    finite = np.where(np.isfinite(cost), cost, np.inf)
+    k = np.arange(finite.size)
+    left = np.concatenate([[np.inf], finite[:-1]])
+    right = np.concatenate([finite[1:], [np.inf]])
+    minima = k[(finite < left) & (finite <= right)]
+    if minima.size == 0:
+        minima = np.array([int(np.argmin(finite))])
+    minima = minima[np.argsort(finite[minima], kind="stable")]
+    return [int(i) for i in minima[:MAX_STARTS]]
 
 
 def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds):
@@ -194,20 +247,8 @@ def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds):
     return x, r, J, count[0]
 
 
-@dataclass(frozen=True)
-class _Stats:
-    x: np.ndarray
-    residuals: np.ndarray
-    used: np.ndarray
-    jacobian: np.ndarray
-    rss: float
-    dof: int
-    s2: float
-    threshold: float
-    covariance: np.ndarray
-
-
-def _statistics(x, r, J, used) -> _Stats:
+def _statistics(x, r, J, used) -> LeastSquaresFit:
+    """The fit at ``x`` with its statistics; the profile and the interval of ``n`` still empty."""
     m, p = J.shape
     rss = float(np.sum(r ** 2))
     dof = max(m - p, 1)
@@ -215,29 +256,27 @@ def _statistics(x, r, J, used) -> _Stats:
     threshold = float(stats.t.ppf(0.975, dof) ** 2 * s2)
     with np.errstate(all="ignore"):
         cov = s2 * np.linalg.pinv(J.T @ J)
-    return _Stats(x=np.asarray(x), residuals=r, used=used, jacobian=J, rss=rss, dof=dof, s2=s2, threshold=threshold,
-                  covariance=cov)
+    return LeastSquaresFit(x=tuple(float(v) for v in x), residuals=r, used=used, jacobian=J, rss=rss, dof=dof, s2=s2,
+                           threshold=threshold, covariance=cov, profile=pd.DataFrame(), n_interval=(math.nan, math.nan),
+                           reaches_bound=(False, False), evaluations=0)
 
 
-def _cross_valley(fit: _Stats, x, n, r, J) -> pd.DataFrame:
+def _cross_valley(fit: LeastSquaresFit, x, n, r, J) -> pd.DataFrame:
     jc = float(np.sqrt(np.sum(J[:, 0] ** 2)))
     half = math.sqrt(fit.threshold) / jc if jc > 0 else math.inf
     return pd.DataFrame({"n": [float(n)], "log10_c": [float(x[0])], "rss": [fit.rss],
                          "objective": [float(np.mean(np.abs(r)))], "half_width": [half]})
 
 
-def _finish(fit: _Stats, profile, n_interval, reaches, evaluations) -> LeastSquaresFit:
-    return LeastSquaresFit(x=tuple(float(v) for v in fit.x), residuals=fit.residuals, used=fit.used,
-                           jacobian=fit.jacobian, rss=fit.rss, dof=fit.dof, s2=fit.s2, threshold=fit.threshold,
-                           covariance=fit.covariance, profile=profile.reset_index(drop=True),
-                           n_interval=(float(n_interval[0]), float(n_interval[1])),
-                           reaches_bound=(bool(reaches[0]), bool(reaches[1])), evaluations=int(evaluations))
+def _finish(fit: LeastSquaresFit, profile, n_interval, reaches, evaluations) -> LeastSquaresFit:
+    return replace(fit, profile=profile.reset_index(drop=True), n_interval=(float(n_interval[0]), float(n_interval[1])),
+                   reaches_bound=(bool(reaches[0]), bool(reaches[1])), evaluations=int(evaluations))
 
 
 class _Profile:
     """Continuation along the valley from the optimum: ``log10 c`` minimised at each ``n``."""
 
-    def __init__(self, per_event, used, fit: _Stats, n_bounds):
+    def __init__(self, per_event, used, fit: LeastSquaresFit, n_bounds):
         self.per_event = per_event
         self.used = used
         self.fit = fit

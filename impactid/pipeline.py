@@ -123,7 +123,7 @@ class Pipeline:
         ----------
         recording : a :class:`~impactid.io.Recording` or the path of a recording file.
         rig : overrides the recording's rig (a rig dataclass or the path of a TOML rig file).
-        name : the recording's name in messages and results (default: its file, else ``"recording 1"``).
+        name : the recording's name in messages and results when it has no file (default ``"recording 1"``).
         keep_samples : keep the recording in the reconstruction (needed for the per-event histories of
             the figures); False leaves a product of a few kB per impact that pickles (what the tasks of
             :mod:`impactid.campaign` pass to the fits).
@@ -132,31 +132,25 @@ class Pipeline:
         -------
         PreparedRecording
             the reconstruction, the event set the fits replay, the per-impact speeds of the restitution
-            fit, the sampling the calibration needs and the warnings of the event detection.
+            fit, the sampling the calibration needs and the notes of the per-impact kinematics.
         """
         from impactid.calibration import RecordingSampling
-        from impactid.events import EventWarning
         from impactid.io import Recording, read_recording
-        from impactid.reconstruct import reconstruct
 
         if isinstance(recording, Recording):
             rec = recording.with_rig(rig) if rig is not None else recording
         else:
             rec = read_recording(recording, rig=rig)
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", EventWarning)
-            recon = reconstruct(rec, integration=self.integration, anchor=self.anchor)
-            es = EventSet.from_reconstruction(recon, source=rec.source or name or "recording 1")
-            tab = recon.table.reset_index()
-            impacts = pd.DataFrame({"source": es.source, "event": tab["event"],
-                                    "approach_speed": tab["approach_speed"], "xi": tab["xi"],
-                                    "separation_speed": tab["separation_speed"]})
-        messages = tuple(str(w.message) for w in caught if issubclass(w.category, EventWarning))
+        recon = _per_impact_kinematics(rec, integration=self.integration, anchor=self.anchor)
+        es = EventSet.from_reconstruction(recon, source=rec.source or name or "recording 1")
+        tab = recon.table.reset_index()
+        impacts = pd.DataFrame({"source": es.source, "event": tab["event"], "approach_speed": tab["approach_speed"],
+                                "xi": tab["xi"], "separation_speed": tab["separation_speed"]})
         sampling = RecordingSampling.of(rec) if self._calibrated() else None
-        if not keep_samples:
+        if not keep_samples and getattr(recon, "_recording", None) is not None:
             recon = replace(recon, _recording=None)
         return PreparedRecording(source=es.source, reconstruction=recon, event_set=es, impacts=impacts,
-                                 sampling=sampling, warnings=messages)
+                                 sampling=sampling, warnings=tuple(recon.warnings))
 
     def run(self, recordings, *, rig=None, progress: Progress | None = None) -> Estimate:
         """Read, segment and reconstruct ``recordings``, then estimate ``beta, n`` and the restitution law.
@@ -172,7 +166,9 @@ class Pipeline:
         -------
         Estimate
             with the damping estimate, the restitution law (None, with the reason among the
-            warnings, when it cannot be fitted), per-event tables, notes and provenance.
+            warnings, when it cannot be fitted), per-event tables, notes and provenance. The notes
+            of every step are collected in the result's ``warnings`` and issued here, each once, as
+            :class:`~impactid.estimates.EstimationWarning` (the steps themselves do not warn).
         """
         from impactid.io import Recording, read_recording
 
@@ -185,7 +181,8 @@ class Pipeline:
         prepared = [self.prepare(rec, name=f"recording {k + 1}") for k, rec in enumerate(recs)]
         return self.fit(prepared, progress=progress)
 
-    def fit(self, prepared: Sequence[PreparedRecording], *, progress: Progress | None = None) -> Estimate:
+    def fit(self, prepared: Sequence[PreparedRecording], *, progress: Progress | None = None,
+            warn: bool = True) -> Estimate:
         """Estimate ``beta, n`` and the restitution law from prepared recordings: the second half of
         :meth:`run` (several: a joint fit).
 
@@ -194,6 +191,8 @@ class Pipeline:
         prepared : the :meth:`prepare` products of one or several recordings of one rig (they may
             differ in cam speed and eccentricity only).
         progress : callback ``(stage, fraction)`` for a progress display.
+        warn : issue the notes as :class:`~impactid.estimates.EstimationWarning` (they are in the
+            result's ``warnings`` either way).
 
         Returns
         -------
@@ -208,30 +207,31 @@ class Pipeline:
         frames = [p.impacts for p in prepared]
         collected: list[str] = [m for p in prepared for m in p.warnings]
         # operating points may differ in cam speed and eccentricity; the contact pair must be the same
-        models = {repr({k: v for k, v in r.rig.to_dict().items() if k != "e"}) for r in recons}
+        models = {repr(r.fixed_parameters) for r in recons}
         if len(models) > 1:
             raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
                                 "e equal); they differ between " + ", ".join(s.source for s in sets))
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", EstimationWarning)
-            damping = fit_contact_damping(sets, self.residual, **self.fit_options(), progress=progress)
-            calibration: list[dict] = []
-            if self._calibrated():
-                damping, sets, calibration = _calibrated(damping, [p.sampling for p in prepared], sets,
-                                                         self.fit_options(), integration=self.integration,
-                                                         anchor=self.anchor)
-            # a part of the job that cannot be done does not take the others with it: without a
-            # determined xi the restitution law is missing from the result, with the reason
-            try:
-                restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H)
-            except ImpactidError as exc:
-                restitution = None
-                warnings.warn(f"restitution law not estimated: {exc}", EstimationWarning, stacklevel=1)
-        collected += [str(w.message) for w in caught if issubclass(w.category, EstimationWarning)]
-        for message in collected:
-            warnings.warn(message, EstimationWarning, stacklevel=2)
-        ops = tuple({"cam_speed_hz": r.cam_speed_hz, "e_over_rc": r.rig.e / r.rig.r_c, "events": len(s)}
-                    for r, s in zip(recons, sets))
+        damping = fit_contact_damping(sets, self.residual, **self.fit_options(), progress=progress, warn=False)
+        collected += damping.warnings
+        calibration: list[dict] = []
+        if self._calibrated():
+            first = damping
+            damping, sets, calibration = _calibrated(damping, [p.sampling for p in prepared], sets,
+                                                     self.fit_options(), integration=self.integration,
+                                                     anchor=self.anchor)
+            collected += damping.warnings if damping is not first else ()
+        # a part of the job that cannot be done does not take the others with it: without a
+        # determined xi the restitution law is missing from the result, with the reason
+        try:
+            restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H, warn=False)
+            collected += restitution.warnings
+        except ImpactidError as exc:
+            restitution = None
+            collected.append(f"restitution law not estimated: {exc}")
+        if warn:
+            for message in dict.fromkeys(collected):
+                warnings.warn(message, EstimationWarning, stacklevel=3)
+        ops = tuple({**r.operating_point, "events": len(s)} for r, s in zip(recons, sets))
         prov = tuple(p for r in recons for p in r.provenance) + (
             f"fit_contact_damping(residual={damping.residual!r}, method={self.method!r}, fix_n={self.fix_n}): "
             f"{damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",
@@ -253,14 +253,14 @@ class PreparedRecording:
     Attributes
     ----------
     source : the recording's name in messages and results.
-    reconstruction : the :class:`~impactid.reconstruct.Reconstruction` (without the samples when
-        prepared with ``keep_samples=False``).
+    reconstruction : the per-impact kinematics (rig P: a :class:`~impactid.reconstruct.Reconstruction`;
+        without the samples when prepared with ``keep_samples=False``).
     event_set : the :class:`~impactid.residuals.EventSet` the fits replay.
     impacts : per impact ``source, event, approach_speed`` [m/s], ``xi`` [-], ``separation_speed``
         [m/s] (the restitution fit's data).
     sampling : the :class:`~impactid.calibration.RecordingSampling` of the calibration (None when the
         pipeline is not calibrated).
-    warnings : the event detection's warnings.
+    warnings : the notes of the per-impact kinematics.
     """
 
     source: str
@@ -269,6 +269,30 @@ class PreparedRecording:
     impacts: pd.DataFrame
     sampling: RecordingSampling | None
     warnings: tuple[str, ...] = ()
+
+
+#: The contact law the pipeline estimates: a recording's rig model must offer it
+#: (:attr:`~impactid.rigs.base.RigModel.laws`) and a measurement model of per-impact kinematics.
+ESTIMATED_LAW = "hunt-crossley"
+
+
+def _estimable(model) -> bool:
+    return model.measure is not None and any(law.name == ESTIMATED_LAW for law in model.laws)
+
+
+def _per_impact_kinematics(recording, *, integration: str, anchor: str):
+    """The per-impact kinematics of one recording by its rig's measurement model (the registry's
+    :attr:`~impactid.rigs.base.RigModel.measure`: rig P's is :func:`impactid.reconstruct.reconstruct`),
+    with their notes in the result rather than warned."""
+    from impactid.io import RecordingError
+    from impactid.rigs.registry import MODELS, rig_model
+
+    model = rig_model(recording.require_rig().model)
+    if not _estimable(model):
+        able = " or ".join(repr(m.name) for m in MODELS.values() if _estimable(m))
+        raise RecordingError(f"{recording.source or 'recording'}: needs a {able} rig (per-impact kinematics for a "
+                             f"{ESTIMATED_LAW} law), the recording's rig is {model.name!r}")
+    return model.measure(recording, integration=integration, anchor=anchor, warn=False)
 
 
 def _calibrated(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
@@ -286,7 +310,7 @@ def _calibrated(damping, samplings, sets, fit_options: dict, *, integration: str
         return damping, sets, record
     corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
     systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
-    again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic)
+    again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
     note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
             f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
             + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
@@ -295,5 +319,4 @@ def _calibrated(damping, samplings, sets, fit_options: dict, *, integration: str
               "widened by half the correction plus two standard errors")
     again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
                     seconds=again.seconds + damping.seconds)
-    warnings.warn(note, EstimationWarning, stacklevel=3)
     return again, corrected, record

@@ -71,7 +71,8 @@ from scipy import optimize
 from impactid.errors import ImpactidError
 from impactid.events import EventTable, EventWarning, find_events
 from impactid.io import Recording, RecordingError
-from impactid.rigs.pivoted import PivotedFollowerRig, spring_force
+from impactid.rigs._params import RigParameters
+from impactid.rigs.pivoted import MODEL_NAME, spring_force
 from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator
 from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
 from impactid.simulate.runs import pack_rig
@@ -190,7 +191,7 @@ def _encoder_theta(rec: Recording, k0: np.ndarray, k1: np.ndarray, t_onset_rel: 
     return out
 
 
-def _theta_from_gap(rig: PivotedFollowerRig, alpha0: np.ndarray, rate0: np.ndarray, omega: float,
+def _theta_from_gap(rig: RigParameters, alpha0: np.ndarray, rate0: np.ndarray, omega: float,
                     contacts=None) -> np.ndarray:
     """Cam angle where ``psi_i(alpha0, Theta) = 0`` with the gap closing (S-5 solved for Theta).
 
@@ -291,7 +292,7 @@ class Reconstruction:
     contact: dict[int, EventKinematics]
     integration: str
     anchor: str
-    rig: PivotedFollowerRig
+    rig: RigParameters  # rig P's parameters
     cam_speed_hz: float
     events: EventTable
     warnings: tuple[str, ...] = ()
@@ -303,6 +304,17 @@ class Reconstruction:
 
     def __len__(self) -> int:
         return len(self.table)
+
+    @property
+    def operating_point(self) -> dict:
+        """The recording's operating point: cam speed [Hz] and eccentricity ratio ``e/r_c``."""
+        return {"cam_speed_hz": self.cam_speed_hz, "e_over_rc": self.rig.e_over_rc}
+
+    @property
+    def fixed_parameters(self) -> dict:
+        """The rig's parameters other than the operating point's eccentricity ``e``: recordings of one
+        joint fit must share them (the contact pair and the follower)."""
+        return {k: v for k, v in self.rig.to_dict().items() if k != "e"}
 
     def event_kinematics(self, event: int) -> EventKinematics:
         """Full histories of one event (recomputed from the recording)."""
@@ -332,7 +344,7 @@ def _event_histories(rec, events, row, rig, integration, cam_speed_hz) -> EventK
 
 
 def reconstruct(recording: Recording, events: EventTable | None = None, *, integration="rk",
-                anchor: str = "return-time", rig: PivotedFollowerRig | None = None) -> Reconstruction:
+                anchor: str = "return-time", rig: RigParameters | None = None, warn: bool = True) -> Reconstruction:
     """Per-impact kinematics, contact force, approach and separation speeds of every usable event.
 
     Parameters
@@ -343,6 +355,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     integration : integration method name (:data:`impactid.signal.INTEGRATORS`) or callable.
     anchor : ``"return-time"`` (the paper's) or ``"cam-geometry"`` (needs ``cam_angle``).
     rig : overrides the recording's rig.
+    warn : issue an :class:`~impactid.events.EventWarning` for each note of the result
+        (:attr:`Reconstruction.warnings`; those of ``events`` given here were issued by
+        :func:`~impactid.events.find_events`). Callers that carry the notes on pass False.
 
     Raises
     ------
@@ -353,17 +368,20 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     get_integrator(integration)  # validate the name before any work
     if anchor not in ANCHORS:
         raise ValueError(f"unknown anchor {anchor!r}; valid: {', '.join(ANCHORS)}")
-    rig = rig if rig is not None else recording.require_rig("pivoted-follower")
-    if not isinstance(rig, PivotedFollowerRig):
+    rig = rig if rig is not None else recording.require_rig(MODEL_NAME)
+    if getattr(rig, "model", None) != MODEL_NAME:
         raise RecordingError(f"{recording.source}: per-impact reconstruction needs a pivoted-follower rig")
     recording.require("accel_tangential", method="per-impact reconstruction")
     if anchor == "cam-geometry":
         recording.require("cam_angle", method="the 'cam-geometry' anchor")
     cam_speed_hz = recording.require_cam_speed()
+    given = events is not None
     if events is None:
-        events = find_events(recording)
+        events = find_events(recording, warn=False)  # its notes are this result's first ones
     usable = events.usable
     if usable.empty:
+        for message in events.warnings if warn and not given else ():  # they say why (clipped, overlapping)
+            warnings.warn(message, EventWarning, stacklevel=2)
         raise ImpactidError(f"{recording.source or 'recording'}: no usable impact events "
                             f"({len(events)} found, none complete and clean)")
     rate_hz = recording.sample_rate_hz
@@ -492,8 +510,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     if failed:
         messages.append(f"{recording.source or 'recording'}: the {anchor} anchor did not converge at events {failed}")
     int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
-    for message in messages[len(events.warnings):]:
-        warnings.warn(message, EventWarning, stacklevel=2)
+    if warn:
+        for message in messages[len(events.warnings) if given else 0:]:
+            warnings.warn(message, EventWarning, stacklevel=2)
     return Reconstruction(
         table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
         events=events, warnings=tuple(messages), cam_phase=float(ctx.get("phase", math.nan)),
@@ -521,7 +540,7 @@ CONTACT_ANGLE_MARGIN = 0.01
 CONTACT_HERTZ_TOLERANCE = 2.5
 
 
-def _hertz_ratio(rig: PivotedFollowerRig, t: np.ndarray, alpha: np.ndarray, acceleration: np.ndarray,
+def _hertz_ratio(rig: RigParameters, t: np.ndarray, alpha: np.ndarray, acceleration: np.ndarray,
                  theta0: float, omega: float) -> float:
     """Force implied by the accelerometer at the deepest indentation over ``k_H delta^1.5`` there,
     for the contact histories ``t`` [s from the onset], ``alpha`` [rad], ``acceleration``
@@ -539,7 +558,7 @@ def _hertz_ratio(rig: PivotedFollowerRig, t: np.ndarray, alpha: np.ndarray, acce
     return force / (rig.k_H * delta ** 1.5)
 
 
-def _plausibility(recording: Recording, rig: PivotedFollowerRig, ctx: dict, angles, accs, k0, constants) -> list[str]:
+def _plausibility(recording: Recording, rig: RigParameters, ctx: dict, angles, accs, k0, constants) -> list[str]:
     """Cross-checks of the channels against the rig model; returns warning texts naming channels.
 
     * onset angles: the return-time anchor's onset angles (accelerometer only) must lie where the

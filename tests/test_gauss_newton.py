@@ -113,7 +113,8 @@ def test_fixed_n_agrees_with_the_optimiser_within_each_others_intervals(s2_event
     assert opt.beta_interval[0] <= ls.beta <= opt.beta_interval[1]
     assert ls.beta_interval[0] <= opt.beta <= ls.beta_interval[1]
     assert ls.method == "least-squares" and math.isfinite(ls.beta_stderr) and ls.beta_stderr > 0
-    assert ls.n_simulations < 0.25 * opt.n_simulations  # measured: 32 trial laws per event against 200+
+    # measured: 56 trial laws per event (41-point start scan, up to three starts) against 164
+    assert ls.n_simulations < 0.5 * opt.n_simulations
 
 
 def test_single_recording_joint_least_squares_says_not_separable(s2_events):
@@ -134,3 +135,21 @@ def test_joint_least_squares_over_two_operating_points(s2_synthetic, s2_second_p
     assert abs(est.n - N) < 0.02
     events = sum(len(s) for s in sets)
     assert est.n_simulations <= 150 * events  # the target of a joint fit: a few hundred trials, not thousands
+
+
+def _two_minima(lc, n):
+    """Residuals that vanish at log10 c = 3.0 and at 4.3 (as a chattering law can match alpha_m)."""
+    lc = np.atleast_1d(lc)
+    w = np.linspace(0.5, 1.5, 12)
+    return (lc[:, None] - 3.0) * (lc[:, None] - 4.3) * w[None, :] + 0.0 * np.atleast_1d(n)[:, None]
+
+
+def test_equally_good_minima_are_told_apart_by_other_evidence_or_reported():
+    pick_low = lambda points: int(np.argmin([p[0] for p in points]))  # noqa: E731
+    fit = fit_least_squares(_two_minima, fix_n=1.5, lc_bounds=(0.0, 6.0), n_bounds=(0.5, 2.5), choose=pick_low,
+                            rss_tolerance=1e-6)
+    assert fit.x[0] == pytest.approx(3.0, abs=1e-6)
+    assert fit.resolved and fit.alternatives[0][0] == pytest.approx(4.3, abs=1e-6)
+    fit = fit_least_squares(_two_minima, fix_n=1.5, lc_bounds=(0.0, 6.0), n_bounds=(0.5, 2.5),
+                            choose=lambda points: None, rss_tolerance=1e-6)
+    assert not fit.resolved and len(fit.alternatives) == 1
