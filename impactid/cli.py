@@ -1,7 +1,8 @@
 """The ``impactid`` command line. Thin: parses arguments, calls the public API, prints results.
 
 This module builds the parser from the rig registry and holds the environment every command runs
-in (errors, warnings, Ctrl-C and SIGTERM), and ``impactid info``. Each registered rig contributes
+in (errors, warnings, Ctrl-C and SIGTERM), ``impactid info`` and ``impactid campaign``
+(:mod:`impactid.campaign`). Each registered rig contributes
 its commands (:class:`~impactid.rigs.base.CommandSpec`: rig P's ``estimate``, ``events``,
 ``regime``, ... in :mod:`impactid.rigs.pivoted.commands`, rig F's in
 :mod:`impactid.rigs.flat.commands`, ...); a command several rigs contribute runs the implementation
@@ -84,6 +85,65 @@ def cmd_info(args) -> int:
     return 0
 
 
+def cmd_campaign(args) -> int:
+    from impactid._files import check_output
+    from impactid.campaign import load_campaign, run_campaign
+    from impactid.distributed import cluster_from_args, require
+
+    require("pyarrow", what="impactid campaign")
+    spec = load_campaign(args.source)
+    out = args.out or spec.out
+    if out is None:
+        raise UsageError("argument --out: no output folder: give --out DIR, or out = \"DIR\" in the [campaign] "
+                         "table of the campaign file")
+    check_output(out, option="--out", inputs=spec.inputs(), directory=True)
+    if args.serial:
+        if args.scheduler is not None or args.workers:
+            raise UsageError("argument --serial: not allowed with --scheduler or --workers N")
+        args.workers = 0
+    cluster = cluster_from_args(args, local_default=True, what="impactid campaign")
+    progress = args.progress if args.progress is not None else sys.stderr.isatty()
+    result = run_campaign(spec, out, cluster=cluster, fresh=args.fresh, progress=progress,
+                          log=lambda text: print(f"impactid campaign: {text}", file=sys.stderr, flush=True))
+    fits = len(result.table)
+    data = {"campaign": spec.name, "out": str(result.out), "fits": fits, "ran": result.ran,
+            "skipped": result.skipped, "failed": result.failed, "prepared": result.prepared,
+            "prepared_from_cache": result.cached, "seconds": result.seconds, "where": result.where,
+            "files": [str(f) for f in result.files],
+            "failures": [{"kind": k, "name": n, "reason": r} for k, n, r in result.failures()]}
+    if args.json:
+        print_json(data)
+    else:
+        print(f"campaign {spec.name}: {len(spec.recordings)} recordings, {fits} fits: {result.ran} done, "
+              f"{result.skipped} skipped (finished earlier), {result.failed} failed "
+              f"({result.seconds:.1f} s, {result.where})")
+        for kind, name, reason in result.failures():
+            print(f"  failed: {kind} fit {name}: {reason}")
+        print(f"  table written to {result.files[0]} and {result.files[1]}")
+    return 0 if result.ok else 1
+
+
+def _add_campaign_command(sub) -> None:
+    from impactid.campaign import FORMAT_HELP
+    from impactid.distributed import add_scheduler_arguments
+
+    p = sub.add_parser("campaign", help="fit every recording of a campaign alone and its groups jointly, on a dask "
+                                        "cluster; a rerun skips finished fits",
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description=FORMAT_HELP + "\nExit status: 0 when every fit ended in an estimate, 1 when some "
+                                                 "failed (the table and the\nfailed: lines say why), 2 when the "
+                                                 "campaign could not be run.")
+    p.add_argument("source", metavar="CAMPAIGN.toml|DIR", help="campaign file, or a folder of recordings")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: [campaign] out of the campaign file)")
+    add_scheduler_arguments(p, local_default=True)
+    p.add_argument("--serial", action="store_true", help="run in this process, without dask (as --workers 0)")
+    p.add_argument("--fresh", action="store_true", help="run every task again (ignore finished fits and caches)")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
+    p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.set_defaults(func=cmd_campaign)
+
+
 # ---- parser -----------------------------------------------------------------------------------
 
 
@@ -97,6 +157,7 @@ def build_parser() -> argparse.ArgumentParser:
         argument.add_to(p)
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_info)
+    _add_campaign_command(sub)
     _add_rig_commands(sub)
     return parser
 

@@ -22,7 +22,9 @@ from __future__ import annotations
 import json
 import math
 import warnings
-from dataclasses import asdict, dataclass
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, replace
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
@@ -44,7 +46,11 @@ from impactid.estimates import (
 )
 from impactid.residuals import EventSet, residual_name
 
-__all__ = ["Pipeline"]
+if TYPE_CHECKING:
+    from impactid.calibration import RecordingSampling
+    from impactid.reconstruct import Reconstruction
+
+__all__ = ["Pipeline", "PreparedRecording"]
 
 
 @dataclass(frozen=True)
@@ -109,6 +115,43 @@ class Pipeline:
         """The pipeline of :meth:`to_dict` (e.g. from a result's ``pipeline``)."""
         return cls(**{k: (tuple(v) if isinstance(v, list) else v) for k, v in data.items()})
 
+    def prepare(self, recording, *, rig=None, name: str | None = None,
+                keep_samples: bool = True) -> PreparedRecording:
+        """Read, segment and reconstruct one recording: the first half of :meth:`run`, for one recording.
+
+        Parameters
+        ----------
+        recording : a :class:`~impactid.io.Recording` or the path of a recording file.
+        rig : overrides the recording's rig (a rig dataclass or the path of a TOML rig file).
+        name : the recording's name in messages and results when it has no file (default ``"recording 1"``).
+        keep_samples : keep the recording in the reconstruction (needed for the per-event histories of
+            the figures); False leaves a product of a few kB per impact that pickles (what the tasks of
+            :mod:`impactid.campaign` pass to the fits).
+
+        Returns
+        -------
+        PreparedRecording
+            the reconstruction, the event set the fits replay, the per-impact speeds of the restitution
+            fit, the sampling the calibration needs and the notes of the per-impact kinematics.
+        """
+        from impactid.calibration import RecordingSampling
+        from impactid.io import Recording, read_recording
+
+        if isinstance(recording, Recording):
+            rec = recording.with_rig(rig) if rig is not None else recording
+        else:
+            rec = read_recording(recording, rig=rig)
+        recon = _per_impact_kinematics(rec, integration=self.integration, anchor=self.anchor)
+        es = EventSet.from_reconstruction(recon, source=rec.source or name or "recording 1")
+        tab = recon.table.reset_index()
+        impacts = pd.DataFrame({"source": es.source, "event": tab["event"], "approach_speed": tab["approach_speed"],
+                                "xi": tab["xi"], "separation_speed": tab["separation_speed"]})
+        sampling = RecordingSampling.of(rec) if self._calibrated() else None
+        if not keep_samples and getattr(recon, "_recording", None) is not None:
+            recon = replace(recon, _recording=None)
+        return PreparedRecording(source=es.source, reconstruction=recon, event_set=es, impacts=impacts,
+                                 sampling=sampling, warnings=tuple(recon.warnings))
+
     def run(self, recordings, *, rig=None, progress: Progress | None = None) -> Estimate:
         """Read, segment and reconstruct ``recordings``, then estimate ``beta, n`` and the restitution law.
 
@@ -135,18 +178,34 @@ class Pipeline:
                 for r in recordings]
         if not recs:
             raise ImpactidError("no recording given")
-        collected: list[str] = []
-        recons, sets, frames = [], [], []
-        for rec in recs:
-            recon = _per_impact_kinematics(rec, integration=self.integration, anchor=self.anchor)
-            collected += recon.warnings
-            es = EventSet.from_reconstruction(recon, source=rec.source or f"recording {len(sets) + 1}")
-            recons.append(recon)
-            sets.append(es)
-            tab = recon.table.reset_index()
-            frames.append(pd.DataFrame({"source": es.source, "event": tab["event"],
-                                        "approach_speed": tab["approach_speed"], "xi": tab["xi"],
-                                        "separation_speed": tab["separation_speed"]}))
+        prepared = [self.prepare(rec, name=f"recording {k + 1}") for k, rec in enumerate(recs)]
+        return self.fit(prepared, progress=progress)
+
+    def fit(self, prepared: Sequence[PreparedRecording], *, progress: Progress | None = None,
+            warn: bool = True) -> Estimate:
+        """Estimate ``beta, n`` and the restitution law from prepared recordings: the second half of
+        :meth:`run` (several: a joint fit).
+
+        Parameters
+        ----------
+        prepared : the :meth:`prepare` products of one or several recordings of one rig (they may
+            differ in cam speed and eccentricity only).
+        progress : callback ``(stage, fraction)`` for a progress display.
+        warn : issue the notes as :class:`~impactid.estimates.EstimationWarning` (they are in the
+            result's ``warnings`` either way).
+
+        Returns
+        -------
+        Estimate
+            as :meth:`run` (the same numbers for the same recordings and options).
+        """
+        prepared = list(prepared)
+        if not prepared:
+            raise ImpactidError("no recording given")
+        recons = [p.reconstruction for p in prepared]
+        sets = [p.event_set for p in prepared]
+        frames = [p.impacts for p in prepared]
+        collected: list[str] = [m for p in prepared for m in p.warnings]
         # operating points may differ in cam speed and eccentricity; the contact pair must be the same
         models = {repr(r.fixed_parameters) for r in recons}
         if len(models) > 1:
@@ -155,10 +214,11 @@ class Pipeline:
         damping = fit_contact_damping(sets, self.residual, **self.fit_options(), progress=progress, warn=False)
         collected += damping.warnings
         calibration: list[dict] = []
-        if self.calibrate and residual_name(self.residual) == "lambda1":
+        if self._calibrated():
             first = damping
-            damping, sets, calibration = _calibrated(damping, recons, sets, self.fit_options(),
-                                                     integration=self.integration, anchor=self.anchor)
+            damping, sets, calibration = _calibrated(damping, [p.sampling for p in prepared], sets,
+                                                     self.fit_options(), integration=self.integration,
+                                                     anchor=self.anchor)
             collected += damping.warnings if damping is not first else ()
         # a part of the job that cannot be done does not take the others with it: without a
         # determined xi the restitution law is missing from the result, with the reason
@@ -168,8 +228,9 @@ class Pipeline:
         except ImpactidError as exc:
             restitution = None
             collected.append(f"restitution law not estimated: {exc}")
-        for message in dict.fromkeys(collected):
-            warnings.warn(message, EstimationWarning, stacklevel=2)
+        if warn:
+            for message in dict.fromkeys(collected):
+                warnings.warn(message, EstimationWarning, stacklevel=3)
         ops = tuple({**r.operating_point, "events": len(s)} for r, s in zip(recons, sets))
         prov = tuple(p for r in recons for p in r.provenance) + (
             f"fit_contact_damping(residual={damping.residual!r}, method={self.method!r}, fix_n={self.fix_n}): "
@@ -179,6 +240,35 @@ class Pipeline:
                         operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
                         warnings=tuple(collected), provenance=prov, calibration=tuple(calibration),
                         pipeline=self.to_dict())
+
+    def _calibrated(self) -> bool:
+        """Whether the estimate is calibrated (:mod:`impactid.calibration`; lambda1 only)."""
+        return bool(self.calibrate and residual_name(self.residual) == "lambda1")
+
+
+@dataclass(frozen=True)
+class PreparedRecording:
+    """One recording read, segmented and reconstructed (:meth:`Pipeline.prepare`): what its fits use.
+
+    Attributes
+    ----------
+    source : the recording's name in messages and results.
+    reconstruction : the per-impact kinematics (rig P: a :class:`~impactid.reconstruct.Reconstruction`;
+        without the samples when prepared with ``keep_samples=False``).
+    event_set : the :class:`~impactid.residuals.EventSet` the fits replay.
+    impacts : per impact ``source, event, approach_speed`` [m/s], ``xi`` [-], ``separation_speed``
+        [m/s] (the restitution fit's data).
+    sampling : the :class:`~impactid.calibration.RecordingSampling` of the calibration (None when the
+        pipeline is not calibrated).
+    warnings : the notes of the per-impact kinematics.
+    """
+
+    source: str
+    reconstruction: Reconstruction
+    event_set: EventSet
+    impacts: pd.DataFrame
+    sampling: RecordingSampling | None
+    warnings: tuple[str, ...] = ()
 
 
 #: The contact law the pipeline estimates: a recording's rig model must offer it
@@ -205,7 +295,7 @@ def _per_impact_kinematics(recording, *, integration: str, anchor: str):
     return model.measure(recording, integration=integration, anchor=anchor, warn=False)
 
 
-def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, anchor: str):
+def _calibrated(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
     """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.calibration`); where it
     exceeds :data:`CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit again, with the
     intervals' indifference at least half the largest correction."""
@@ -213,7 +303,7 @@ def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, a
     from impactid.contact import HuntCrossley
 
     law = HuntCrossley(beta=damping.beta, n=damping.n)
-    biases = [pipeline_bias(r._recording, law, integration=integration, anchor=anchor) for r in recons]
+    biases = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
     record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
     applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
     if not any(applied):
@@ -227,8 +317,6 @@ def _calibrated(damping, recons, sets, fit_options: dict, *, integration: str, a
                         if math.isfinite(b.alpha_m))
             + "; alpha_m was corrected where the bias is significant and the fit repeated, with the intervals "
               "widened by half the correction plus two standard errors")
-    from dataclasses import replace
-
     again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
                     seconds=again.seconds + damping.seconds)
     return again, corrected, record

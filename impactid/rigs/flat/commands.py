@@ -46,6 +46,7 @@ from impactid.commandline import (
     say_written,
     speed_arguments,
 )
+from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
 from impactid.rigs.flat.parameters import MODEL_NAME
 
@@ -97,7 +98,13 @@ def run_bifurcation(args, model) -> int:
     check_outputs(args, inputs, out_is_dir=True)
     speeds = np.linspace(args.start, args.stop, args.speeds) * scale
     law = _restitution_law(args)
-    result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept)
+    from impactid.distributed import progress_bar as task_bar
+    from impactid.distributed import scheduler_client
+
+    with scheduler_client(args, what="impactid bifurcation") as client, \
+            task_bar(args.speeds, desc="bifurcation", unit="speed") as bar:
+        result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept, client=client,
+                             progress=lambda done, total: bar.update(done - bar.n))
     with StagedFiles(protect=inputs) as staged:
         paths = write_bifurcation(result, args.out, staged)
     transitions = result.transitions()
@@ -255,7 +262,7 @@ COMMANDS = (
                                           "help": "r = A + B * rpm (default: our stand-in law, see the docs)"},
                  exclusive="restitution"),
         Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
-        JSON), run_bifurcation),
+        JSON, *scheduler_arguments()), run_bifurcation),
     CommandSpec("", "restitution", "rig F: coefficient of restitution per cam speed from impacting encoder "
                                    "recordings, and r = a + b omega", (
         Argument(("recordings",), {"metavar": "REC", "nargs": "*",

@@ -48,6 +48,7 @@ from impactid.commandline import (
     say_written,
     speed_arguments,
 )
+from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
 from impactid.rigs.pivoted.parameters import MODEL_NAME
 
@@ -172,14 +173,14 @@ def run_regime_map(args, model) -> int:
     for ratio in args.e_over_rc_values:  # every ratio checked before the long run
         rig.with_eccentricity_ratio(ratio)
 
-    def progress(done, total):
-        if not args.quiet:
-            print(f"\r  {done}/{total} operating points", end="", file=sys.stderr, flush=True)
+    from impactid.distributed import progress_bar as task_bar
+    from impactid.distributed import scheduler_client
 
-    frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu, progress=progress,
-                       max_revolutions=args.max_revolutions)
-    if not args.quiet:
-        print(file=sys.stderr)
+    with scheduler_client(args, what="impactid regime-map") as client, \
+            task_bar(points, enabled=not args.quiet, desc="regime map", unit="point") as bar:
+        frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu,
+                           progress=lambda done, total: bar.update(done - bar.n),
+                           max_revolutions=args.max_revolutions, client=client)
     with StagedFiles(protect=inputs) as staged:
         paths = write_regime_map(frame, args.out, staged)
     for path in paths:
@@ -392,7 +393,8 @@ COMMANDS = (
         *LAW,
         Argument(("--max-revolutions",), {**MAX_REVOLUTIONS, "help": "longest run per point while settling"}),
         Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
-        Argument(("--quiet",), {"action": "store_true", "help": "no progress output"})), run_regime_map),
+        Argument(("--quiet",), {"action": "store_true", "help": "no progress output"}),
+        *scheduler_arguments()), run_regime_map),
     CommandSpec("", "simulate", "long S2 run from static equilibrium; prints the contact table", (
         *_simulated_rig_arguments(), *speed_arguments(),
         Argument(("--duration",), {"type": positive, "default": 2.0, "help": "simulated time [s] (default 2)"}),
