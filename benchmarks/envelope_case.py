@@ -392,7 +392,13 @@ def main(argv=None) -> int:
     parser.add_argument("--factors", type=float, nargs="+", help="beta/true values of --profile (default 1e-3..30)")
     parser.add_argument("--anchor-margin", type=int, default=None, metavar="SAMPLES",
                         help="experiment: start the return-time anchor's free flight this many samples after the "
-                             "detected separation (impactid.reconstruct.ANCHOR_MARGIN, default 8)")
+                             "detected separation and end it this many samples before the next onset "
+                             "(impactid.reconstruct.ANCHOR_MARGIN, default 8; the start is the later of this and "
+                             "--anchor-delay)")
+    parser.add_argument("--anchor-delay", type=float, default=None, metavar="SECONDS",
+                        help="experiment: the return-time anchor's free flight starts this long after the detected "
+                             "separation (impactid.reconstruct.ANCHOR_SEPARATION_DELAY, default 1.2e-3; 0 gives "
+                             "the anchoring of the validation runs before the fix, 8 samples)")
     parser.add_argument("--anchor", default="cam-phase", help="anchor of the reconstructions and fits (experiment)")
     parser.add_argument("--residual", default="lambda1", help="residual of the --fit/--joint/--seeds fits (experiment)")
     parser.add_argument("--json", type=Path, help="also write the results here")
@@ -402,6 +408,8 @@ def main(argv=None) -> int:
     if args.anchor_margin is not None:
         sys.modules["impactid.reconstruct"].ANCHOR_MARGIN = int(args.anchor_margin)  # (the package exports
         # a function of the same name, so the module is taken from sys.modules)
+    if args.anchor_delay is not None:
+        sys.modules["impactid.reconstruct"].ANCHOR_SEPARATION_DELAY = float(args.anchor_delay)
     pd.set_option("display.width", 200)
     pd.set_option("display.max_columns", 30)
     report: dict = {"case": case.id}

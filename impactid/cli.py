@@ -36,6 +36,7 @@ from impactid import __version__
 from impactid._files import TerminationRequested, request_termination, termination_requested
 from impactid.commandline import (
     UsageError,
+    end_progress_line,
     print_json,
     recording_arguments,
     recording_paths,
@@ -232,6 +233,7 @@ def _run_rig_command(args, *, command: str, specs: dict, choose: bool, resolve: 
 
 
 def _error(message: str) -> None:
+    end_progress_line()
     text = " ".join(str(message).split())  # one line, whatever the message held
     print(f"impactid: error: {text}", file=sys.stderr, flush=True)
 

@@ -26,9 +26,9 @@ from impactid.rigs.base import Argument
 
 __all__ = ["CAM_PPR", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "SAMPLE_RATE", "SEED",
            "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "command_inputs", "deliver",
-           "exponent", "fraction", "integer_in", "is_rig_file", "json_text", "noise_channels", "nonnegative", "num",
-           "number", "pair", "positive", "print_json", "progress_bar", "recording_arguments", "recording_paths",
-           "recording_rig", "rig_help", "say_written", "speed_arguments"]
+           "end_progress_line", "exponent", "fraction", "integer_in", "is_rig_file", "json_text", "noise_channels",
+           "nonnegative", "num", "number", "pair", "positive", "print_json", "progress_bar", "recording_arguments",
+           "recording_paths", "recording_rig", "rig_help", "say_written", "speed_arguments"]
 
 #: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
 MAX_SWEEP_POINTS = 10_000
@@ -264,19 +264,32 @@ def say_written(args) -> None:
         print(f"  figures written to {args.plots}")
 
 
+_progress_line_open = False
+
+
 def progress_bar(enabled: bool):
     """A one-line progress display on stderr (only when enabled, e.g. stderr is a terminal)."""
     if not enabled:
         return None
 
     def show(stage: str, fraction: float) -> None:
+        global _progress_line_open
         width = 30
         filled = int(round(width * max(0.0, min(fraction, 1.0))))
         end = "\n" if fraction >= 1.0 else ""
         print(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}% {stage:<12}", end=end,
               file=sys.stderr, flush=True)
+        _progress_line_open = fraction < 1.0
 
     return show
+
+
+def end_progress_line() -> None:
+    """End an unfinished progress line on stderr, so that a message printed next starts a line."""
+    global _progress_line_open
+    if _progress_line_open:
+        print(file=sys.stderr, flush=True)
+        _progress_line_open = False
 
 
 # ---- arguments several rigs' commands declare alike ----------------------------------------------

@@ -125,12 +125,18 @@ def connect(address: str | None = None, workers: int | None = None, *, what: str
     if n < 1:
         raise ImpactidError(f"a local cluster needs at least one worker, got {n}")
     # the worker processes start with one numba thread each: set before they are spawned (they may
-    # import numba while starting, e.g. when the main module imports impactid)
+    # import numba while starting, e.g. when the main module imports impactid). A nanny sets these in
+    # the environment of its own process, which for a local cluster is this one: restored below
+    # (numba refuses to compile once its threads run if NUMBA_NUM_THREADS has changed since)
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_ENV}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-        # no dashboard; the scheduler's small HTTP server (health checks) on a free port, not on 8787
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                               scheduler_kwargs={"dashboard_address": ":0"}, memory_limit=memory_limit)
+    saved = {key: os.environ.get(key) for key in environ}
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            # no dashboard; the scheduler's small HTTP server (health checks) on a free port, not on 8787
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   scheduler_kwargs={"dashboard_address": ":0"}, memory_limit=memory_limit)
+    finally:
+        _restore_environ(saved)
     try:
         client = Client(cluster)
         try:
@@ -146,6 +152,16 @@ def connect(address: str | None = None, workers: int | None = None, *, what: str
             cluster.close()
         finally:
             nanny.setLevel(level)
+            _restore_environ(saved)  # a nanny that restarted a dead worker set them again
+
+
+def _restore_environ(saved: dict[str, str | None]) -> None:
+    """Put back the environment variables ``saved`` (None: unset)."""
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
 
 
 def scheduler_arguments(*, local_default: bool = False) -> tuple:

@@ -328,6 +328,7 @@ def test_campaign_on_a_local_cluster_survives_a_worker_death(tmp_path, recording
 
     spec = load_campaign(_campaign(tmp_path, recordings))
     killed: list[int] = []
+    environ = {key: os.environ.get(key) for key in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")}
     with connect(workers=2) as client:
         pids = client.run(os.getpid)
 
@@ -355,6 +356,9 @@ def test_campaign_on_a_local_cluster_survives_a_worker_death(tmp_path, recording
 
         grid = dict(e_over_rc=[0.25], cam_speeds_hz=[5.0, 15.0], max_revolutions=300)
         pd.testing.assert_frame_equal(regime_map(SUNDAR2016, **grid, client=client), regime_map(SUNDAR2016, **grid))
+    # the nannies set the workers' environment in this process (restarting the killed worker, too);
+    # it is restored: numba refuses to compile here once NUMBA_NUM_THREADS has changed
+    assert {key: os.environ.get(key) for key in environ} == environ
     assert killed, "no worker was busy with a fit when one had finished"
     path, content = witness[0]
     assert path.read_bytes() == content  # a finished result is never rewritten

@@ -528,11 +528,18 @@ def _impactid(*argv, **kwargs):
 @pytest.mark.slow
 def test_ctrl_c_during_a_grid_search(good, tmp_path):
     rec = _write(good, tmp_path / "r.h5")
-    proc = _impactid("estimate", rec, "--grid", "300,300", "--out", tmp_path / "r.json")
-    time.sleep(6.0)  # imports, reading and the start of the search
+    proc = _impactid("estimate", rec, "--grid", "300,300", "--progress", "--out", tmp_path / "r.json")
+    # interrupt once the search has started (its progress line says so), however long the imports
+    # and the reading take on a loaded machine
+    seen, deadline = b"", time.time() + 180
+    while b"search" not in seen and time.time() < deadline and proc.poll() is None:
+        seen += os.read(proc.stderr.fileno(), 256)
+    assert b"search" in seen and proc.poll() is None, seen
+    time.sleep(0.5)
     proc.send_signal(signal.SIGINT)
     started = time.perf_counter()
     _, err = proc.communicate(timeout=60)
+    err = seen.decode() + err
     assert time.perf_counter() - started < 5.0  # the compiled batches run in chunks that see Ctrl-C
     assert proc.returncode == 130 and "Traceback" not in err
     assert err.strip().splitlines()[-1].startswith("impactid: error: interrupted")
