@@ -49,6 +49,21 @@ The rig's functions
     end; a rig may also write there, into ``monitor``, the quantities it watches for events
     (a gap, a force), computed from the same evaluation.
 
+Compiling a rig's step
+----------------------
+The stages are inlined into the rig's function that calls :func:`step` (or :func:`initial_step`),
+and numba reference-counts every array an inlined function receives, at every call. When the
+increments and decrements cannot be paired up and removed, each stage pays a few atomic
+operations: about a third of the time of a cheap (free-flight) step. Two things keep them out:
+
+* pass the rig's parameters (``p``, ``law``) as tuples of floats rather than arrays where they
+  are few (they stay in registers, and tuples of floats are not reference-counted);
+* compile that function with ``error_model="numpy"``: under numba's default (Python's) error
+  model every float division in the stages carries a branch that raises ``ZeroDivisionError``,
+  and those branches are what keep the reference counting of the arrays that remain (``K``, the
+  monitor) from being removed. Under numpy's error model a division by zero gives an infinity or
+  a NaN, i.e. a non-finite trial step, which the rig's loop treats like any other.
+
 Status codes
 ------------
 One set for every kernel (:data:`STATUS_MESSAGES`); kernels return them instead of raising (numba
