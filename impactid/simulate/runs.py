@@ -152,20 +152,28 @@ def _raise_status(status: int, what: str, t: float) -> None:
         raise SimulationError(f"{what}: {K.STATUS_MESSAGES.get(status, status)} (at t = {t:.9g} s)")
 
 
+#: Columns of the contact frame after ``kind``, ``t_start``, ``t_end`` and ``duration``, and the
+#: kernel's table columns they come from (``friction_reversals`` follows, as an integer column).
+_CONTACT_COLUMNS = {
+    "gap_rate_start": K.C_DPSI_START, "gap_rate_end": K.C_DPSI_END, "peak_indentation": K.C_PEAK_DELTA,
+    "peak_force": K.C_PEAK_FORCE, "t_peak_force": K.C_T_PEAK_FORCE, "t_peak_indentation": K.C_T_PEAK_DELTA,
+    "alpha_start": K.C_ALPHA_START, "alpha_dot_start": K.C_RATE_START, "alpha_end": K.C_ALPHA_END,
+    "alpha_dot_end": K.C_RATE_END, "xi": K.C_XI,
+}
+
+
 def _contact_frame(table: np.ndarray) -> pd.DataFrame:
-    cols = {
-        "t_start": K.C_T_START, "t_end": K.C_T_END, "gap_rate_start": K.C_DPSI_START,
-        "gap_rate_end": K.C_DPSI_END, "peak_indentation": K.C_PEAK_DELTA, "peak_force": K.C_PEAK_FORCE,
-        "t_peak_force": K.C_T_PEAK_FORCE, "t_peak_indentation": K.C_T_PEAK_DELTA,
-        "alpha_start": K.C_ALPHA_START, "alpha_dot_start": K.C_RATE_START,
-        "alpha_end": K.C_ALPHA_END, "alpha_dot_end": K.C_RATE_END, "xi": K.C_XI,
-        "friction_reversals": K.C_FRICTION_REVERSALS,
-    }
-    frame = pd.DataFrame({name: table[:, c] for name, c in cols.items()})
-    frame.insert(2, "duration", frame["t_end"] - frame["t_start"])
-    frame.insert(0, "kind", [_ROW_KINDS.get(k, "?") for k in table[:, K.C_KIND]])
-    frame["friction_reversals"] = frame["friction_reversals"].fillna(0).astype(int)
-    return frame
+    """The kernel's contact table as the public DataFrame (one row per contact phase or impact).
+
+    Built in one constructor call with every column in its place: inserting and replacing columns
+    afterwards cost pandas about four times as much, as much as half of a 2 s run's simulation."""
+    start, end = table[:, K.C_T_START], table[:, K.C_T_END]
+    reversals = table[:, K.C_FRICTION_REVERSALS]
+    columns = {"kind": [_ROW_KINDS.get(k, "?") for k in table[:, K.C_KIND]], "t_start": start, "t_end": end,
+               "duration": end - start}
+    columns.update((name, table[:, c]) for name, c in _CONTACT_COLUMNS.items())
+    columns["friction_reversals"] = np.where(np.isnan(reversals), 0.0, reversals).astype(int)
+    return pd.DataFrame(columns)
 
 
 def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, grid, capacity, apex_capacity):
@@ -391,7 +399,7 @@ def simulate(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, duration: f
     _raise_status(status, f"simulation at {cam_speed_hz} Hz", t_fin)
     return SimulationResult(
         t=grid, alpha=g_a, alpha_dot=g_d, mode=g_m, contacts=_contact_frame(contacts[:n_c]),
-        apexes=pd.DataFrame({"t": apexes[:n_ap, 0], "alpha": apexes[:n_ap, 1]}),
+        apexes=pd.DataFrame(apexes[:n_ap], columns=["t", "alpha"]),
         final_time=t_fin, final_alpha=a_fin, final_alpha_dot=ad_fin, rig=rig, law=law,
         cam_speed_hz=cam_speed_hz, theta_ref=theta_ref, mu=float(p[K.MU]), n_steps=int(res.n_steps),
         n_rejected=int(res.n_rejected))
