@@ -3,7 +3,9 @@ point and the errors it raises. (The comparison with solve_ivp is in test_agains
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -22,7 +24,7 @@ from impactid import (
     simulate_events,
 )
 from impactid.rigs.pivoted import kernel as K
-from impactid.simulate.runs import pack_law, pack_rig
+from impactid.simulate.runs import EventResult, pack_law, pack_rig
 
 
 def _point_mass_parameters(mass, stiffness, arm=1000.0, contact_radius=0.03):
@@ -157,6 +159,19 @@ def test_s1_event_reproduces_the_s2_event_it_starts_from(seed_law):
     assert ev.contact_force.max() <= ev.peak_force * (1 + 1e-12)
     assert ev.contact_force.max() > 0.95 * ev.peak_force  # the grid (5 us) samples near the peak
     assert np.all(ev.indentation[ev.t > ev.contact_duration + 1e-6] == 0)
+
+
+def test_event_result_has_every_field_and_behaves_as_a_frozen_dataclass(seed_law):
+    """simulate_event builds its record without the dataclass's __init__ (runs._frozen_record)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
+    (a0, ad0, th0), t_e, _ = _period1_onset(rig, 15.0, seed_law)
+    ev = simulate_event(rig, 15.0, seed_law, a0, ad0, th0, t_e)
+    assert set(vars(ev)) == {f.name for f in dataclasses.fields(EventResult)}
+    assert ev == dataclasses.replace(ev)  # the same record through __init__ (the arrays compare by identity)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ev.alpha_m = 0.0
+    assert ev.contacts["t_start"].iloc[0] == ev.contact_table[0, K.C_T_START]
+    assert pickle.loads(pickle.dumps(ev)).alpha_m == ev.alpha_m
 
 
 def test_batch_equals_single_events(seed_law):
