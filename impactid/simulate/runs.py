@@ -85,13 +85,27 @@ DEFAULT_TOLERANCES = Tolerances()
 # ---------------------------------------------------------------------------------------------
 
 
+#: The last rig (with its own ``mu``) and the last law packed, with their vectors: S1 events are
+#: simulated by the thousand with one rig and law, and the identity check costs a tenth of the
+#: ``lru_cache`` lookup, which hashes every field of the frozen dataclass (about 1 us for a rig).
+_last_rig: tuple = (None, None)
+_last_law: tuple = (None, None)
+
+
 def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
     """Rig parameters as the kernel's parameter vector (optionally overriding ``mu``).
 
     Cached per (rig, mu): rigs are frozen, and S1 events are simulated by the thousand."""
+    global _last_rig
+    last = _last_rig  # one read: another thread may replace it
+    if mu is None and rig is last[0]:
+        return last[1]
     if not isinstance(rig, PivotedFollowerRig):
         raise SimulationInputError(f"expected a PivotedFollowerRig, got {type(rig).__name__}")
-    return _pack_rig_cached(rig, None if mu is None else _finite("mu", mu))
+    p = _pack_rig_cached(rig, None if mu is None else _finite("mu", mu))
+    if mu is None:
+        _last_rig = (rig, p)
+    return p
 
 
 @functools.lru_cache(maxsize=256)
@@ -112,9 +126,19 @@ def _pack_rig_cached(rig: PivotedFollowerRig, mu: float | None) -> np.ndarray:
     return p
 
 
-@functools.lru_cache(maxsize=256)
 def pack_law(law: Law) -> np.ndarray:
     """Contact or restitution law as the kernel's law vector (cached; read-only)."""
+    global _last_law
+    last = _last_law
+    if law is last[0]:
+        return last[1]
+    v = _pack_law_cached(law)
+    _last_law = (law, v)
+    return v
+
+
+@functools.lru_cache(maxsize=256)
+def _pack_law_cached(law: Law) -> np.ndarray:
     v = np.zeros(K.N_LAW)
     if isinstance(law, HuntCrossley):
         v[K.LAW_KIND] = K.KIND_COMPLIANT
@@ -138,6 +162,15 @@ def _finite(name: str, value) -> float:
     if not math.isfinite(value):
         raise SimulationInputError(f"{name} must be finite, got {value!r}")
     return value
+
+
+def _all_finite(a, b, c, d) -> bool:
+    """True if the four values are finite numbers (the fast check of valid input; False also for
+    values that :func:`_finite` accepts after converting them, such as numeric strings)."""
+    try:
+        return math.isfinite(a) and math.isfinite(b) and math.isfinite(c) and math.isfinite(d)
+    except TypeError:
+        return False
 
 
 def _cam_speed(cam_speed_hz) -> float:
@@ -176,19 +209,26 @@ def _contact_frame(table: np.ndarray) -> pd.DataFrame:
     return pd.DataFrame(columns)
 
 
+#: The apex table of a run that keeps none (capacity 0: the kernel never writes it).
+_NO_APEXES = np.empty((0, 2))
+
+
 def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, grid, capacity, apex_capacity):
     """Call the kernel, growing the tables until they are large enough."""
     mode0 = -1  # the kernel derives the initial mode from the state (saves a dispatch)
     h_max = tol.max_step_revolutions * 2.0 * math.pi / omega
-    g_a = np.empty(grid.shape[0])
-    g_d = np.empty(grid.shape[0])
+    if grid.shape[0]:
+        g_a = np.empty(grid.shape[0])
+        g_d = np.empty(grid.shape[0])
+    else:  # nothing is written: the empty grid serves (S1 events are simulated by the thousand)
+        g_a = g_d = grid
     g_m = np.empty(grid.shape[0], dtype=np.int8)
     # grow the tables (x8) when they fill, but never beyond about 400 MB: a run with that many
     # contacts is chattering and is reported rather than allowed to exhaust memory
     limit = 4_000_000
     while True:
         contacts = np.empty((capacity, K.N_CCOL))
-        apexes = np.empty((apex_capacity, 2))
+        apexes = np.empty((apex_capacity, 2)) if apex_capacity else _NO_APEXES
         res = K.RunEnd._make(K.integrate_fields(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
                                                 tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
                                                 grid, g_a, g_d, g_m, contacts, apexes))
@@ -308,16 +348,17 @@ class EventResult:
         return _contact_frame(self.contact_table)
 
 
-def _frozen_record(cls, **values):
-    """An instance of the frozen dataclass ``cls`` with the given field values (every field), made
-    without its generated ``__init__``.
+def _frozen_record(cls, values: dict):
+    """An instance of the frozen dataclass ``cls`` whose ``__dict__`` is ``values`` (every field,
+    by name), made without its generated ``__init__``.
 
     That ``__init__`` sets each field through ``object.__setattr__`` (the price of being frozen):
-    for the 19 fields of :class:`EventResult` it took twice as long as this, about 3 us, some 5 %
-    of a simulated S1 event. The class must not need ``__post_init__``.
+    for the 19 fields of :class:`EventResult` it took three times as long as a dict display handed
+    over as the instance's ``__dict__``, about 5 us, some 5 % of a simulated S1 event. The class
+    must not need ``__post_init__``.
     """
     record = object.__new__(cls)
-    record.__dict__.update(values)
+    object.__setattr__(record, "__dict__", values)
     return record
 
 
@@ -427,8 +468,9 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
     flight; it follows every contact and free-flight phase until ``t_end`` [s].
     """
     cam_speed_hz = _cam_speed(cam_speed_hz)
-    for name, v in (("alpha0", alpha0), ("alpha_dot0", alpha_dot0), ("theta0", theta0), ("t_end", t_end)):
-        _finite(name, v)
+    if not _all_finite(alpha0, alpha_dot0, theta0, t_end):  # else the slow check names the culprit
+        for name, v in (("alpha0", alpha0), ("alpha_dot0", alpha_dot0), ("theta0", theta0), ("t_end", t_end)):
+            _finite(name, v)
     if t_end <= 0.0:
         raise SimulationInputError(f"t_end must be positive, got {t_end!r} s")
     p = pack_rig(rig, mu)
@@ -455,12 +497,18 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
         peak_f, peak_d = first[K.C_PEAK_FORCE], first[K.C_PEAK_DELTA]
     else:
         duration = exit_a = exit_ad = approach = separation = peak_f = peak_d = math.nan
-    return _frozen_record(
-        EventResult, alpha_m=res.alpha_max, t_alpha_m=res.t_alpha_max, contact_duration=duration, exit_alpha=exit_a,
-        exit_alpha_dot=exit_ad, approach_gap_rate=approach, separation_gap_rate=separation, peak_force=peak_f,
-        peak_indentation=peak_d, n_contacts=n_contacts, contact_table=table, t=grid,
-        contact_force=force, indentation=indentation, alpha=g_a,
-        alpha_dot=g_d, final_alpha=res.alpha, final_alpha_dot=res.alpha_dot, n_steps=int(res.n_steps))
+    return _frozen_record(EventResult, {
+        "alpha_m": res.alpha_max, "t_alpha_m": res.t_alpha_max, "contact_duration": duration, "exit_alpha": exit_a,
+        "exit_alpha_dot": exit_ad, "approach_gap_rate": approach, "separation_gap_rate": separation,
+        "peak_force": peak_f, "peak_indentation": peak_d, "n_contacts": n_contacts, "contact_table": table,
+        "t": grid, "contact_force": force, "indentation": indentation, "alpha": g_a, "alpha_dot": g_d,
+        "final_alpha": res.alpha, "final_alpha_dot": res.alpha_dot, "n_steps": int(res.n_steps)})
+
+
+@functools.lru_cache(maxsize=4)
+def _batch_law(clip: bool) -> np.ndarray:
+    """The law vector of a batch: Hunt–Crossley, ``beta`` and ``n`` set per trial by the kernel."""
+    return pack_law(HuntCrossley(beta=1.0, n=1.5, clip=clip))
 
 
 def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,
@@ -502,15 +550,16 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         raise SimulationInputError(f"t_end must have one entry per event ({states.shape[0]}), got {t_end.shape}")
     if trials.shape[1] != 2:
         raise SimulationInputError(f"trials must have shape (n_trials, 2) of (beta, n), got {trials.shape}")
+    # (the arrays' own methods: numpy's functions add a dispatch that cost as much as the checks)
     for name, arr in (("states", states), ("t_end", t_end), ("trials", trials)):
-        if not np.all(np.isfinite(arr)):
+        if not np.isfinite(arr).all():
             raise SimulationInputError(f"{name} contains non-finite values")
-    if np.any(t_end <= 0.0):
+    if (t_end <= 0.0).any():
         raise SimulationInputError("every t_end must be positive")
-    if np.any(trials < 0.0):
+    if (trials < 0.0).any():
         raise SimulationInputError("trial beta and n must be >= 0")
     p = pack_rig(rig, mu)
-    law_vec = pack_law(HuntCrossley(beta=1.0, n=1.5, clip=clip))
+    law_vec = _batch_law(clip)
     omega = 2.0 * math.pi * cam_speed_hz
     n_ev, n_tr = states.shape[0], trials.shape[0]
     if grids is not None:
@@ -536,7 +585,7 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
                        hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS)
     status = summary[:, :, K.S_STATUS].astype(int)
     failed = status != K.OK
-    if np.any(failed):
+    if failed.any():
         if on_failure == "raise":
             tr, ev = np.argwhere(failed)[0]
             raise SimulationError(

@@ -218,6 +218,29 @@ def test_non_physical_inputs_raise_clear_errors(call, error, message):
         call()
 
 
+def test_packing_is_remembered_per_object_and_agrees_with_equal_objects():
+    """pack_rig and pack_law answer a repeated rig or law from an identity check (runs._last_rig)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
+    p = pack_rig(rig)
+    assert pack_rig(rig) is p
+    assert np.array_equal(pack_rig(SUNDAR2016.with_eccentricity_ratio(0.25)), p)  # an equal rig: same vector
+    assert pack_rig(rig, mu=0.3)[K.MU] == 0.3 and pack_rig(rig)[K.MU] == rig.mu
+    assert pack_rig(SUNDAR2016)[K.ECC] == SUNDAR2016.e and pack_rig(rig) is p
+    law = HuntCrossley(24.7e9, 1.5)
+    assert pack_law(law) is pack_law(law)
+    assert pack_law(HuntCrossley(1e9, 1.0))[K.BETA] == 1e9 and pack_law(law)[K.BETA] == 24.7e9
+    with pytest.raises(SimulationInputError, match="PivotedFollowerRig"):
+        pack_rig(object())
+
+
+def test_event_inputs_that_convert_to_numbers_are_accepted(seed_law):
+    """simulate_event's fast finiteness check falls back to the converting one (runs._finite)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
+    (a0, ad0, th0), t_e, _ = _period1_onset(rig, 15.0, seed_law)
+    ev = simulate_event(rig, 15.0, seed_law, a0, ad0, th0, t_e)
+    assert simulate_event(rig, 15.0, seed_law, str(a0), ad0, np.float64(th0), t_e).alpha_m == ev.alpha_m
+
+
 def test_solver_failure_raises():
     with pytest.raises(SimulationError, match="maximum number of integration steps"):
         simulate(SUNDAR2016, 16.0, HuntCrossley(24.7e9), 1.0, tolerances=Tolerances(max_steps=50))
