@@ -1,6 +1,7 @@
 """Validate the estimators across the period-1 envelope of rig P; writes docs/validation_envelope.md.
 
     python benchmarks/validate_envelope.py [--hc 60] [--s3 15] [--seed 2026] [--out docs/validation_envelope.md]
+        [--workers N | --scheduler ADDRESS]
 
 Cases are drawn with a fixed seed across the region where impactid's own regime classification finds
 period-1 motion for each case's law (e/r_c 0.05-0.30, beta 5e9-1e11 N s m^-(n+1) log-uniform, n
@@ -14,7 +15,9 @@ distribution, the coverage of the reported intervals, and the targets met or mis
 
 The drawn cases are cached next to the output (``validation_envelope_cases.json``) so that a rerun
 validates the same cases; ``--redraw`` draws them again. Per-case results go to
-``validation_envelope.csv``. ``benchmarks/envelope_notes.md`` (hand-written: the analysis of the
+``validation_envelope.csv``. With ``--workers N`` (a local dask cluster) or ``--scheduler ADDRESS``
+(an existing one; its workers must import this repository's ``tests`` package), the cases run on the
+cluster's workers (:mod:`impactid.distributed`). ``benchmarks/envelope_notes.md`` (hand-written: the analysis of the
 misses) is included in the page.
 """
 
@@ -22,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import json
 import math
 import platform
@@ -37,6 +41,7 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from impactid.distributed import add_scheduler_arguments, iter_tasks, scheduler_client  # noqa: E402
 from tests import envelope as E  # noqa: E402
 
 TARGETS = {
@@ -181,6 +186,7 @@ def main(argv=None) -> int:
     parser.add_argument("--redraw", action="store_true", help="draw the cases again (ignore the cache)")
     parser.add_argument("--fresh", action="store_true", help="recompute every case (ignore finished rows)")
     parser.add_argument("--no-joint", action="store_true", help="skip the joint fits (quick look)")
+    add_scheduler_arguments(parser)  # --scheduler ADDRESS / --workers N: the cases on a dask cluster
     args = parser.parse_args(argv)
     started = time.perf_counter()
     cache = args.out.with_name("validation_envelope_cases.json")
@@ -205,24 +211,33 @@ def main(argv=None) -> int:
                 entry = json.loads(line)
                 if entry["joint"] == (not args.no_joint):
                     done[entry["case"]["id"]] = entry
-    rows = []
+    rows: list[dict | None] = [None] * len(cases)
     versions = set()
+    pending = []
     for k, case in enumerate(cases):
-        t0 = time.perf_counter()
         entry = done.get(case.id)
         if entry is not None and entry["case"] == json.loads(json.dumps(asdict(case))):
-            rows.append(entry["row"])
+            rows[k] = entry["row"]
             versions.add(entry["source"])
             print(f"[{k + 1}/{len(cases)}] {case.id}: done in an earlier run", flush=True)
-            continue
-        rows.append(E.run_case(case, joint=not args.no_joint))
-        versions.add(version)
-        with done_path.open("a") as handle:
-            handle.write(json.dumps({"source": version, "joint": not args.no_joint, "case": asdict(case),
-                                     "row": rows[-1]}, default=_plain) + "\n")
-        brief = ", ".join(f"{o['fit']} {o['status']}" for o in rows[-1]["outcomes"]) or rows[-1]["generation"]
-        print(f"[{k + 1}/{len(cases)}] {case.id} {case.klass} ({case.generator}): {brief} "
-              f"({time.perf_counter() - t0:.0f} s)", flush=True)
+        else:
+            pending.append(k)
+    # the cases left run here one after the other, or on the workers of --scheduler/--workers; each row
+    # is appended to the rows file as soon as its case finishes, in whatever order they finish
+    t0 = time.perf_counter()
+    run = functools.partial(E.run_case, joint=not args.no_joint)
+    with scheduler_client(args, what="validate_envelope.py") as client:
+        for finished, (j, row) in enumerate(iter_tasks(run, [cases[k] for k in pending], client=client), start=1):
+            k = pending[j]
+            case = cases[k]
+            rows[k] = row
+            versions.add(version)
+            with done_path.open("a") as handle:
+                handle.write(json.dumps({"source": version, "joint": not args.no_joint, "case": asdict(case),
+                                         "row": row}, default=_plain) + "\n")
+            brief = ", ".join(f"{o['fit']} {o['status']}" for o in row["outcomes"]) or row["generation"]
+            print(f"[{k + 1}/{len(cases)}] {case.id} {case.klass} ({case.generator}): {brief} "
+                  f"({finished}/{len(pending)} after {time.perf_counter() - t0:.0f} s)", flush=True)
     frame = _flatten(rows)
     frame.to_csv(args.out.with_suffix(".csv"), index=False)
     body, met = summarise(frame)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PipelineBias", "pipeline_bias"]
+__all__ = ["PipelineBias", "RecordingSampling", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
 #: of rig P need about 35 s; docs/estimation.md).
@@ -61,34 +61,70 @@ class PipelineBias:
         return {"alpha_m": self.alpha_m, "stderr": self.stderr, "events": self.events}
 
 
+@dataclass(frozen=True)
+class RecordingSampling:
+    """What the calibration copies of a recording: its rig and operating point, its sampling and
+    the accelerometer's noise level (a few numbers, where the recording holds millions of samples:
+    what a task of a campaign passes on instead of the recording).
+
+    Attributes
+    ----------
+    rig : the rig dataclass (rig P).
+    cam_speed_hz : cam speed [Hz].
+    sample_rate_hz : sampling rate [Hz].
+    start_time_s : time of the first sample [s].
+    duration : recorded time [s].
+    noise_fraction : the accelerometer's noise floor as a fraction of its largest magnitude [-].
+    """
+
+    rig: object
+    cam_speed_hz: float
+    sample_rate_hz: float
+    start_time_s: float
+    duration: float
+    noise_fraction: float
+
+    @classmethod
+    def of(cls, recording) -> RecordingSampling:
+        """The sampling of a :class:`~impactid.io.Recording` (with a rig, a cam speed and ``accel_tangential``)."""
+        from impactid.events import noise_floor
+
+        accel = recording["accel_tangential"]
+        fraction = noise_floor(accel) / max(float(np.max(np.abs(accel))), 1e-300)
+        return cls(rig=recording.rig, cam_speed_hz=float(recording.require_cam_speed()),
+                   sample_rate_hz=float(recording.sample_rate_hz), start_time_s=float(recording.start_time_s),
+                   duration=float(recording.duration), noise_fraction=float(fraction))
+
+
 def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase", seed: int = 0) -> PipelineBias:
     """Bias of the reconstructed ``alpha_m`` at the recording's sampling, on the model at ``law``.
 
     Parameters
     ----------
     recording : the measured :class:`~impactid.io.Recording` (its rig, cam speed, sample rate,
-        start time, duration and the accelerometer's noise floor are copied).
+        start time, duration and the accelerometer's noise floor are copied), or its
+        :class:`RecordingSampling`.
     law : the fitted :class:`~impactid.contact.HuntCrossley` law.
     integration, anchor : the reconstruction's methods (the same as the estimate's).
     seed : seed of the simulated noise.
     """
-    from impactid.events import find_events, noise_floor
+    from impactid.events import find_events
     from impactid.reconstruct import reconstruct
     from impactid.synth import SensorModel, synth_pivoted
 
-    accel = recording["accel_tangential"]
-    fraction = noise_floor(accel) / max(float(np.max(np.abs(accel))), 1e-300)
-    duration = max(recording.duration, (MIN_EVENTS + 1) / recording.require_cam_speed())
-    start = max(recording.start_time_s, SETTLE_S)
+    sampling = recording if isinstance(recording, RecordingSampling) else RecordingSampling.of(recording)
+    fraction = sampling.noise_fraction
+    duration = max(sampling.duration, (MIN_EVENTS + 1) / sampling.cam_speed_hz)
+    start = max(sampling.start_time_s, SETTLE_S)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        synthetic = synth_pivoted(recording.rig, recording.require_cam_speed(), law, duration, settle_s=start,
-                                  sample_rate_hz=recording.sample_rate_hz, mu=recording.rig.mu,
+        synthetic = synth_pivoted(sampling.rig, sampling.cam_speed_hz, law, duration, settle_s=start,
+                                  sample_rate_hz=sampling.sample_rate_hz, mu=sampling.rig.mu,
                                   sensors=SensorModel(noise={"accel_tangential": fraction}, seed=seed),
                                   channels=("accel_tangential",))
         try:
             recon = reconstruct(synthetic.recording, find_events(synthetic.recording, warn=False),
-                                integration=integration, anchor=anchor)
+                                integration=integration, anchor=anchor, warn=False)
         except Exception:  # noqa: BLE001 - a calibration that cannot run leaves the estimate as it is
             return PipelineBias(math.nan, math.nan, 0)
     apex_t = np.asarray(synthetic.truth["apexes"]["t"], dtype=float)

@@ -1,9 +1,12 @@
-"""Shared pieces of the ``impactid`` commands: usage errors, argument types and JSON output.
+"""Shared pieces of the ``impactid`` commands: usage errors, argument types, JSON output, and the
+plumbing that several rigs' commands use (rig and recording arguments, output checks, delivery).
 
-Every command (the core ones in :mod:`impactid.cli` and those the rigs contribute through
+Every command (``impactid info`` in :mod:`impactid.cli` and those the rigs contribute through
 :class:`~impactid.rigs.base.CommandSpec`) parses numbers with these types, so a bad argument ends in
 the same one-line ``impactid: error: argument --x: ...`` whichever rig defines it, and writes JSON
 with :func:`json_text` (non-finite numbers become ``null`` and are listed under ``warnings``).
+Output paths are checked before any computation (:func:`check_outputs`) and written as
+transactions (:func:`deliver`: the JSON first, then the figures).
 """
 
 from __future__ import annotations
@@ -12,14 +15,25 @@ import argparse
 import json
 import math
 import sys
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from impactid._files import StagedFiles, check_output
 from impactid.errors import ImpactidError
+from impactid.rigs.base import Argument
 
-__all__ = ["UsageError", "exponent", "fraction", "integer_in", "json_text", "nonnegative", "num", "number", "pair",
-           "positive", "print_json"]
+__all__ = ["CAM_PPR", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "SAMPLE_RATE", "SEED",
+           "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "command_inputs", "deliver",
+           "end_progress_line", "exponent", "fraction", "integer_in", "is_rig_file", "json_text", "noise_channels",
+           "nonnegative", "num", "number", "pair", "positive", "print_json", "progress_bar", "recording_arguments",
+           "recording_paths", "recording_rig", "rig_help", "say_written", "speed_arguments"]
+
+#: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
+MAX_SWEEP_POINTS = 10_000
+#: Largest number of samples ``synth`` generates (times the decimation factor).
+MAX_SYNTH_SAMPLES = 200_000_000
 
 
 class UsageError(ImpactidError, ValueError):
@@ -124,3 +138,200 @@ def num(value, fmt: str = ".5g") -> str:
         return "undetermined"
     return format(float(value), fmt)
 
+
+
+# ---- rigs and recordings ------------------------------------------------------------------------
+
+#: How ``--rig`` is resolved (:func:`impactid.rigs.registry.resolve_rig`), for the commands' help.
+RIG_RULES = ("a model name (the paper's parameter table), a preset name (SUNDAR2016, ALZATE2007, ...) or a TOML "
+             "rig file (its [rig] model picks the rig)")
+
+
+def rig_help(what: str) -> str:
+    """Help text of a ``--rig`` argument: ``what`` it is for, then the resolver's rules."""
+    return f"{what}: {RIG_RULES}"
+
+
+def is_rig_file(spec: str | None) -> bool:
+    """Whether a ``--rig`` value names a rig file (not a model or preset name)."""
+    from impactid.rigs.registry import rig_by_name
+
+    return spec is not None and rig_by_name(spec) is None
+
+
+def recording_rig(args):
+    """``--rig`` of a recording command, for :func:`impactid.io.read_recording`: the parameter set a
+    model or preset name stands for, the rig file's path (read with the recording: it also supplies
+    the operating point), or None to use the recording's own rig."""
+    from impactid.rigs.registry import RIG_MODELS, rig_by_name
+
+    spec = getattr(args, "rig", None)
+    if spec is None:
+        return None
+    named = rig_by_name(spec)
+    if named is not None and named[0].name not in RIG_MODELS:
+        raise UsageError(f"argument --rig: {spec!r} names the {named[0].name!r} rig, which has no recordings of "
+                         f"this kind (give a model or preset name of {', '.join(RIG_MODELS)}, or a rig file)")
+    return named[1] if named is not None else spec
+
+
+def cam_speed(args, operating, required: bool = True) -> float | None:
+    """``--cam-speed`` [Hz] or ``--rpm``, else the rig file's ``[operating] cam_speed_hz``."""
+    if getattr(args, "rpm", None) is not None:
+        return args.rpm / 60.0
+    if getattr(args, "cam_speed", None) is not None:
+        return args.cam_speed
+    if "cam_speed_hz" in operating:
+        return float(operating["cam_speed_hz"])
+    if required:
+        raise UsageError("no cam speed: give --cam-speed HZ (or --rpm RPM), or a rig file with "
+                         "[operating] cam_speed_hz")
+    return None
+
+
+def noise_channels(items) -> dict[str, float]:
+    """``--noise-channel NAME=FRACTION`` (repeated) as a dict."""
+    noise = {}
+    for item in items or []:
+        name, _, value = item.partition("=")
+        try:
+            noise[name] = fraction(value)
+        except argparse.ArgumentTypeError as exc:
+            raise UsageError(f"argument --noise-channel: expected NAME=FRACTION, got {item!r} ({exc})") from None
+    return noise
+
+
+def _sibling_tomls(paths) -> list[Path]:
+    return [Path(p).with_suffix(".toml") for p in paths if str(p).lower().endswith((".csv", ".txt"))]
+
+
+def command_inputs(args, recordings: Sequence, extra: Sequence = ()) -> list:
+    """Every input file of a command (for the output checks): recordings, their sibling rig files,
+    the ``--rig`` file and ``extra`` files (a ``--profile``, ...)."""
+    files = list(recordings) + _sibling_tomls(recordings)
+    if is_rig_file(getattr(args, "rig", None)):
+        files.append(args.rig)
+    return files + [f for f in extra if f]
+
+
+def check_outputs(args, inputs: Sequence, *, out: str = "out", out_is_dir: bool = False) -> None:
+    """Check ``--out`` and ``--plots`` before the computation starts."""
+    if getattr(args, out, None):
+        check_output(getattr(args, out), option="--out", inputs=inputs, directory=out_is_dir)
+    if getattr(args, "plots", None):
+        check_output(args.plots, option="--plots", inputs=inputs, directory=True)
+
+
+def recording_paths(args, several: bool = False) -> list:
+    """The recordings of a command: its positional ``recording`` (or ``recordings``) and ``--example``."""
+    given = list(args.recordings) if several else ([args.recording] if args.recording else [])
+    if args.example:
+        if given and not several:
+            raise UsageError("give either a recording or --example, not both")
+        from impactid.examples import example_recording_paths
+
+        paths = example_recording_paths()
+        return (paths if several else paths[:1]) + given
+    if not given:
+        what = "give one or more recordings" if several else "no recording given (pass a file"
+        raise UsageError(f"{what}, or --example for the built-in example" + ("" if several else ")"))
+    return given
+
+
+def deliver(args, data: dict, inputs: Sequence,
+            figures: tuple[Sequence[str], Callable[[StagedFiles], object]] | None = None) -> None:
+    """Write ``data`` as JSON to ``--out`` (committed first), then the figures into ``--plots``, as a
+    second transaction; ``--json`` prints the JSON on stdout.
+
+    ``figures`` is ``(names, write)``: the file names the figures will have (listed in the JSON as
+    ``plots``) and ``write(staged)``, which writes them into ``args.plots``."""
+    if args.plots and figures:
+        data["plots"] = [str(Path(args.plots) / name) for name in figures[0]]
+    if args.out:
+        with StagedFiles(protect=inputs) as staged:
+            staged.write_text(args.out, json_text(data))
+    if args.plots and figures:
+        with StagedFiles(protect=inputs) as staged:
+            figures[1](staged)
+    if args.json:
+        print_json(data)
+
+
+def say_written(args) -> None:
+    if args.out:
+        print(f"  result written to {args.out}")
+    if args.plots:
+        print(f"  figures written to {args.plots}")
+
+
+_progress_line_open = False
+
+
+def progress_bar(enabled: bool):
+    """A one-line progress display on stderr (only when enabled, e.g. stderr is a terminal)."""
+    if not enabled:
+        return None
+
+    def show(stage: str, fraction: float) -> None:
+        global _progress_line_open
+        width = 30
+        filled = int(round(width * max(0.0, min(fraction, 1.0))))
+        end = "\n" if fraction >= 1.0 else ""
+        print(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}% {stage:<12}", end=end,
+              file=sys.stderr, flush=True)
+        _progress_line_open = fraction < 1.0
+
+    return show
+
+
+def end_progress_line() -> None:
+    """End an unfinished progress line on stderr, so that a message printed next starts a line."""
+    global _progress_line_open
+    if _progress_line_open:
+        print(file=sys.stderr, flush=True)
+        _progress_line_open = False
+
+
+# ---- arguments several rigs' commands declare alike ----------------------------------------------
+
+JSON = Argument(("--json",), {"action": "store_true", "help": "print JSON"})
+
+
+def recording_arguments(several: bool = False) -> tuple[Argument, ...]:
+    """The recording(s), ``--example`` and ``--rig`` of a command that reads recordings."""
+    if several:
+        files = Argument(("recordings",), {"metavar": "REC", "nargs": "*",
+                                           "help": "HDF5 or CSV recordings (several: joint fit)"})
+    else:
+        files = Argument(("recording",), {"metavar": "REC", "nargs": "?", "help": "HDF5 or CSV recording"})
+    return (
+        files,
+        Argument(("--example",), {"action": "store_true", "help": "use the built-in example (two recordings of "
+                                                                  "one rig; commands that read one use the first)"}),
+        Argument(("--rig",), {"metavar": "RIG.toml|MODEL|PRESET",
+                              "help": rig_help("supplies or overrides the recording's rig (a rig file also its "
+                                               "operating point)")}),
+    )
+
+
+def speed_arguments(rpm: bool = False) -> tuple[Argument, ...]:
+    """``--cam-speed HZ`` (default: the rig file's ``[operating] cam_speed_hz``) and ``--rpm``."""
+    out = (Argument(("--cam-speed",), {"type": positive, "default": None, "metavar": "HZ",
+                                       "help": "cam speed [Hz] (default: the rig file's [operating] cam_speed_hz)"}),)
+    if rpm:
+        out += (Argument(("--rpm",), {"type": positive, "default": None,
+                                      "help": "cam speed [rpm] (instead of --cam-speed)"}),)
+    return out
+
+
+# the arguments of ``impactid synth`` that rig P and rig F share
+SYNTH_DURATION = Argument(("--duration",), {"type": positive, "default": 2.0,
+                                            "help": "recorded time [s] (default 2)"})
+SAMPLE_RATE = Argument(("--sample-rate",), {"type": positive, "default": None,
+                                            "help": "sample rate [Hz] (default 204800 for rig P, 20000 for rig F)"})
+NOISE_CHANNEL = Argument(("--noise-channel",), {"action": "append", "metavar": "NAME=FRACTION",
+                                                "help": "noise of one channel"})
+CAM_PPR = Argument(("--cam-ppr",), {"type": integer_in(1, 10_000_000), "default": None,
+                                    "help": "cam encoder pulses/rev (rig F default 5000)"})
+SEED = Argument(("--seed",), {"type": integer_in(0, 2**63 - 1), "default": 0, "help": "random seed"})
+SYNTH_OUT = Argument(("--out",), {"required": True, "metavar": "FILE.h5", "help": "output HDF5 file"})

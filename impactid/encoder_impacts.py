@@ -48,7 +48,7 @@ from impactid.camprofile import encoder_step
 from impactid.errors import ImpactidError
 from impactid.io import Recording
 from impactid.results import FitResult, Parameter
-from impactid.rigs.flat import FlatFollowerRig
+from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
 
 __all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
            "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
@@ -92,7 +92,7 @@ def _channel(recording: Recording, name: str) -> np.ndarray:
 
 
 def _analytic_profile(recording: Recording):
-    if not isinstance(recording.rig, FlatFollowerRig):
+    if getattr(recording.rig, "model", None) != MODEL_NAME:
         raise EncoderImpactError(f"{recording.source or 'recording'}: no cam profile given and the rig is not a "
                                  "flat-follower rig with an analytic profile; pass a fitted profile (impactid cam-fit)")
     return recording.rig.contact_angle
@@ -429,7 +429,8 @@ def simulated_first_bounce(rig: FlatFollowerRig, cam_speed_hz: float, restitutio
 
 
 def restitution_at_speed(recording: Recording, profile=None, method: str = "impact-law",
-                         rig: FlatFollowerRig | None = None, offset: float | None = None) -> RestitutionAtSpeed:
+                         rig: FlatFollowerRig | None = None, offset: float | None = None, *,
+                         warn: bool = True) -> RestitutionAtSpeed:
     """Coefficient of restitution of one impacting encoder recording (constant cam speed).
 
     Parameters
@@ -438,6 +439,8 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
     method : "impact-law" (mean of ``-v+/v-`` over the first impacts) or "first-bounce" (the
         model's ``r`` that reproduces the median first-bounce height; needs the rig).
     rig : rig F parameters for "first-bounce" (default the recording's rig).
+    warn : issue an :class:`EncoderImpactWarning` for each note (the result's ``warnings``, prefixed
+        with the recording); callers that carry the notes on pass False.
 
     Raises
     ------
@@ -464,7 +467,7 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
         se = float(np.std(values, ddof=1) / math.sqrt(values.size)) if values.size > 1 else math.nan
     else:
         rig = recording.rig if rig is None else rig
-        if not isinstance(rig, FlatFollowerRig):
+        if getattr(rig, "model", None) != MODEL_NAME:
             raise EncoderImpactError(f"{where}: the first-bounce method needs a flat-follower rig description")
         speed = motion.cam_speed_hz
 
@@ -489,7 +492,7 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
             heights = table["bounce_height"].to_numpy()
             se_h = 1.2533 * np.std(heights, ddof=1) / math.sqrt(heights.size) if heights.size > 1 else math.nan
             se = float(abs(se_h / slope)) if slope != 0.0 else math.nan
-    for note in notes:
+    for note in notes if warn else ():
         warnings.warn(f"{where}: {note}", EncoderImpactWarning, stacklevel=2)
     return RestitutionAtSpeed(cam_speed_hz=motion.cam_speed_hz, restitution=r, stderr=se, method=method,
                               n_impacts=len(table), bounce_height=bounce, impacts=table,

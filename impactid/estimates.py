@@ -14,14 +14,19 @@ peak indentation). In these coordinates the valley is nearly straight and a box 
 contains it (default ``c`` in [1, 1e6] N s/m, ``n`` in [0.5, 2.5]); results are reported in
 ``beta`` [N s m^-(n+1)].
 
-Methods. ``"optimise"`` (default): for each ``n`` a bounded Brent search of ``log10 c``,
-bracketed by a 41-point scan; for the joint fit the same inner search inside an outer bounded
-Brent over ``n`` (a profile: it follows the valley by construction, so its curvature cannot
-stall it). ``"grid"``: the paper's grid search, the grid point of least objective.
+Methods. ``"least-squares"`` (default): the per-event residual vector minimised by a
+trust-region Gauss–Newton method, with the Gauss–Newton covariance and the profile along the
+valley for the intervals (:mod:`impactid.gauss_newton`, where its interval rules are stated).
+``"optimise"``: for each ``n`` a bounded Brent search of ``log10 c``, bracketed by a 41-point
+scan; for the joint fit the same inner search inside an outer bounded Brent over ``n`` (a
+profile: it follows the valley by construction, so its curvature cannot stall it).
+``"grid"``: the paper's grid search, the grid point of least objective. On the validation cases
+the least-squares method agrees with the optimiser within both methods' intervals at about a
+hundredth of the simulations (``benchmarks/bench_estimate.py``, docs/performance.md).
 
-Uncertainty and identifiability. Around the estimate the per-event residuals are tabulated on a
-lattice (81 values of ``log10 c`` over +-0.1 decade about the valley, for 41 values of ``n`` in
-the joint fit) and interpolated by cubic splines. From it:
+Uncertainty and identifiability (``"optimise"`` and ``"grid"``). Around the estimate the per-event
+residuals are tabulated on a lattice (81 values of ``log10 c`` over +-0.1 decade about the valley,
+for 41 values of ``n`` in the joint fit) and interpolated by cubic splines. From it:
 
 * a **bootstrap over impacts** (400 resamples of the events, the fit repeated on each), giving
   95 % percentile intervals;
@@ -61,8 +66,8 @@ from impactid.errors import ImpactidError, SimulationError
 from impactid.residuals import EventSet, residual_name
 from impactid.results import FitResult, Parameter
 
-__all__ = ["ALIKE_SPREAD", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "CALIBRATION_THRESHOLD", "C_BOUNDS", "N_BOUNDS",
-           "RESIDUAL_FLOOR", "SEPARABILITY_WIDTH", "ContactDampingResult", "DampingEstimate", "Estimate",
+__all__ = ["ALIKE_SPREAD", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "CALIBRATION_THRESHOLD", "C_BOUNDS", "METHODS",
+           "N_BOUNDS", "RESIDUAL_FLOOR", "SEPARABILITY_WIDTH", "ContactDampingResult", "DampingEstimate", "Estimate",
            "EstimationWarning", "Landscape", "Progress", "RestitutionEstimate", "RestitutionResult", "estimate",
            "fit_contact_damping", "fit_restitution", "objective_landscape", "reference_indentation"]
 
@@ -81,6 +86,9 @@ ALIKE_SPREAD = 0.02
 #: Bootstrap resamples and the random seed (fixed: the same data give the same intervals).
 BOOTSTRAP_RESAMPLES = 400
 BOOTSTRAP_SEED = 20161122
+#: Estimation methods: ``"least-squares"`` (trust-region Gauss-Newton, :mod:`impactid.gauss_newton`),
+#: ``"optimise"`` (nested bounded Brent along the valley), ``"grid"`` (the paper's grid search).
+METHODS = ("least-squares", "optimise", "grid")
 
 _SCAN_POINTS = 41
 _LATTICE_HALF_WIDTH = 0.1  # decades of c around the valley
@@ -229,6 +237,9 @@ class DampingEstimate:
     warnings: tuple[str, ...] = ()
     #: S1 runs (trial law x event) that could not be simulated and got the documented penalty
     n_failed_simulations: int = 0
+    #: Gauss-Newton standard errors of beta and n (least-squares method; NaN otherwise)
+    beta_stderr: float = math.nan
+    n_stderr: float = math.nan
 
     @property
     def damping_at_reference(self) -> float:
@@ -332,12 +343,12 @@ def objective_landscape(sets: Sequence[EventSet], residual: str = "lambda1", *, 
 
 
 def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "lambda1", *,
-                        fix_n: float | None = None, method: str = "optimise", grid: tuple[int, int] = (41, 21),
+                        fix_n: float | None = None, method: str = "least-squares", grid: tuple[int, int] = (41, 21),
                         c_bounds: tuple[float, float] = C_BOUNDS, n_bounds: tuple[float, float] = N_BOUNDS,
                         landscape: bool = False, progress: Progress | None = None,
                         systematic: float = 0.0, residual_floor: float | None = None,
                         separability_width: float = SEPARABILITY_WIDTH, bootstrap_resamples: int = BOOTSTRAP_RESAMPLES,
-                        bootstrap_seed: int = BOOTSTRAP_SEED) -> DampingEstimate:
+                        bootstrap_seed: int = BOOTSTRAP_SEED, warn: bool = True) -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -345,7 +356,9 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     sets : event sets of one or several recordings of the same rig (pooled: joint fit).
     residual : ``lambda1`` (default, accelerometer only), ``lambda2`` or ``lambda3``.
     fix_n : fix the exponent (1.5: Hunt–Crossley; 0: viscous).
-    method : ``"optimise"`` (bounded Brent, profile over n) or ``"grid"`` (the paper's grid search).
+    method : ``"least-squares"`` (default: trust-region Gauss–Newton with the profile along the valley,
+        :mod:`impactid.gauss_newton`), ``"optimise"`` (bounded Brent, profile over n, lattice and
+        bootstrap intervals) or ``"grid"`` (the paper's grid search).
     grid : grid points ``(n_c, n_n)`` of the grid method (n_n ignored when n is fixed).
     c_bounds : bounds of ``c = beta delta_ref^n`` [N s/m]; n_bounds : bounds of ``n``.
     landscape : also compute the 41 x 41 objective landscape over the bounds (for plots).
@@ -356,6 +369,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         indifference level of the intervals is at least this.
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
     bootstrap_resamples, bootstrap_seed : resamples of the events and the paper of the bootstrap.
+    warn : issue an :class:`EstimationWarning` for each note (the result's ``warnings``); callers that
+        carry the notes on pass False.
 
     Raises
     ------
@@ -366,8 +381,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     progress = progress or _no_progress
     sets = [sets] if isinstance(sets, EventSet) else list(sets)
     residual = residual_name(residual)
-    if method not in ("optimise", "grid"):
-        raise ValueError(f"unknown method {method!r}; valid: optimise, grid")
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     if not sets:
         raise ImpactidError("no recordings to estimate from")
     for s in sets:
@@ -385,6 +400,16 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     lc_lo, lc_hi = math.log10(c_lo), math.log10(c_hi)
     notes: list[str] = [m for s in sets for m in s.dropped]
     progress("search", 0.0)
+    floor = RESIDUAL_FLOOR[residual] if residual_floor is None else float(residual_floor)
+    if method == "least-squares":
+        try:
+            return _fit_least_squares(obj, sets, fix_n=fix_n, lc_bounds=(lc_lo, lc_hi), n_bounds=(n_lo, n_hi),
+                                      systematic=max(floor, float(systematic)), notes=notes, progress=progress,
+                                      landscape=landscape, separability_width=separability_width,
+                                      bootstrap_resamples=bootstrap_resamples, bootstrap_seed=bootstrap_seed,
+                                      t_start=t_start, warn=warn)
+        except SimulationError as exc:
+            raise ImpactidError(f"simulation failed inside the search bounds: {exc}") from exc
 
     # -- point estimate and the valley --------------------------------------------------------
     if fix_n is not None:
@@ -429,7 +454,6 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     finite = np.isfinite(per_event_hat)
     n_used = int(finite.sum())
     se = float(np.std(np.abs(per_event_hat[finite]), ddof=1) / math.sqrt(n_used)) if n_used > 1 else math.inf
-    floor = RESIDUAL_FLOOR[residual] if residual_floor is None else float(residual_floor)
     indifference = max(2.0 * se, floor, float(systematic)) if math.isfinite(se) else math.inf
     if fix_n is None:
         centre = interpolate.CubicSpline(n_rows, valley_c)(n_rows)
@@ -482,28 +506,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                      f"+-{half:.2g} decades of beta about the valley: beta is poorly determined by these data")
 
     # -- identifiability -----------------------------------------------------------------------
-    separable = None
-    va = np.concatenate([s.approach_speed for s in sets])
-    va = va[np.isfinite(va)]
-    spread = float(np.std(va) / np.mean(va)) if va.size > 1 and np.mean(va) > 0 else 0.0
-    if fix_n is None:
-        touches = n_iv[0] <= n_lo + 1e-9 or n_iv[1] >= n_hi - 1e-9
-        separable = bool((n_iv[1] - n_iv[0]) <= separability_width and not touches)
-        if not separable:
-            why = (f"all impacts have nearly the same approach speed (spread {100 * spread:.2g} %)"
-                   if spread < ALIKE_SPREAD else f"the approach speeds spread only {100 * spread:.2g} %")
-            notes.append(
-                f"beta and n are not separable from these data ({why}): along the valley beta(n) the mean "
-                f"{residual} stays within {indifference:.3g} of its minimum for n from {n_iv[0]:.3g} to {n_iv[1]:.3g} "
-                f"(beta {beta_iv[0]:.4g} to {beta_iv[1]:.4g}); the joint point estimate is not precise. Fix n "
-                + ("(--fix-n) or fit recordings at several operating points together." if len(sets) == 1 else
-                   "(--fix-n), add operating points whose approach speeds differ more (lower e/r_c or cam speed), "
-                   "or record with less noise."))
-    if logc_hat <= lc_lo + 1e-6 or logc_hat >= lc_hi - 1e-6:
-        notes.append(f"the estimate lies on the search bound of c = beta delta_ref^n ({10 ** logc_hat:.3g} N s/m): "
-                     "widen the bounds or check the data")
-    if fix_n is None and (n_hat <= n_lo + 1e-6 or n_hat >= n_hi - 1e-6):
-        notes.append(f"the estimate of n lies on its search bound ({n_hat:.3g})")
+    separable = _identifiability(sets, residual, fix_n, n_hat, logc_hat, n_iv, beta_iv, (lc_lo, lc_hi), (n_lo, n_hi),
+                                 indifference, separability_width, notes)
     if indifference > 0.05:
         notes.append(f"the residual scatter between impacts is large (standard error of the mean "
                      f"{se:.3g}); the estimate rests on {n_used} impacts")
@@ -515,14 +519,9 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     per_event = pd.DataFrame({"source": sources, "event": events, "approach_speed": np.concatenate(
         [s.approach_speed for s in sets]), "residual": per_event_hat})
     land = objective_landscape(sets, residual, delta_ref=delta_ref) if landscape else None
-    if obj.n_failed:
-        from impactid.residuals import FAILED_SIMULATION_RESIDUAL
-
-        notes.append(f"{obj.n_failed} of {obj.n_simulations} S1 runs with trial laws could not be simulated "
-                     f"(step budget or step-size underflow); each counted as a residual of "
-                     f"{FAILED_SIMULATION_RESIDUAL:g} for its event, so the search avoided those laws")
+    _failure_note(obj, notes)
     progress("done", 1.0)
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=j_hat, method=method,
@@ -532,6 +531,207 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
         delta_ref=delta_ref, bootstrap=boot, landscape=land,
         n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes),
         n_failed_simulations=obj.n_failed)
+
+
+def _failure_note(obj: _Objective, notes: list[str]) -> None:
+    """Say how many S1 runs with trial laws could not be simulated (penalised, not fatal)."""
+    if obj.n_failed:
+        from impactid.residuals import FAILED_SIMULATION_RESIDUAL
+
+        notes.append(f"{obj.n_failed} of {obj.n_simulations} S1 runs with trial laws could not be simulated "
+                     f"(step budget or step-size underflow); each counted as a residual of "
+                     f"{FAILED_SIMULATION_RESIDUAL:g} for its event, so the search avoided those laws")
+
+
+def _identifiability(sets, residual, fix_n, n_hat, logc_hat, n_iv, beta_iv, lc_bounds, n_bounds, indifference,
+                     separability_width, notes: list[str], region: str | None = None) -> bool | None:
+    """Whether ``beta, n`` are separable (None with ``n`` fixed); notes on bounds and identifiability.
+
+    ``region`` says what the ``n`` interval is (default: the indifference region of the mean residual).
+    """
+    (lc_lo, lc_hi), (n_lo, n_hi) = lc_bounds, n_bounds
+    separable = None
+    va = np.concatenate([s.approach_speed for s in sets])
+    va = va[np.isfinite(va)]
+    spread = float(np.std(va) / np.mean(va)) if va.size > 1 and np.mean(va) > 0 else 0.0
+    region = region or f"the mean {residual} stays within {indifference:.3g} of its minimum"
+    if fix_n is None:
+        touches = n_iv[0] <= n_lo + 1e-9 or n_iv[1] >= n_hi - 1e-9
+        separable = bool((n_iv[1] - n_iv[0]) <= separability_width and not touches)
+        if not separable:
+            why = (f"all impacts have nearly the same approach speed (spread {100 * spread:.2g} %)"
+                   if spread < ALIKE_SPREAD else f"the approach speeds spread only {100 * spread:.2g} %")
+            notes.append(
+                f"beta and n are not separable from these data ({why}): along the valley beta(n) {region} "
+                f"for n from {n_iv[0]:.3g} to {n_iv[1]:.3g} "
+                f"(beta {beta_iv[0]:.4g} to {beta_iv[1]:.4g}); the joint point estimate is not precise. Fix n "
+                + ("(--fix-n) or fit recordings at several operating points together." if len(sets) == 1 else
+                   "(--fix-n), add operating points whose approach speeds differ more (lower e/r_c or cam speed), "
+                   "or record with less noise."))
+    if logc_hat <= lc_lo + 1e-6 or logc_hat >= lc_hi - 1e-6:
+        notes.append(f"the estimate lies on the search bound of c = beta delta_ref^n ({10 ** logc_hat:.3g} N s/m): "
+                     "widen the bounds or check the data")
+    if fix_n is None and (n_hat <= n_lo + 1e-6 or n_hat >= n_hi - 1e-6):
+        notes.append(f"the estimate of n lies on its search bound ({n_hat:.3g})")
+    return separable
+
+
+def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bounds, n_bounds, systematic: float,
+                       notes: list[str], progress, landscape: bool, separability_width: float,
+                       bootstrap_resamples: int, bootstrap_seed: int, t_start: float,
+                       warn: bool = True) -> DampingEstimate:
+    """The ``"least-squares"`` method (:mod:`impactid.gauss_newton`) as a :class:`DampingEstimate`."""
+    from impactid.gauss_newton import fit_least_squares
+
+    residual = obj.residual
+    fit = fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=lc_bounds, n_bounds=n_bounds, progress=progress,
+                            choose=lambda points: _by_contact_duration(obj, sets, points, fix_n, notes),
+                            rss_tolerance=obj.n_events * systematic ** 2)
+    logc_hat = fit.x[0]
+    n_hat = float(fix_n) if fix_n is not None else fit.x[1]
+    beta_hat = float(obj.beta(logc_hat, n_hat))
+    J, r = fit.jacobian, fit.residuals
+    # d log(beta) / d(log10 c, n)
+    grad = np.array([math.log(10.0), -math.log(obj.delta_ref)])[: J.shape[1]]
+    normal = np.linalg.pinv(J.T @ J)
+
+    # -- statistical: the profile-likelihood region projected on beta ---------------------------
+    prof = fit.profile
+    inside = prof["rss"] - fit.rss <= fit.threshold
+    lc_in, n_in, half = (prof.loc[inside, k].to_numpy(dtype=float) for k in ("log10_c", "n", "half_width"))
+    if fix_n is None:  # the interval's ends on the profile (half-width 0 there)
+        ends = np.asarray(fit.n_interval)
+        lc_in = np.concatenate([lc_in, np.interp(ends, prof["n"], prof["log10_c"])])
+        n_in = np.concatenate([n_in, ends])
+        half = np.concatenate([half, [0.0, 0.0]])
+    if not fit.resolved:  # equally good minima that nothing told apart: the interval holds them all
+        lc_in = np.concatenate([lc_in, [a[0] for a in fit.alternatives]])
+        n_in = np.concatenate([n_in, [a[1] if len(a) > 1 else n_hat for a in fit.alternatives]])
+        half = np.concatenate([half, np.zeros(len(fit.alternatives))])
+        notes.append(f"the {residual} residuals are matched equally well by other laws ("
+                     + ", ".join(f"beta {obj.beta(a[0], a[1] if len(a) > 1 else n_hat):.4g}" for a in fit.alternatives)
+                     + ") that the measured contact durations do not tell apart: the interval of beta holds them all")
+    log_beta = np.log(obj.beta(np.concatenate([lc_in - half, lc_in + half]), np.concatenate([n_in, n_in])))
+    log_iv = (float(log_beta.min()), float(log_beta.max()))
+    n_iv = fit.n_interval
+
+    # -- systematic: a common-mode residual error of each recording, and each cam phase ---------
+    per_event_hat = np.full(fit.used.size, math.nan)
+    per_event_hat[fit.used] = r
+    owner_all = np.concatenate([[k] * len(es) for k, es in enumerate(sets)])
+    owner = owner_all[fit.used]
+    # each recording's shift of (log10 c, n), combined in quadrature as log(beta) and n shifts
+    sys_shifts = [normal @ (J.T @ (systematic * (owner == k))) for k in range(len(sets))]
+    phase_shifts = []
+    for k, es in enumerate(sets):
+        if not (math.isfinite(es.phase_stderr) and es.phase_stderr > 0):
+            continue
+        sub = _Objective([es.shift_phase(es.phase_stderr)], residual, obj.delta_ref)
+        delta = np.zeros(fit.used.size)
+        delta[owner_all == k] = sub.per_event(logc_hat, n_hat)[0] - per_event_hat[owner_all == k]
+        obj.n_simulations += sub.n_simulations
+        phase_shifts.append(normal @ (J.T @ np.nan_to_num(delta[fit.used])))
+
+    def quadrature(shifts, component=None):
+        values = [float(grad @ dx) if component is None else float(dx[component]) for dx in shifts]
+        return float(np.sqrt(np.sum(np.square(values)))) if values else 0.0
+
+    phase_logbeta, sys_logbeta = quadrature(phase_shifts), quadrature(sys_shifts)
+    log_iv = _widen(log_iv, math.log(beta_hat), math.hypot(1.96 * phase_logbeta, sys_logbeta))
+    # a linear propagation through a nearly singular valley can reach beyond the search box: the interval
+    # stops at the box's extreme beta (beta = c / delta_ref^n, least at (c_lo, n_lo), largest at (c_hi, n_hi))
+    n_box = (n_hat, n_hat) if fix_n is not None else n_bounds
+    box = (math.log(obj.beta(lc_bounds[0], n_box[0])), math.log(obj.beta(lc_bounds[1], n_box[1])))
+    if log_iv[0] < box[0] or log_iv[1] > box[1]:
+        notes.append("the interval of beta reaches the search box of c = beta delta_ref^n: the data bound beta "
+                     "only weakly")
+    log_iv = (max(log_iv[0], box[0]), min(log_iv[1], box[1]))
+    beta_iv = (math.exp(log_iv[0]), math.exp(log_iv[1]))
+    phase_n_sd = quadrature(phase_shifts, 1) if fix_n is None else 0.0
+    if fix_n is None:
+        n_iv = _widen(n_iv, n_hat, math.hypot(1.96 * phase_n_sd, quadrature(sys_shifts, 1)))
+        n_iv = (max(n_iv[0], n_bounds[0]), min(n_iv[1], n_bounds[1]))
+        if fit.reaches_bound[0]:
+            n_iv = (n_bounds[0], n_iv[1])
+        if fit.reaches_bound[1]:
+            n_iv = (n_iv[0], n_bounds[1])
+    else:
+        n_iv = (n_hat, n_hat)
+
+    # -- Gauss-Newton standard errors and the linearised bootstrap -----------------------------
+    beta_se = beta_hat * math.sqrt(max(float(grad @ fit.covariance @ grad), 0.0))
+    n_se = math.sqrt(max(float(fit.covariance[1, 1]), 0.0)) if fix_n is None else 0.0
+    rng = np.random.default_rng(bootstrap_seed)
+    m = r.size
+    weights = rng.multinomial(m, np.full(m, 1.0 / m), size=bootstrap_resamples).astype(float)
+    boot = []
+    for w in weights:
+        A = J.T @ (w[:, None] * J)
+        dx = -np.linalg.lstsq(A, J.T @ (w * r), rcond=None)[0]
+        x_b = np.array([logc_hat, n_hat])
+        x_b[: dx.size] += dx
+        boot.append((float(obj.beta(x_b[0], x_b[1])), float(x_b[1])))
+    boot = np.asarray(boot)
+    b_boot = np.percentile(boot[:, 0], [2.5, 97.5])
+    n_boot = np.percentile(boot[:, 1], [2.5, 97.5])
+
+    region = (f"the 95 % profile interval of the {residual} sum of squares (with the pipeline's systematic "
+              f"residual error {systematic:.3g} per recording) stays open")
+    separable = _identifiability(sets, residual, fix_n, n_hat, logc_hat, n_iv, beta_iv, lc_bounds, n_bounds,
+                                 systematic, separability_width, notes, region=region)
+    if math.sqrt(fit.s2) > 0.05:
+        notes.append(f"the residual scatter between impacts is large (rms {math.sqrt(fit.s2):.3g}); "
+                     f"the estimate rests on {m} impacts")
+    valley = pd.DataFrame({"n": prof["n"], "beta": obj.beta(prof["log10_c"].to_numpy(), prof["n"].to_numpy()),
+                           "log10_c": prof["log10_c"], "objective": prof["objective"]})
+    per_event = pd.DataFrame({"source": np.concatenate([[s.source] * len(s) for s in sets]),
+                              "event": np.concatenate([s.events for s in sets]),
+                              "approach_speed": np.concatenate([s.approach_speed for s in sets]),
+                              "residual": per_event_hat})
+    land = objective_landscape(sets, residual, delta_ref=obj.delta_ref) if landscape else None
+    _failure_note(obj, notes)
+    progress("done", 1.0)
+    for message in notes if warn else ():
+        warnings.warn(message, EstimationWarning, stacklevel=3)
+    return DampingEstimate(
+        beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=residual, objective=float(np.mean(np.abs(r))),
+        method="least-squares", beta_interval=beta_iv, n_interval=n_iv,
+        beta_bootstrap_interval=(float(b_boot[0]), float(b_boot[1])),
+        n_bootstrap_interval=(float(n_boot[0]), float(n_boot[1])), indifference=float(systematic),
+        separable=separable, phase_beta_sd=beta_hat * math.expm1(min(phase_logbeta, 700.0)), phase_n_sd=phase_n_sd,
+        valley=valley, per_event=per_event, delta_ref=obj.delta_ref, bootstrap=boot, landscape=land,
+        n_simulations=obj.n_simulations, seconds=time.perf_counter() - t_start, warnings=tuple(notes),
+        n_failed_simulations=obj.n_failed, beta_stderr=beta_se, n_stderr=n_se)
+
+
+def _by_contact_duration(obj: _Objective, sets: list[EventSet], points, fix_n, notes: list[str]) -> int | None:
+    """Which of several equally good minima ``(log10 c[, n])`` reproduces the measured contact durations.
+
+    A heavily damped law can make the follower chatter and still reach the measured ``alpha_m``
+    (with friction especially); the duration of the first contact tells it apart. Returns the index
+    of the point whose simulated first contacts differ least from the measured ones (median relative
+    difference over the events with a measured duration), if it is clearly the best (less than half
+    the next and below 20 %); None otherwise.
+    """
+    measured = np.concatenate([s.contact_duration if s.contact_duration is not None else np.full(len(s), np.nan)
+                               for s in sets])
+    if not np.isfinite(measured).any():
+        return None
+    trials = np.array([[float(obj.beta(p[0], p[1] if len(p) > 1 else fix_n)), p[1] if len(p) > 1 else fix_n]
+                       for p in points])
+    simulated = np.concatenate([s.simulate(trials).contact_duration for s in sets], axis=1)
+    obj.n_simulations += trials.shape[0] * measured.size
+    with np.errstate(all="ignore"):
+        score = np.nanmedian(np.abs(simulated / measured[None, :] - 1.0), axis=1)
+    order = np.argsort(score)
+    best = int(order[0])
+    if not (np.isfinite(score[best]) and score[best] < 0.2 and score[best] < 0.5 * score[order[1]]):
+        return None
+    others = ", ".join(f"beta {trials[i, 0]:.4g} ({100 * score[i]:.0f} %)" for i in order[1:])
+    notes.append(f"other laws match the {obj.residual} residuals as well ({others} median difference of the first "
+                 f"contact's duration); the estimate is the one whose contacts last as measured "
+                 f"({100 * score[best]:.1f} %)")
+    return best
 
 
 def _widen(interval, centre, extra):
@@ -622,7 +822,8 @@ def _uncertainty(lat, n_rows, centre, u, obj, finite, j_hat, indifference, resam
 # ---------------------------------------------------------------------------------------------
 
 
-def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05) -> RestitutionEstimate:
+def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float = 0.05,
+                    warn: bool = True) -> RestitutionEstimate:
     """Fit restitution laws to per-impact ``approach_speed`` (v_a [m/s]) and ``xi``.
 
     ``per_impact`` needs columns ``approach_speed`` and ``xi`` (others are kept). Impacts with a
@@ -632,7 +833,8 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     Warns (:class:`EstimationWarning`) when the approach speeds spread too little for the data to
     test the linear law (relative spread below ``min_spread`` or a free-intercept slope no larger
     than twice its standard error: ``gamma`` then rests on the assumed intercept 1), when some
-    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed.
+    ``xi`` lie outside [0, 1], and when the fitted law predicts ``xi < 0`` at a measured speed; the
+    result carries these notes (``warnings``), and callers that carry them on pass ``warn=False``.
     """
     frame = per_impact.copy()
     ok = np.isfinite(frame["xi"]) & np.isfinite(frame["approach_speed"]) & (frame["approach_speed"] > 0)
@@ -670,7 +872,7 @@ def fit_restitution(per_impact: pd.DataFrame, k_H: float, *, min_spread: float =
     if gamma > 0 and np.any(v > 1.0 / gamma):
         notes.append(f"the fitted law gives xi < 0 for v_a > 1/gamma = {1 / gamma:.4g} m/s, reached by "
                      f"{int(np.sum(v > 1 / gamma))} impacts: outside the law's range (docs/estimation.md)")
-    for message in notes:
+    for message in notes if warn else ():
         warnings.warn(message, EstimationWarning, stacklevel=2)
     frame["used"] = ok
     return RestitutionEstimate(
@@ -759,7 +961,7 @@ class Estimate:
 CALIBRATION_THRESHOLD = 0.5 * RESIDUAL_FLOOR["lambda1"]
 
 
-def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = None, method: str = "optimise",
+def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = None, method: str = "least-squares",
              grid: tuple[int, int] = (41, 21), rig=None, integration: str = "rk", anchor: str = "cam-phase",
              c_bounds=C_BOUNDS, n_bounds=N_BOUNDS, landscape: bool = False,
              progress: Progress | None = None, calibrate: bool = True) -> Estimate:
@@ -773,8 +975,8 @@ def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = Non
     ----------
     recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
     residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
-    rig : overrides the recordings' rig: a :class:`~impactid.rigs.PivotedFollowerRig`, or the path of a TOML
-        rig file, whose ``[operating]`` table also supplies or overrides the operating point.
+    rig : overrides the recordings' rig: rig parameters (e.g. :data:`~impactid.rigs.SUNDAR2016`), or the path of
+        a TOML rig file, whose ``[operating]`` table also supplies or overrides the operating point.
     integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
     progress : callback ``(stage, fraction)`` for a progress display.
     calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first

@@ -25,7 +25,9 @@ pulse starts within the post-contact baseline window), ``clipped`` (the pulse re
 channel's extreme value for 3 or more samples), ``chattering`` (more than one contact within one
 cam revolution) and ``not_period1`` (spacing or pulse size differs from the neighbours: the
 one-impact-per-revolution assumption of the anchoring step fails there). Events with the last
-three flags trigger a :class:`EventWarning` naming them.
+three flags are named in the result's notes (:attr:`EventTable.warnings`), which
+:func:`find_events` issues as :class:`EventWarning`, each once, unless a caller that carries the
+notes on in its own result (:func:`impactid.reconstruct.reconstruct`) asks it not to.
 """
 
 from __future__ import annotations
@@ -86,7 +88,8 @@ class EventTable:
         and ``usable`` (no flag that prevents the per-event kinematics).
     noise_sigma : noise floor of the channel [m/s^2].
     threshold, onset_threshold : detection thresholds used [m/s^2].
-    warnings : texts of the warnings issued.
+    warnings : notes on events that break an assumption of the pipeline (issued as
+        :class:`EventWarning` by :func:`find_events` unless ``warn=False``).
     provenance : the recording's provenance plus this step.
     """
 
@@ -264,7 +267,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     threshold : pulse-core detection level above the channel median [m/s^2] (overrides the
         noise-derived default).
     onset_threshold : deviation from the free-flight baseline that counts as contact [m/s^2].
-    warn : issue :class:`EventWarning` for events that break the assumptions.
+    warn : issue an :class:`EventWarning` for each note (:attr:`EventTable.warnings`); callers that
+        carry the notes on in their own result pass False.
     """
     recording.require(channel, method="event detection")
     x = recording[channel]

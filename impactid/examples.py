@@ -9,7 +9,7 @@ from impactid.io import Recording, read_recording
 __all__ = ["example_recording", "example_recording_path", "example_recording_paths"]
 
 def example_recording_paths(refresh: bool = False) -> list[Path]:
-    """Paths of the two built-in example recordings: one rig at two operating points (e/r_c 0.2 at
+    """Paths of the two built-in example recordings: one rig at two operating points (e/r_c 0.05 at
     16 Hz and 0.25 at 15 Hz, the same contact law; see :mod:`impactid.synth.example`)."""
     from impactid.synth.example import example_recording_paths as _paths
 
@@ -17,7 +17,7 @@ def example_recording_paths(refresh: bool = False) -> list[Path]:
 
 
 def example_recording_path(refresh: bool = False) -> Path:
-    """Path of the first built-in example recording (e/r_c = 0.2, 16 Hz)."""
+    """Path of the first built-in example recording (e/r_c = 0.05, 16 Hz)."""
     return example_recording_paths(refresh)[0]
 
 

@@ -99,8 +99,8 @@ class Recording:
     units : channel name to unit string (SI, after conversion at reading).
     sample_rate_hz : sampling rate [Hz].
     start_time_s : time of the first sample [s].
-    rig : the rig dataclass (:class:`~impactid.rigs.PivotedFollowerRig` or
-        :class:`~impactid.rigs.FlatFollowerRig`), or None when the file had none.
+    rig : the rig dataclass of its model (:data:`impactid.rigs.registry.RIG_MODELS`), or None when
+        the file had none.
     operating : operating point, e.g. ``cam_speed_hz`` [Hz], ``eccentricity_m`` [m].
     source : the file the recording was read from ("" if built in memory).
     provenance : what was done to the data, oldest first (one line per step).

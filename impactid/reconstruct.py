@@ -71,17 +71,27 @@ from scipy import optimize
 from impactid.errors import ImpactidError
 from impactid.events import EventTable, EventWarning, find_events
 from impactid.io import Recording, RecordingError
-from impactid.rigs.pivoted import PivotedFollowerRig, spring_force
+from impactid.rigs._params import RigParameters
+from impactid.rigs.pivoted import MODEL_NAME, spring_force
 from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator
 from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
 from impactid.simulate.runs import pack_rig
 
-__all__ = ["ANCHORS", "ANCHOR_MARGIN", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE", "EDGE_SNR",
-           "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "EventKinematics",
+__all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
+           "EDGE_SNR", "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "EventKinematics",
            "Reconstruction", "reconstruct"]
 
 #: Samples between a free-flight end point of the return-time anchor and a contact.
 ANCHOR_MARGIN = 8
+#: Time [s] from the detected separation to the start of the return-time anchor's free flight. With
+#: ``n < 1.5`` and a large ``beta`` the Hunt-Crossley force turns tensile late in the restitution;
+#: once the sensor noise exceeds about 1e-6 of the peak, the event detector's post-pulse baseline
+#: absorbs that smooth tail and the detected separation comes up to 0.6 ms early. A free flight
+#: started 8 samples after it integrates the tail as flight and biases the onset angle by 1-2 % of
+#: ``alpha_m`` (a beta error of -8 to -40 % in the envelope validation). Starting 1.2 ms later
+#: removes the bias and moves tail-free cases by less than 0.05 % (docs/validation_envelope.md).
+#: The delay is capped at a quarter of the free interval, for events that follow each other closely.
+ANCHOR_SEPARATION_DELAY = 1.2e-3
 #: Deviation above the noise floor that a pulse edge's first sample needs for its power law to be
 #: fitted (the edge corrections and the sub-sample span of the event means; see detrend_integrate).
 EDGE_SNR = 20.0
@@ -190,7 +200,7 @@ def _encoder_theta(rec: Recording, k0: np.ndarray, k1: np.ndarray, t_onset_rel: 
     return out
 
 
-def _theta_from_gap(rig: PivotedFollowerRig, alpha0: np.ndarray, rate0: np.ndarray, omega: float,
+def _theta_from_gap(rig: RigParameters, alpha0: np.ndarray, rate0: np.ndarray, omega: float,
                     contacts=None) -> np.ndarray:
     """Cam angle where ``psi_i(alpha0, Theta) = 0`` with the gap closing (S-5 solved for Theta).
 
@@ -241,7 +251,7 @@ def _contact_windows(ctx: dict, constants: np.ndarray) -> list:
     out = []
     dt = 1.0 / ctx["sample_rate_hz"]
     for i, angle in enumerate(ctx["angles"]):
-        hi = min(int(ctx["free_start"][i]) + 1, angle.size)
+        hi = min(int(ctx["contact_end"][i]) + 1, angle.size)
         if hi < 3 or not math.isfinite(constants[i]):
             out.append(None)
             continue
@@ -291,7 +301,7 @@ class Reconstruction:
     contact: dict[int, EventKinematics]
     integration: str
     anchor: str
-    rig: PivotedFollowerRig
+    rig: RigParameters  # rig P's parameters
     cam_speed_hz: float
     events: EventTable
     warnings: tuple[str, ...] = ()
@@ -303,6 +313,17 @@ class Reconstruction:
 
     def __len__(self) -> int:
         return len(self.table)
+
+    @property
+    def operating_point(self) -> dict:
+        """The recording's operating point: cam speed [Hz] and eccentricity ratio ``e/r_c``."""
+        return {"cam_speed_hz": self.cam_speed_hz, "e_over_rc": self.rig.e_over_rc}
+
+    @property
+    def fixed_parameters(self) -> dict:
+        """The rig's parameters other than the operating point's eccentricity ``e``: recordings of one
+        joint fit must share them (the contact pair and the follower)."""
+        return {k: v for k, v in self.rig.to_dict().items() if k != "e"}
 
     def event_kinematics(self, event: int) -> EventKinematics:
         """Full histories of one event (recomputed from the recording)."""
@@ -332,7 +353,7 @@ def _event_histories(rec, events, row, rig, integration, cam_speed_hz) -> EventK
 
 
 def reconstruct(recording: Recording, events: EventTable | None = None, *, integration="rk",
-                anchor: str = "return-time", rig: PivotedFollowerRig | None = None) -> Reconstruction:
+                anchor: str = "return-time", rig: RigParameters | None = None, warn: bool = True) -> Reconstruction:
     """Per-impact kinematics, contact force, approach and separation speeds of every usable event.
 
     Parameters
@@ -343,6 +364,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     integration : integration method name (:data:`impactid.signal.INTEGRATORS`) or callable.
     anchor : ``"return-time"`` (the paper's) or ``"cam-geometry"`` (needs ``cam_angle``).
     rig : overrides the recording's rig.
+    warn : issue an :class:`~impactid.events.EventWarning` for each note of the result
+        (:attr:`Reconstruction.warnings`; those of ``events`` given here were issued by
+        :func:`~impactid.events.find_events`). Callers that carry the notes on pass False.
 
     Raises
     ------
@@ -353,17 +377,20 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     get_integrator(integration)  # validate the name before any work
     if anchor not in ANCHORS:
         raise ValueError(f"unknown anchor {anchor!r}; valid: {', '.join(ANCHORS)}")
-    rig = rig if rig is not None else recording.require_rig("pivoted-follower")
-    if not isinstance(rig, PivotedFollowerRig):
+    rig = rig if rig is not None else recording.require_rig(MODEL_NAME)
+    if getattr(rig, "model", None) != MODEL_NAME:
         raise RecordingError(f"{recording.source}: per-impact reconstruction needs a pivoted-follower rig")
     recording.require("accel_tangential", method="per-impact reconstruction")
     if anchor == "cam-geometry":
         recording.require("cam_angle", method="the 'cam-geometry' anchor")
     cam_speed_hz = recording.require_cam_speed()
+    given = events is not None
     if events is None:
-        events = find_events(recording)
+        events = find_events(recording, warn=False)  # its notes are this result's first ones
     usable = events.usable
     if usable.empty:
+        for message in events.warnings if warn and not given else ():  # they say why (clipped, overlapping)
+            warnings.warn(message, EventWarning, stacklevel=2)
         raise ImpactidError(f"{recording.source or 'recording'}: no usable impact events "
                             f"({len(events)} found, none complete and clean)")
     rate_hz = recording.sample_rate_hz
@@ -395,8 +422,11 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         angles.append(angle)
         rates.append(rate)
         accs.append(add)
+    free_samples = k1 - ka
+    delay = np.maximum(ANCHOR_MARGIN, np.minimum(round(ANCHOR_SEPARATION_DELAY * rate_hz), free_samples // 4))
     ctx = dict(recording=recording, rig=rig, sample_rate_hz=rate_hz, angles=angles, rates=rates, accs=accs,
-               free_start=(ka - k0) + ANCHOR_MARGIN, free_end=(k1 - k0) - 1 - ANCHOR_MARGIN,
+               contact_end=(ka - k0) + ANCHOR_MARGIN, free_start=(ka - k0) + delay,
+               free_end=(k1 - k0) - 1 - ANCHOR_MARGIN,
                onset_offset=onset_offset, omega=omega,
                t_onset_rel=usable["t_onset"].to_numpy() - recording.start_time_s)
     # angle (before anchoring) and rate at the sub-sample onset, back from the first contact sample
@@ -492,8 +522,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     if failed:
         messages.append(f"{recording.source or 'recording'}: the {anchor} anchor did not converge at events {failed}")
     int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
-    for message in messages[len(events.warnings):]:
-        warnings.warn(message, EventWarning, stacklevel=2)
+    if warn:
+        for message in messages[len(events.warnings) if given else 0:]:
+            warnings.warn(message, EventWarning, stacklevel=2)
     return Reconstruction(
         table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
         events=events, warnings=tuple(messages), cam_phase=float(ctx.get("phase", math.nan)),
@@ -521,7 +552,7 @@ CONTACT_ANGLE_MARGIN = 0.01
 CONTACT_HERTZ_TOLERANCE = 2.5
 
 
-def _hertz_ratio(rig: PivotedFollowerRig, t: np.ndarray, alpha: np.ndarray, acceleration: np.ndarray,
+def _hertz_ratio(rig: RigParameters, t: np.ndarray, alpha: np.ndarray, acceleration: np.ndarray,
                  theta0: float, omega: float) -> float:
     """Force implied by the accelerometer at the deepest indentation over ``k_H delta^1.5`` there,
     for the contact histories ``t`` [s from the onset], ``alpha`` [rad], ``acceleration``
@@ -539,7 +570,7 @@ def _hertz_ratio(rig: PivotedFollowerRig, t: np.ndarray, alpha: np.ndarray, acce
     return force / (rig.k_H * delta ** 1.5)
 
 
-def _plausibility(recording: Recording, rig: PivotedFollowerRig, ctx: dict, angles, accs, k0, constants) -> list[str]:
+def _plausibility(recording: Recording, rig: RigParameters, ctx: dict, angles, accs, k0, constants) -> list[str]:
     """Cross-checks of the channels against the rig model; returns warning texts naming channels.
 
     * onset angles: the return-time anchor's onset angles (accelerometer only) must lie where the

@@ -198,7 +198,12 @@ def _estimate_figures(result, d, r, out, st, written, objective_landscape) -> No
         ax.legend()
         written.append(save_figure_atomic(fig, out / "restitution.png", st, dpi=120))
     # landscape with the valley
-    land = d.landscape or objective_landscape(list(result.event_sets), d.residual, delta_ref=d.delta_ref)
+    # (the figure's own landscape: 31 x 31 about the estimate, +-0.5 in n and +-1.5 decades of c, where
+    # the valley is; the full bounds cost twice the simulations, mostly of implausible laws)
+    land = d.landscape or objective_landscape(
+        list(result.event_sets), d.residual, delta_ref=d.delta_ref,
+        n_values=np.linspace(max(d.n - 0.5, 0.0), d.n + 0.5, 31),
+        c_values=d.damping_at_reference * np.logspace(-1.5, 1.5, 31))
     fig = Figure(figsize=(6.5, 4.8))
     ax = fig.subplots()
     nn = np.repeat(land.n[:, None], land.log10_c.size, axis=1)

@@ -91,6 +91,8 @@ class EventSet:
     alpha_m : (n,) measured maximum follower angle [rad].
     approach_speed : (n,) measured ``v_a`` [m/s].
     peak_indentation : (n,) measured peak indentation [m].
+    contact_duration : (n,) measured duration of the first contact [s] (NaN where the gap does not
+        reopen); used to tell apart laws that match ``alpha_m`` equally well.
     t : per-event sample instants of the contact history [s from onset].
     force : per-event measured contact force on ``t`` [N] (None without force channels).
     indentation : per-event measured indentation on ``t`` [m].
@@ -113,6 +115,7 @@ class EventSet:
     alpha: tuple[np.ndarray, ...] = ()
     theta: tuple[np.ndarray, ...] = ()
     phase_stderr: float = math.nan
+    contact_duration: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.events.size)
@@ -155,7 +158,9 @@ class EventSet:
                    indentation=tuple(h.indentation for h in hist), dropped=dropped,
                    alpha=tuple(np.asarray(h.alpha, dtype=float) for h in hist),
                    theta=tuple(np.asarray(h.theta, dtype=float) for h in hist),
-                   phase_stderr=float(getattr(recon, "cam_phase_stderr", math.nan)))
+                   phase_stderr=float(getattr(recon, "cam_phase_stderr", math.nan)),
+                   contact_duration=(tab["contact_duration"].to_numpy(dtype=float)[ok] if "contact_duration" in tab
+                                     else None))
 
     def subset(self, index) -> EventSet:
         """The events at positions ``index`` (an int, slice or index array) of this set."""
@@ -167,7 +172,8 @@ class EventSet:
                        t_end=np.ascontiguousarray(self.t_end[idx]), alpha_m=self.alpha_m[idx],
                        approach_speed=self.approach_speed[idx], peak_indentation=self.peak_indentation[idx],
                        t=pick(self.t), force=pick(self.force) if self.force is not None else None,
-                       indentation=pick(self.indentation), alpha=pick(self.alpha), theta=pick(self.theta))
+                       indentation=pick(self.indentation), alpha=pick(self.alpha), theta=pick(self.theta),
+                       contact_duration=None if self.contact_duration is None else self.contact_duration[idx])
 
     def scale_alpha_m(self, factor: float) -> EventSet:
         """The same events with the measured ``alpha_m`` multiplied by ``factor`` (a bias correction,

@@ -1,34 +1,46 @@
-"""Shared fixtures. Simulation results used by several tests are computed once per session."""
+"""Shared fixtures. Simulation results used by several tests are computed once per session.
+
+impactid is imported inside the fixtures, not at the top: the xdist controller loads this file but runs
+no test, and importing impactid (numba, SciPy) would cost it 3 s before the workers start.
+"""
 
 from __future__ import annotations
 
+import functools
+
 import pytest
-
-from impactid import SUNDAR2016, HuntCrossley
-
-#: the paper's S2 contact law (Table 2): beta = 24.7 GN s m^-2.5, n = 1.5
-SEED_LAW = HuntCrossley(beta=24.7e9, n=1.5)
 
 #: Table 2 operating points of Sundar, Dreyer & Singh (2016): (e/r_c, cam speed [Hz])
 TABLE2_POINTS = [(0.05, 23.0), (0.10, 18.0), (0.15, 17.0), (0.20, 16.0), (0.25, 15.0)]
 
 
+@functools.cache
+def seed_law_s2():
+    """The paper's S2 contact law (Table 2): beta = 24.7 GN s m^-2.5, n = 1.5."""
+    from impactid import HuntCrossley
+
+    return HuntCrossley(beta=24.7e9, n=1.5)
+
+
 @pytest.fixture(scope="session")
 def rig():
+    from impactid import SUNDAR2016
+
     return SUNDAR2016
 
 
 @pytest.fixture(scope="session")
 def seed_law():
-    return SEED_LAW
+    return seed_law_s2()
 
 
 @pytest.fixture(scope="session")
 def s2_synthetic():
     """Noise-free S2 recording at the paper's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
+    from impactid import SUNDAR2016
     from impactid.synth import synth_pivoted
 
-    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 1.0)
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, seed_law_s2(), 1.0)
 
 
 @pytest.fixture(scope="session")
@@ -40,7 +52,7 @@ def s2_file(s2_synthetic, tmp_path_factory):
 @pytest.fixture(scope="session")
 def s3_synthetic():
     """Noise-free S3 recording (restitution law, gamma = 0.8 s/m) at e/r_c 0.2, 16 Hz, 1 s."""
-    from impactid import Restitution
+    from impactid import SUNDAR2016, Restitution
     from impactid.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)
@@ -49,23 +61,18 @@ def s3_synthetic():
 @pytest.fixture(scope="session")
 def s2_second_point():
     """Noise-free S2 recording at the other fast-settling period-1 point (e/r_c 0.25, 15 Hz), 1 s."""
+    from impactid import SUNDAR2016
     from impactid.synth import synth_pivoted
 
-    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.25), 15.0, SEED_LAW, 1.0)
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.25), 15.0, seed_law_s2(), 1.0)
 
 
 @pytest.fixture(scope="session")
 def s2_noisy():
     """S2 at e/r_c 0.2, 16 Hz, 4 s, with 0.5 % noise on every channel (seed 3)."""
+    from impactid import SUNDAR2016
     from impactid.synth import SensorModel, synth_pivoted
 
-    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, SEED_LAW, 4.0,
+    return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, seed_law_s2(), 4.0,
                          sensors=SensorModel(noise=0.005, seed=3))
 
-
-def pytest_collection_modifyitems(config, items):
-    """Executed notebooks are slow tests (``pytest -m "not slow"`` is the warm loop; CI runs all)."""
-    slow = pytest.mark.slow
-    for item in items:
-        if str(item.fspath).endswith(".ipynb"):
-            item.add_marker(slow)

@@ -183,6 +183,7 @@ def test_fitted_edges_are_exact_boundaries_at_the_right_cam_angle(rec110, fit7):
     assert abs(np.mean(error)) < 0.05 * half_sample
 
 
+@pytest.mark.slow
 def test_without_counter_correction_the_half_count_bias_remains(rec110):
     fit = fit_cam_profile(rec110.recording, 7, counter="none")
     cmp = compare_profiles(fit.profile, _analytic, directions=(1,))
@@ -218,6 +219,7 @@ def test_signed_amplitudes_fit_a_negative_follower_angle(rec110):
     assert cmp.rms <= PROFILE_RMS
 
 
+@pytest.mark.slow
 def test_auto_order_selection_reports_the_table(rec110):
     fit = fit_cam_profile(rec110.recording, "auto", criterion="bic", max_terms=5)
     table = fit.order_table
@@ -356,6 +358,7 @@ def test_seed_table3_against_the_analytic_profile():
 # ---- command line --------------------------------------------------------------------------------
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:.*very short recording")
 def test_cam_fit_cli_round_trip(rec110, tmp_path, capsys):
     path = rec110.write(tmp_path / "rec110.h5")

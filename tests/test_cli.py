@@ -112,10 +112,11 @@ def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):
     assert path.parent == tmp_path
     mtime = path.stat().st_mtime_ns
     rec = example_recording()
-    assert rec.n_samples == 204_800 and rec.cam_speed_hz == 16.0 and rec.rig.e_over_rc == pytest.approx(0.2)
+    assert rec.n_samples == 204_800 and rec.cam_speed_hz == 16.0 and rec.rig.e_over_rc == pytest.approx(0.05)
     assert example_recording_path().stat().st_mtime_ns == mtime  # cached, not regenerated
 
 
+@pytest.mark.slow
 def test_estimate_example_fixed_n_writes_the_format_keys(tmp_path, capsys):
     out = tmp_path / "result.json"
     assert main(["estimate", "--example", "--fix-n", "1.5", "--out", str(out), "--plots", str(tmp_path / "fig")]) == 0

@@ -58,6 +58,7 @@ def impacting_files(tmp_path_factory):
     return paths
 
 
+@pytest.mark.slow
 def test_restitution_command_recovers_law(impacting_files, tmp_path, capsys):
     out = tmp_path / "law.json"
     assert main(["restitution", *impacting_files, "--out", str(out), "--json"]) == 0

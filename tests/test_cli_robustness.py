@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -44,6 +45,21 @@ def good(tmp_path_factory):
     from impactid.synth import synth_pivoted
 
     return synth_pivoted(RIG, 15.0, LAW, 0.4, settle_s=5.0).recording
+
+
+@pytest.fixture(scope="module")
+def good_files(good, tmp_path_factory):
+    """``good`` written once as HDF5 and as a 40 000-row CSV with its TOML rig file; the tests that only
+    need the files copy them (writing the CSV costs ten times more than the command under test)."""
+    root = tmp_path_factory.mktemp("good")
+    h5 = _write(good, root / "r.h5")
+    csv, rig = write_csv(replace(good, source="", channels={k: v[:40_000] for k, v in good.channels.items()}),
+                         root / "c.csv")
+    return {"h5": h5, "csv": csv, "csv_rig": rig}
+
+
+def _copy(src: Path, folder: Path) -> Path:
+    return Path(shutil.copyfile(src, folder / src.name))
 
 
 def _write(rec, path, mutate=None):
@@ -196,7 +212,7 @@ def _assert_contract(code, err, token, allow_success):
 
 
 @pytest.mark.parametrize("case", FILE_CASES, ids=[c[0] for c in FILE_CASES])
-@pytest.mark.parametrize("command", ["events", "estimate"])
+@pytest.mark.parametrize("command", ["events", pytest.param("estimate", marks=pytest.mark.slow)])
 def test_broken_recordings(case, command, good, tmp_path, capsys):
     name, build, token = case
     inputs = tmp_path / "in"
@@ -318,9 +334,9 @@ ARG_CASES = _argument_cases()
 
 
 @pytest.mark.parametrize("case", ARG_CASES, ids=[c[0] for c in ARG_CASES])
-def test_bad_arguments(case, good, tmp_path, capsys):
+def test_bad_arguments(case, good_files, tmp_path, capsys):
     name, argv, token = case
-    rec = _write(good, tmp_path / "r.h5")
+    rec = _copy(good_files["h5"], tmp_path)
     bad_toml = tmp_path / "bad.toml"
     bad_toml.write_text("[rig\nmodel = ")
     fill = {"rec": str(rec), "tmp": str(tmp_path), "bad_toml": str(bad_toml)}
@@ -379,12 +395,12 @@ OUTPUT_CASES = _output_cases()
 
 
 @pytest.mark.parametrize("case", OUTPUT_CASES, ids=[c[0] for c in OUTPUT_CASES])
-def test_bad_outputs(case, good, tmp_path, capsys):
+def test_bad_outputs(case, good_files, tmp_path, capsys):
     name, build, token = case
-    rec = _write(good, tmp_path / "r.h5")
+    rec = _copy(good_files["h5"], tmp_path)
     rig_toml = save_rig_toml(RIG, tmp_path / "rig.toml", {"cam_speed_hz": 15.0})
-    csv, _ = write_csv(replace(good, source="", channels={k: v[:40_000] for k, v in good.channels.items()}),
-                       tmp_path / "c.csv")
+    csv = _copy(good_files["csv"], tmp_path)
+    _copy(good_files["csv_rig"], tmp_path)
     argv = [str(a) for a in build(tmp_path, str(rec), str(rig_toml), str(csv))]
     before = _tree(tmp_path)
     started = time.perf_counter()
@@ -412,6 +428,7 @@ def test_case_count():
     assert len(FILE_CASES) + len(ARG_CASES) + len(OUTPUT_CASES) >= 60
 
 
+@pytest.mark.slow
 def test_rig_file_operating_point_reaches_every_command(good, tmp_path, capsys):
     """One rig resolver: a CSV's --rig TOML with [operating] cam_speed_hz works for events and estimate alike."""
     csv, sibling = write_csv(replace(good, source=""), tmp_path / "c.csv")
@@ -424,6 +441,7 @@ def test_rig_file_operating_point_reaches_every_command(good, tmp_path, capsys):
     assert json.loads(capsys.readouterr().out)["regime"] == "period-1"
 
 
+@pytest.mark.slow
 def test_outputs_get_the_umask_permissions(good, tmp_path):
     rec = _write(good, tmp_path / "r.h5")
     old = os.umask(0o022)
@@ -439,6 +457,7 @@ def test_outputs_get_the_umask_permissions(good, tmp_path):
         assert path.stat().st_mode & 0o777 == 0o644, path
 
 
+@pytest.mark.slow
 def test_non_finite_results_are_null_in_json_and_undetermined_in_text(good, tmp_path, capsys, monkeypatch):
     """A non-finite standard error (one impact with a determined xi) is written as null with the reason."""
     import impactid.pipeline as P
@@ -482,6 +501,7 @@ def test_restitution_failure_keeps_the_damping_estimate(good, tmp_path, capsys, 
     assert "restitution law: undetermined" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_interrupt_while_plotting_keeps_the_result_and_leaves_no_figure(good, tmp_path, capsys, monkeypatch):
     import impactid.reports as R
 
@@ -508,11 +528,18 @@ def _impactid(*argv, **kwargs):
 @pytest.mark.slow
 def test_ctrl_c_during_a_grid_search(good, tmp_path):
     rec = _write(good, tmp_path / "r.h5")
-    proc = _impactid("estimate", rec, "--grid", "300,300", "--out", tmp_path / "r.json")
-    time.sleep(6.0)  # imports, reading and the start of the search
+    proc = _impactid("estimate", rec, "--grid", "300,300", "--progress", "--out", tmp_path / "r.json")
+    # interrupt once the search has started (its progress line says so), however long the imports
+    # and the reading take on a loaded machine
+    seen, deadline = b"", time.time() + 180
+    while b"search" not in seen and time.time() < deadline and proc.poll() is None:
+        seen += os.read(proc.stderr.fileno(), 256)
+    assert b"search" in seen and proc.poll() is None, seen
+    time.sleep(0.5)
     proc.send_signal(signal.SIGINT)
     started = time.perf_counter()
     _, err = proc.communicate(timeout=60)
+    err = seen.decode() + err
     assert time.perf_counter() - started < 5.0  # the compiled batches run in chunks that see Ctrl-C
     assert proc.returncode == 130 and "Traceback" not in err
     assert err.strip().splitlines()[-1].startswith("impactid: error: interrupted")

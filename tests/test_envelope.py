@@ -40,7 +40,12 @@ CASES = [
 ]
 
 
-@pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
+#: the case the fast loop (``pytest -m "not slow"``) keeps: the paper's measured operating point
+FAST_CASES = ("paper-point",)
+
+
+@pytest.mark.parametrize("case", [pytest.param(c, id=c.id, marks=() if c.id in FAST_CASES else pytest.mark.slow)
+                                  for c in CASES])
 def test_n_fixed_fit_within_one_percent(case):
     row = run_case(case, joint=False)
     assert row["generation"] == "ok", row["generation"]
@@ -51,6 +56,7 @@ def test_n_fixed_fit_within_one_percent(case):
     assert restitution["status"] == "estimate", restitution["reason"]
 
 
+@pytest.mark.slow
 def test_noisy_interval_holds_the_truth():
     case = Case(id="noisy", klass="noisy", e_over_rc=0.2, cam_speed_hz=16.0, beta=24.7e9, n=1.5, noise=0.005,
                 adc_bits=16, accel_offset=1.2, accel_drift=-0.3, seed=7)
@@ -59,6 +65,7 @@ def test_noisy_interval_holds_the_truth():
     assert out["values"]["beta_covered"], out["values"]
 
 
+@pytest.mark.slow
 def test_restitution_case_within_two_percent():
     case = Case(id="s3", klass="S3", e_over_rc=0.1823, cam_speed_hz=15.0, gamma=0.9965, adc_bits=17)
     out = _fit(run_case(case), "restitution")

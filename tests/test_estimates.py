@@ -88,12 +88,14 @@ def test_fixed_n_noise_free_beta_within_1_percent(s2_events):
     assert len(again.to_pandas("per_event")) == len(est.per_event)
 
 
+@pytest.mark.slow
 def test_grid_method_agrees_with_the_optimiser_to_its_resolution(s2_events):
     grid = fit_contact_damping(s2_events, fix_n=N, method="grid", grid=(601, 3))
     step = 6.0 / 600  # decades of c per grid step over the default bounds
     assert abs(math.log10(grid.beta / BETA)) <= step
 
 
+@pytest.mark.slow
 def test_single_recording_joint_fit_warns_that_beta_n_are_not_separable(s2_events):
     with pytest.warns(EstimationWarning, match="not separable"):
         est = fit_contact_damping(s2_events)
@@ -102,6 +104,7 @@ def test_single_recording_joint_fit_warns_that_beta_n_are_not_separable(s2_event
     assert est.n_interval[1] - est.n_interval[0] > 0.25
 
 
+@pytest.mark.slow
 def test_joint_fit_over_two_operating_points(s2_synthetic, s2_second_point):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -114,6 +117,7 @@ def test_joint_fit_over_two_operating_points(s2_synthetic, s2_second_point):
     assert d.beta_interval[0] <= BETA <= d.beta_interval[1]
 
 
+@pytest.mark.slow
 def test_noisy_fixed_n_beta_within_5_percent_and_interval_covers_truth(s2_noisy):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

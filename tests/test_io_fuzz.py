@@ -59,6 +59,7 @@ def folder():
 @SETTINGS
 @given(flips=st.lists(st.tuples(st.integers(0, len(VALID) - 1), st.integers(0, 255)), min_size=1, max_size=40),
        cut=st.one_of(st.none(), st.integers(0, len(VALID))))
+@pytest.mark.slow
 def test_corrupted_hdf5(folder, flips, cut):
     data = bytearray(VALID)
     for pos, value in flips:
@@ -102,6 +103,7 @@ ATTR_VALUES = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integ
        rig_value=ATTR_VALUES, rig_key=st.sampled_from(["k_s", "m_b", "e", "mu", "model", "bogus"]),
        op_value=ATTR_VALUES, length=st.integers(0, 50),
        dtype=st.sampled_from(["f8", "f4", "i4", "u1", "S3", "c16", "?"]), ndim=st.integers(0, 2))
+@pytest.mark.slow
 def test_random_structure(folder, rate, start, units, rig_value, rig_key, op_value, length, dtype, ndim):
     path = folder / "s.h5"
     with h5py.File(path, "w") as fh:

@@ -5,8 +5,9 @@ Kim, Jeon & Park (1990) and the film formula of Rahnejat (1984), as restated (an
 project's valve-train specification, part R. "Quoted" numbers below are the ones that specification gives
 for its assumed parameter set; where this reference differs, the test says why.
 
-Runtime: about 30 s without the ``slow`` tests (most of it three level-B steady cycles); the level-B
-jump-speed bisection is marked ``slow``.
+Runtime: about 1 s of CPU without the ``slow`` tests. The ``slow`` ones are the dynamic runs: the
+level-A cycles and jump speed (about 15 s), the three level-B steady cycles (about 20 s) and the level-B
+jump-speed bisection.
 """
 
 import math
@@ -232,6 +233,7 @@ def test_ehl_formula_at_the_nose(p):
     assert not R.ehl_validity(0.5, 28e-3, u, 0.0, p)["W"]
 
 
+@pytest.mark.slow
 def test_ehl_cycle_3000_level_a(p, a3000):
     o = a3000
     assert o["nose_u"] == pytest.approx(4.40, abs=0.005)
@@ -277,6 +279,7 @@ def test_ehl_kinematic_load_flank_ratio_RD4(p, kin3000):
         assert 1.66 < ratio < 1.77
 
 
+@pytest.mark.slow
 def test_ehl_low_speeds(p):
     o1 = R.cycle_outputs(1000.0, p, level="A")
     o6 = R.cycle_outputs(600.0, p, level="A")
@@ -330,6 +333,7 @@ def test_rigid_jump_speed(p):
     assert R.rigid_load(psi, nj - 0.5, p).min() > 0 > R.rigid_load(psi, nj + 0.5, p).min()
 
 
+@pytest.mark.slow
 def test_level_a_shooting_against_run_in(p):
     # the shooting state is the limit of a plain run-in from rest (state at the same cam angle)
     rpm = 3000.0
@@ -349,6 +353,7 @@ def test_level_a_shooting_against_run_in(p):
     assert 0.04 < diffs[6] / diffs[5] < 0.15
 
 
+@pytest.mark.slow
 def test_level_a_quasistatic_limit(p):
     # At low speed the spring masses follow the valve quasi-statically. Expanding M z'' + C z' + K z =
     # b_k y3 + b_c y3' in powers of the time derivatives: z = a0 y3 + a1 y3' + a2 y3'' + ..., with
@@ -378,6 +383,7 @@ def test_level_a_quasistatic_limit(p):
     np.testing.assert_allclose(cyc["z"][0], y5, rtol=0, atol=6e-9)
 
 
+@pytest.mark.slow
 def test_level_a_jump_speed(p):
     # first W < 0 of the adherent model with surge: 3176 rpm. The specification quotes 3200 rpm; that is
     # the first W < 0 on any speed grid of 25, 50 or 100 rpm from 3000 rpm (3175 rpm still has +0.27 N).
@@ -392,6 +398,7 @@ def test_level_a_jump_speed(p):
     assert math.degrees(o["psi_W_min_continuous"]) == pytest.approx(204.4, abs=1.0)
 
 
+@pytest.mark.slow
 def test_surge_ripple_on_base_circle(p, a3000):
     # about +-10 N at 3000 rpm (R.5); negligible at 1000 rpm
     assert a3000["base_load_min"] - p["f_p"] == pytest.approx(-10.4, abs=0.3)
@@ -400,6 +407,7 @@ def test_surge_ripple_on_base_circle(p, a3000):
     assert R.cycle_outputs(1000.0, p, level="A")["surge_ripple"] < 0.3
 
 
+@pytest.mark.slow
 def test_load_crossovers_where_s2_vanishes(p):
     # R-D16: the load is speed-independent (surge aside) where s'' = 0: mid-rise, nose, mid-return
     n = 3600
@@ -446,6 +454,7 @@ def test_level_b_static_preload_sharing(p):
     assert xl[0] == pytest.approx(-pl["f_p"] / (pl["K_se"] + pl["k0"]), rel=1e-10)
 
 
+@pytest.mark.slow
 def test_level_b_below_jump_speed(p, b3000):
     o = b3000
     assert o["converged"]
@@ -472,6 +481,7 @@ def test_level_b_below_jump_speed(p, b3000):
     assert o["nose_film"] == pytest.approx(0.978e-6, rel=0.01)
 
 
+@pytest.mark.slow
 def test_level_b_agrees_with_level_a_at_low_speed(p):
     rpm = 1000.0
     b = R.level_b_steady_cycle(rpm, p, n=8)
@@ -491,6 +501,7 @@ def test_level_b_agrees_with_level_a_at_low_speed(p):
     np.testing.assert_allclose(F[base], 6.88, atol=0.01)
 
 
+@pytest.mark.slow
 def test_level_b_above_jump_speed(p):
     rpm = 3200.0
     c = R.level_b_steady_cycle(rpm, p, n=8)

@@ -3,7 +3,7 @@
 The period-1 orbits come from shooting on the one-revolution Poincaré map of the SciPy reference
 model. The recordings built on them are compared with impactid's own generator
 (``impactid.synth.synth_pivoted``) once both are on the same steady orbit. Total runtime is about
-45 s; the three ``slow`` tests take about 20 s of it.
+45 s; outside ``slow`` (everything that needs a periodic orbit is ``slow``) it is under a second.
 """
 
 from __future__ import annotations
@@ -54,6 +54,7 @@ def s3_reference():
 # ---------------------------------------------------------------------------------------------
 # periodic orbits
 # ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
 @pytest.mark.parametrize("which, e_over_rc, f", [("orbit_025_15", 0.25, 15.0), ("orbit_020_16", 0.2, 16.0)])
 def test_fixed_point_is_a_stable_fixed_point(request, which, e_over_rc, f):
     orbit = request.getfixturevalue(which)
@@ -70,6 +71,7 @@ def test_fixed_point_is_a_stable_fixed_point(request, which, e_over_rc, f):
     np.testing.assert_allclose(np.sort(np.linalg.eigvals(orbit.jacobian).real), np.sort(orbit.multipliers.real))
 
 
+@pytest.mark.slow
 def test_slow_transient_at_020_16_is_a_multiplier_near_minus_one(orbit_020_16, orbit_025_15):
     # 0.2/16 Hz: leading multiplier about -0.986, hence impactid's ~40 s settling (0.986^640 ~ 1e-4);
     # 0.25/15 Hz: about -0.31, settled within a second
@@ -77,6 +79,7 @@ def test_slow_transient_at_020_16_is_a_multiplier_near_minus_one(orbit_020_16, o
     assert abs(orbit_025_15.multipliers[0]) < 0.5
 
 
+@pytest.mark.slow
 def test_newton_from_a_perturbed_guess_finds_the_same_orbit(orbit_025_15):
     p = R.reference_params(0.25)
     again = RR.periodic_orbit(p, 15.0, HC, MU, guess=orbit_025_15.state + np.array([2e-4, -5e-2]),
@@ -122,6 +125,7 @@ IMPACT_KEYS = ("t_start", "t_end", "gap_rate_start", "gap_rate_end", "peak_force
                "alpha_start", "alpha_dot_start", "xi")
 
 
+@pytest.mark.slow
 def test_agrees_with_impactid_generator_at_025_15(orbit_025_15):
     """Both settled (impactid after 5 s: 0.31^75 ~ 1e-38): the agreement is the integrators'.
 
@@ -185,6 +189,7 @@ def test_agrees_with_impactid_generator_at_020_16(s2_synthetic, orbit_020_16):
 # ---------------------------------------------------------------------------------------------
 # the recording: clock, file round trip, events, sensors
 # ---------------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_clock_and_cam_angle_are_consistent(orbit_025_15):
     """Theta(t) = theta_ref + 2 pi f t on the recording clock; the impacts sit at the same cam phase
     whatever theta_ref and start_time_s are."""
@@ -205,6 +210,7 @@ def test_clock_and_cam_angle_are_consistent(orbit_025_15):
     np.testing.assert_allclose(phases, phases[0], rtol=0, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_rig_and_operating_point(orbit_025_15):
     rec, truth = RR.reference_recording(0.25, 15.0, HC, duration=0.02, orbit=orbit_025_15)
     assert rec.rig == SUNDAR2016.with_eccentricity_ratio(0.25)
@@ -221,6 +227,7 @@ def test_rig_check_catches_a_parameter_mismatch():
         RR._check_rig(SUNDAR2016.with_eccentricity_ratio(0.25), p)
 
 
+@pytest.mark.slow
 def test_file_round_trip_and_events(tmp_path, orbit_025_15):
     path = RR.write_reference_recording(tmp_path / "ref.h5", 0.25, 15.0, HC, duration=0.5, orbit=orbit_025_15)
     rec = read_recording(path)
@@ -240,6 +247,7 @@ def test_file_round_trip_and_events(tmp_path, orbit_025_15):
     assert not events.warnings
 
 
+@pytest.mark.slow
 def test_sensor_chain_with_decimation(orbit_025_15):
     sensors = SensorModel(decimation=4, noise=0.002, adc_bits=16, cam_encoder_ppr=2048, seed=5)
     rec, truth = RR.reference_recording(0.25, 15.0, HC, duration=0.2, orbit=orbit_025_15, sensors=sensors)

@@ -39,17 +39,31 @@ class ChannelSpec:
 
 @dataclass(frozen=True)
 class Argument:
-    """A command-line argument: the flags and the keyword arguments of ``add_argument``."""
+    """A command-line argument: the flags and the keyword arguments of ``add_argument``.
+
+    ``options`` may also be a function returning them, called when the parser is built: for
+    options (such as ``choices``) that come from modules a rig's import must not load. Arguments
+    with the same ``exclusive`` name form a mutually exclusive group (at most one may be given).
+    """
 
     flags: tuple[str, ...]
-    options: Mapping[str, Any] = field(default_factory=dict)
+    options: Mapping[str, Any] | Callable[[], Mapping[str, Any]] = field(default_factory=dict)
+    exclusive: str = ""
 
     def add_to(self, parser: argparse.ArgumentParser) -> None:
         """Add to ``parser`` unless an argument with the same first flag is there already (rigs that
         share a command share its common arguments)."""
         known = {flag for action in parser._actions for flag in action.option_strings}
-        if not known.intersection(self.flags):
-            parser.add_argument(*self.flags, **dict(self.options))
+        if known.intersection(self.flags):
+            return
+        options = self.options() if callable(self.options) else self.options
+        target = parser
+        if self.exclusive:
+            groups = parser.__dict__.setdefault("_exclusive_groups", {})
+            if self.exclusive not in groups:
+                groups[self.exclusive] = parser.add_mutually_exclusive_group()
+            target = groups[self.exclusive]
+        target.add_argument(*self.flags, **dict(options))
 
 
 @dataclass(frozen=True)
@@ -58,7 +72,20 @@ class CommandSpec:
 
     ``group`` is the command group (``"valvetrain"`` gives ``impactid valvetrain NAME``; ``""`` a
     top-level command). Several rigs may contribute the same ``(group, name)``: the command then
-    takes ``--rig MODEL`` and runs the chosen rig's ``run``; its arguments are the union of theirs.
+    takes ``--rig`` and runs the chosen rig's ``run``; its arguments are the union of theirs (the
+    first registered rig's declaration of a flag wins). What ``--rig`` takes is ``rig_argument``:
+
+    * ``"model"``: one of the contributing rigs' model names (``impactid valvetrain simulate --rig
+      finger-follower-hla``);
+    * ``"resolve"``: a model name, a preset name or a TOML rig file, resolved through the registry
+      (:func:`~impactid.rigs.registry.resolve_rig`): the command runs the implementation of the rig
+      that names, with ``args.resolved_rig`` (a :class:`~impactid.rigs.registry.ResolvedRig`) set;
+      without ``--rig``, the rig whose spec has ``default_rig`` (``impactid synth``, ``impactid
+      detachment``).
+
+    A top-level command of one rig gets no ``--rig`` from the command line; it may declare its own
+    (and resolve it with :func:`~impactid.rigs.registry.resolve_rig`).
+
     ``description`` is the longer text of ``impactid ... NAME --help``. ``run(args, model)`` returns
     the exit code; errors the user caused raise
     :class:`~impactid.errors.ImpactidError`.
@@ -70,6 +97,12 @@ class CommandSpec:
     arguments: Sequence[Argument]
     run: Callable[[argparse.Namespace, RigModel], int]
     description: str = ""
+    rig_argument: str = "model"
+    default_rig: bool = False
+
+    def __post_init__(self) -> None:
+        if self.rig_argument not in ("model", "resolve"):
+            raise ValueError(f"rig_argument must be 'model' or 'resolve', got {self.rig_argument!r}")
 
 
 @dataclass(frozen=True)

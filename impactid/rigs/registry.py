@@ -1,10 +1,11 @@
-"""Registry of rig models and the TOML rig-file reader/writer (docs/formats.md)."""
+"""Registry of rig models, the one rig resolver, and the TOML rig-file reader/writer (docs/formats.md)."""
 
 from __future__ import annotations
 
 import math
 import os
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -12,7 +13,8 @@ from impactid.errors import RigParameterError
 from impactid.rigs._toml import read_toml, write_text_atomic
 from impactid.rigs.base import RigModel
 
-__all__ = ["MODELS", "RIG_MODELS", "load_rig_toml", "register", "rig_from_mapping", "rig_model", "save_rig_toml"]
+__all__ = ["MODELS", "RIG_MODELS", "ResolvedRig", "load_rig_toml", "register", "resolve_rig", "rig_by_name",
+           "rig_from_mapping", "rig_model", "save_rig_toml"]
 
 #: The registered rig models by docs/formats.md model name (:class:`~impactid.rigs.base.RigModel`).
 MODELS: dict[str, RigModel] = {}
@@ -39,6 +41,76 @@ def rig_model(name: str) -> RigModel:
         return MODELS[name]
     except KeyError:
         raise KeyError(f"unknown rig model {name!r} (known: {', '.join(MODELS) or 'none'})") from None
+
+
+@dataclass(frozen=True)
+class ResolvedRig:
+    """What a rig specification names (:func:`resolve_rig`).
+
+    model : the registered :class:`~impactid.rigs.base.RigModel`.
+    rig : its parameter set (a preset, or the rig file's).
+    operating : the rig file's ``[operating]`` table (empty for a name).
+    file : the rig file, or None when a name was given.
+    """
+
+    model: RigModel
+    rig: Any
+    operating: Mapping[str, float] = field(default_factory=dict)
+    file: str | None = None
+
+
+def rig_by_name(name: str) -> tuple[RigModel, Any] | None:
+    """The model and parameter set ``name`` stands for, or None when it names none.
+
+    A model name stands for the model's default preset (the paper's table: ``"pivoted-follower"`` is
+    ``SUNDAR2016``); a preset name for that preset of the model that has it (``"ALZATE2007"``). Exact
+    names first, then ignoring case when that names one parameter set only.
+    """
+    if not isinstance(name, str):
+        return None
+    if name in MODELS:
+        return MODELS[name], MODELS[name].default
+    exact = [(m, m.presets[name]) for m in MODELS.values() if name in m.presets]
+    if len(exact) == 1:
+        return exact[0]
+    folded = name.casefold()
+    loose = [(m, m.default) for m in MODELS.values() if m.name.casefold() == folded]
+    loose += [(m, rig) for m in MODELS.values() for key, rig in m.presets.items() if key.casefold() == folded]
+    unique = {(m.name, id(rig)): (m, rig) for m, rig in exact + loose}
+    if len(unique) > 1:
+        raise RigParameterError(f"rig name {name!r} is ambiguous: a preset of "
+                                f"{', '.join(sorted({m.name for m, _ in unique.values()}))}; give a rig file")
+    return next(iter(unique.values()), None)
+
+
+def resolve_rig(spec: str | os.PathLike[str] | None, default: str | None = None) -> ResolvedRig:
+    """The one rig resolver of the command line (``--rig``) and of the API: what ``spec`` names.
+
+    Rules, in order:
+
+    1. None: the default preset of the model named ``default``;
+    2. a registered model name: that model's default preset (the paper's parameter table);
+    3. a preset name of a registered model (``SUNDAR2016``, ``ALZATE2007``, ``kim1990``, ...): that
+       preset and its model (see :func:`rig_by_name`);
+    4. anything else: a TOML rig file (:func:`load_rig_toml`); its ``[rig] model`` names the model
+       and its ``[operating]`` table comes along.
+
+    Raises
+    ------
+    RigParameterError
+        naming the file for a missing or bad rig file, or when neither ``spec`` nor ``default``
+        names a rig.
+    """
+    if spec is None:
+        if default is None:
+            raise RigParameterError("no rig given (a model name, a preset name or a TOML rig file)")
+        model = rig_model(default)
+        return ResolvedRig(model, model.default)
+    named = rig_by_name(os.fspath(spec))
+    if named is not None:
+        return ResolvedRig(*named)
+    rig, operating = load_rig_toml(spec)
+    return ResolvedRig(rig_model(rig.model), rig, operating, os.fspath(spec))
 
 
 

@@ -295,38 +295,72 @@ def detachment_speed(rig: PivotedFollowerRig, mu: float | None = None, n_angles:
 # ---------------------------------------------------------------------------------------------
 
 
+def _classify_point(point: tuple[PivotedFollowerRig, float], law: Law, mu: float | None, options: dict) -> dict:
+    """One simulated point of :func:`regime_map` (a module-level function: it is sent to workers)."""
+    rig, hz = point
+    return classify_regime(rig, hz, law, mu=mu, **options).to_dict()
+
+
 def regime_map(rig: PivotedFollowerRig, e_over_rc, cam_speeds_hz, law: Law | None = None, *,
-               mu: float | None = None, progress=None, **classify_kwargs):
+               mu: float | None = None, progress=None, client=None, **classify_kwargs):
     """Classify the motion over a grid of (e/r_c, cam speed) — Fig. 3 of Sundar, Dreyer & Singh (2016).
 
-    Returns a pandas DataFrame with one row per grid point: the :class:`RegimeResult` fields plus
-    ``detachment_hz`` (inverse kinematics) for that eccentricity. ``progress`` is an optional
-    callable ``progress(done, total)``.
+    Parameters
+    ----------
+    rig : rig P; its eccentricity is set to each ratio of ``e_over_rc``.
+    e_over_rc : eccentricity ratios ``e / r_c`` [-].
+    cam_speeds_hz : cam speeds [Hz].
+    law : contact law (default :data:`SEED_S2_LAW`).
+    mu : friction coefficient (default: the rig's).
+    progress : optional callable ``progress(done, total)`` over the grid points.
+    client : a :class:`distributed.Client`: the simulated points are classified on its cluster
+        (:mod:`impactid.distributed`); None (default): one after the other here. The table is the same.
+    classify_kwargs : passed to :func:`classify_regime`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        one row per grid point (ratios outer, speeds inner): the :class:`RegimeResult` fields plus
+        ``detachment_hz`` (inverse kinematics) for that eccentricity and ``simulated`` (False below
+        the detachment speed, where the follower stays on the cam without simulating).
     """
+    import functools
+
     import pandas as pd
 
+    from impactid.distributed import map_tasks
+
     law = SEED_S2_LAW if law is None else law
-    rows = []
     e_values = [float(x) for x in np.atleast_1d(e_over_rc)]
     speeds = [float(x) for x in np.atleast_1d(cam_speeds_hz)]
     total = len(e_values) * len(speeds)
-    done = 0
+    rows: list[dict | None] = []
+    simulate_at: list[tuple[int, tuple[PivotedFollowerRig, float]]] = []
+    details: list[float] = []
     for ratio in e_values:
         r = rig.with_eccentricity_ratio(ratio)
         det = detachment_speed(r, mu=mu).cam_speed_hz
         for hz in speeds:
+            details.append(det)
             if hz < det:
                 # below detachment the follower stays on the cam: no need to simulate
                 row = RegimeResult("contact", 1, 0.0, 0.0, 0.0, 0.0, 0.0, False, ratio, hz,
                                    getattr(law, "beta", math.nan), getattr(law, "n", math.nan),
                                    r.mu if mu is None else mu).to_dict()
                 row["simulated"] = False
+                rows.append(row)
             else:
-                row = classify_regime(r, hz, law, mu=mu, **classify_kwargs).to_dict()
-                row["simulated"] = True
-            row["detachment_hz"] = det
-            rows.append(row)
-            done += 1
-            if progress is not None:
-                progress(done, total)
+                simulate_at.append((len(rows), (r, hz)))
+                rows.append(None)
+    skipped = total - len(simulate_at)
+    if progress is not None and skipped:
+        progress(skipped, total)
+    step = None if progress is None else (lambda done, _: progress(skipped + done, total))
+    classified = map_tasks(functools.partial(_classify_point, law=law, mu=mu, options=classify_kwargs),
+                           [point for _, point in simulate_at], client=client, progress=step)
+    for (k, _), row in zip(simulate_at, classified):
+        row["simulated"] = True
+        rows[k] = row
+    for row, det in zip(rows, details):
+        row["detachment_hz"] = det
     return pd.DataFrame(rows)

@@ -22,7 +22,7 @@ import pandas as pd
 
 from impactid.contact import HuntCrossley, Restitution
 from impactid.errors import SimulationError, SimulationInputError
-from impactid.rigs.pivoted import PivotedFollowerRig
+from impactid.rigs.pivoted import MODEL_NAME, PivotedFollowerRig
 from impactid.rigs.pivoted import kernel as K
 
 __all__ = ["BATCH_CHUNK_JOBS", "DEFAULT_TOLERANCES", "MODE_NAMES", "S1_CONTACT_ROWS", "S1_MAX_STEPS", "BatchResult",
@@ -100,8 +100,8 @@ def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
     last = _last_rig  # one read: another thread may replace it
     if mu is None and rig is last[0]:
         return last[1]
-    if not isinstance(rig, PivotedFollowerRig):
-        raise SimulationInputError(f"expected a PivotedFollowerRig, got {type(rig).__name__}")
+    if getattr(rig, "model", None) != MODEL_NAME:
+        raise SimulationInputError(f"expected a {MODEL_NAME!r} rig, got {type(rig).__name__}")
     p = _pack_rig_cached(rig, None if mu is None else _finite("mu", mu))
     if mu is None:
         _last_rig = (rig, p)

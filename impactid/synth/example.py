@@ -1,14 +1,16 @@
 """The built-in example: two recordings of one rig, generated deterministically on first use and cached.
 
 Two period-1 operating points of the rig P of Sundar, Dreyer & Singh (2016) with the same contact
-law (beta = 24.7 GN s m^-2.5, n = 1.5, mu = 0.2): e/r_c = 0.2 at 16 Hz (approach speed 0.49 m/s)
-and e/r_c = 0.25 at 15 Hz (0.69 m/s). With impacts at two approach speeds, beta and n can be
-told apart (one operating point alone gives a valley of equally good (beta, n) pairs: notebook 01
-shows that case). Each recording is one second at 204.8 kHz after 40 s of settling, with a
-realistic but mild acquisition chain: 0.2 % Gaussian noise on the accelerometer and force channels
-and a 24-bit ADC. Generating them takes about a second once the simulator is compiled; the files
-(about 6.5 MB each) are cached in ``$IMPACTID_CACHE_DIR`` (default ``$XDG_CACHE_HOME/impactid`` or
-``~/.cache/impactid``) under names that change whenever the recipe changes.
+law (beta = 24.7 GN s m^-2.5, n = 1.5): e/r_c = 0.05 at 16 Hz (approach speed 0.22 m/s) and
+e/r_c = 0.25 at 15 Hz (0.69 m/s). With impacts at two approach speeds this far apart, beta and n
+can be told apart at 0.2 % noise (one operating point alone gives a valley of equally good
+(beta, n) pairs: notebook 01 shows that case; e/r_c 0.2 at 16 Hz with 0.25 at 15 Hz, approach
+speeds 0.49 and 0.69 m/s, is still not enough: n from 1.23 to 1.63). Each recording is one
+second at 204.8 kHz after 40 s of settling, with a realistic but mild acquisition chain: 0.2 %
+Gaussian noise on the accelerometer and force channels and a 24-bit ADC. Generating them takes
+about a second once the simulator is compiled; the files (about 6.5 MB each) are cached in
+``$IMPACTID_CACHE_DIR`` (default ``$XDG_CACHE_HOME/impactid`` or ``~/.cache/impactid``) under
+names that change whenever the recipe changes.
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ EXAMPLE_RECIPE = {
     "adc_bits": 24, "seed": 2016, "recipe_version": 2,
 }
 #: The operating points ``(e/r_c, cam speed [Hz])`` of the example recordings.
-EXAMPLE_POINTS = ((0.2, 16.0), (0.25, 15.0))
+EXAMPLE_POINTS = ((0.05, 16.0), (0.25, 15.0))
 
 
 def cache_dir() -> Path:
@@ -48,7 +50,7 @@ def example_recording_paths(refresh: bool = False) -> list[Path]:
 
 
 def example_recording_path(refresh: bool = False) -> Path:
-    """Path of the first example recording (e/r_c = 0.2, 16 Hz)."""
+    """Path of the first example recording (e/r_c = 0.05, 16 Hz)."""
     return _example_path(0, refresh)
 
 

@@ -4,12 +4,15 @@
   paper's rig :data:`ALZATE2007`;
 * :mod:`~impactid.rigs.flat.kernel`: the compiled event-driven simulator on the shared DP5 core;
 * :mod:`~impactid.rigs.flat.simulate`: runs, the speed-dependent restitution law, bifurcation sweeps.
+* :mod:`~impactid.rigs.flat.commands`: its commands (``impactid bifurcation``, ``restitution``,
+  ``cam-fit``, and its ``detachment`` and ``synth``).
 
 Its measurement model (encoders to impacts and restitution) is :mod:`impactid.encoder_impacts`; its
 cam profile fit is :mod:`impactid.camprofile`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
+from impactid.rigs.flat.commands import COMMANDS
 from impactid.rigs.flat.parameters import (
     ALZATE2007,
     MODEL_NAME,
@@ -71,4 +74,5 @@ MODEL = RigModel(
     kernel="impactid.rigs.flat.kernel",
     simulate=_simulate,
     measure=_measure,
+    commands=COMMANDS,
 )

@@ -13,6 +13,7 @@ The coefficient of restitution depends on the cam speed as in the paper:
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -264,10 +265,27 @@ def strobe_phase_default(rig: FlatFollowerRig) -> float:
     return float(np.mod(theta[int(np.argmin(torque))] + 1.0, TWO_PI))
 
 
+def _sweep(packed: np.ndarray, part: tuple[np.ndarray, np.ndarray], *, v_stick: float, revolutions: int,
+           phase: float, tolerances: Tolerances) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The runs of :func:`bifurcation` at the cam speeds [Hz] and restitution coefficients of ``part``
+    (a module-level function: parts of a sweep are sent to workers)."""
+    speeds, rs = part
+    strobe = np.empty((speeds.size, revolutions, 3))
+    counts = np.zeros((speeds.size, revolutions, 3), dtype=np.int64)
+    status = np.zeros(speeds.size, dtype=np.int64)
+    steps = np.zeros(speeds.size, dtype=np.int64)
+    tol = tolerances
+    FK.sweep(packed, TWO_PI * np.ascontiguousarray(speeds), np.ascontiguousarray(rs), v_stick, revolutions, phase,
+             tol.rtol, tol.atol_alpha, tol.atol_rate, tol.max_step_revolutions, tol.max_steps, strobe, counts, status,
+             steps)
+    return strobe, counts, status, steps
+
+
 def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolutions: int = 100,
                 kept: int | None = None, strobe_phase: float | None = None, v_stick: float = V_STICK,
                 periodicity_tol: float = 1e-4,
-                max_period: int = 12, tolerances: Tolerances = DEFAULT_TOLERANCES) -> BifurcationResult:
+                max_period: int = 12, tolerances: Tolerances = DEFAULT_TOLERANCES,
+                client=None, progress=None) -> BifurcationResult:
     """Bifurcation diagram of rig F (Fig. 16 of Alzate et al. (2007)).
 
     Each speed is run from permanent contact at ``theta_c = 0`` for ``revolutions`` cam revolutions
@@ -279,6 +297,11 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
     :func:`impactid.simulate.regimes._find_period`, which also rejects slowly decaying transients),
     ``"irregular"`` otherwise. ``periodicity_tol`` sits far above the integrator's error (rtol
     1e-10) and below the differences between distinct periodic branches.
+
+    With a ``client`` (a :class:`distributed.Client`, :mod:`impactid.distributed`), the speeds are
+    split into parts run on its workers (each part in parallel on its worker's threads); the
+    diagram is the same. ``progress(done, total)`` is called as cam speeds are done (serially: once,
+    at the end of the one parallel run).
     """
     law = DEFAULT_RESTITUTION if restitution is None else restitution
     if not isinstance(law, SpeedRestitution):
@@ -292,13 +315,22 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
         raise SimulationInputError(f"kept revolutions must lie in [1, {revolutions}], got {kept}")
     phase = strobe_phase_default(rig) if strobe_phase is None else float(np.mod(strobe_phase, TWO_PI))
     rs = np.array([law(s) for s in speeds])
-    strobe = np.empty((speeds.size, revolutions, 3))
-    counts = np.zeros((speeds.size, revolutions, 3), dtype=np.int64)
-    status = np.zeros(speeds.size, dtype=np.int64)
-    steps = np.zeros(speeds.size, dtype=np.int64)
-    tol = tolerances
-    FK.sweep(pack_flat_rig(rig), TWO_PI * speeds, rs, float(v_stick), revolutions, phase, tol.rtol, tol.atol_alpha,
-             tol.atol_rate, tol.max_step_revolutions, tol.max_steps, strobe, counts, status, steps)
+    run = functools.partial(_sweep, pack_flat_rig(rig), v_stick=float(v_stick), revolutions=revolutions,
+                            phase=phase, tolerances=tolerances)
+    if client is None:
+        strobe, counts, status, steps = run((speeds, rs))
+        if progress is not None:
+            progress(speeds.size, speeds.size)
+    else:
+        from impactid.distributed import map_tasks
+
+        workers = max(1, len(client.scheduler_info().get("workers", {})))
+        parts = [(a, b) for a, b in zip(np.array_split(speeds, min(speeds.size, 4 * workers)),
+                                        np.array_split(rs, min(speeds.size, 4 * workers)))]
+        sizes = [a.size for a, _ in parts]
+        step = None if progress is None else (lambda done, _: progress(sum(sizes[:done]), speeds.size))
+        pieces = map_tasks(run, parts, client=client, progress=step)
+        strobe, counts, status, steps = (np.concatenate([piece[k] for piece in pieces]) for k in range(4))
     bad = np.flatnonzero(status != FK.OK)
     if bad.size:
         i = int(bad[0])

@@ -6,12 +6,16 @@ The folder holds the rig's parts, following the data:
   :class:`PivotedFollowerRig` parameters and the paper's rig :data:`SUNDAR2016`;
 * :mod:`~impactid.rigs.pivoted.kernel`: the compiled event-driven simulator (on the shared DP5 core
   :mod:`impactid.simulate.dp5`), driven by :mod:`impactid.simulate.runs`.
+* :mod:`~impactid.rigs.pivoted.commands`: its commands (``impactid estimate``, ``events``, ``regime``,
+  ``regime-map``, ``simulate``, and its ``detachment`` and ``synth``).
 
 The measurement model (accelerometer and force channels to per-impact kinematics) is
-:func:`impactid.reconstruct.reconstruct`; the estimators are in :mod:`impactid.estimates`.
+:func:`impactid.reconstruct.reconstruct` (``MODEL.measure``, through which the estimate pipeline
+reaches it); the estimators are in :mod:`impactid.estimates`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
+from impactid.rigs.pivoted.commands import COMMANDS
 from impactid.rigs.pivoted.parameters import (
     MODEL_NAME,
     SUNDAR2016,
@@ -88,4 +92,5 @@ MODEL = RigModel(
     kernel="impactid.rigs.pivoted.kernel",
     simulate=_simulate,
     measure=_measure,
+    commands=COMMANDS,
 )

@@ -59,6 +59,7 @@ def test_json_round_trip_and_report(result):
     assert {"constant", "linear", "selected", "bounces"} <= set(summary)
 
 
+@pytest.mark.slow
 def test_figures_are_figures(result):
     from matplotlib.figure import Figure
 

@@ -23,6 +23,7 @@ def _run(argv, capsys):
     return code, out.out, out.err
 
 
+@pytest.mark.slow
 def test_json_and_figures(files, tmp_path, capsys):
     out, plots = tmp_path / "r.json", tmp_path / "plots"
     code, stdout, err = _run(["bounces", *files, "--ball", "pingpong", "--out", out, "--plots", plots,

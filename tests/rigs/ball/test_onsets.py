@@ -28,9 +28,13 @@ def _errors(found, true):
     return err, np.diff(found) - np.diff(true)
 
 
-@pytest.mark.parametrize("rate", [44100, 48000])
-@pytest.mark.parametrize("encoding", ["int16", "int24", "float32"])
-@pytest.mark.parametrize("channels", [1, 2])
+#: the combinations the fast loop (``pytest -m "not slow"``) keeps: every channel count, encoding and rate once
+FAST_WAV = {(1, "int16", 44100), (2, "int24", 48000), (1, "float32", 48000)}
+
+
+@pytest.mark.parametrize(("channels", "encoding", "rate"), [
+    pytest.param(c, e, r, marks=() if (c, e, r) in FAST_WAV else pytest.mark.slow)
+    for c in (1, 2) for e in ("int16", "int24", "float32") for r in (44100, 48000)])
 def test_onsets_from_wav_after_cleaning(tmp_path, drop, rate, encoding, channels):
     true, speeds = drop
     x = synth_audio(true, speeds, sample_rate=rate, rng=np.random.default_rng(rate + channels), channels=channels,

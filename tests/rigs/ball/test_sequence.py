@@ -58,6 +58,7 @@ def test_each_fault_kind_is_found(fault, label, status):
     assert found >= runs - 2, f"{fault}: {found} of {runs}"  # a genuine event is rejected now and then
 
 
+@pytest.mark.slow
 def test_all_faults_together():
     exact = 0
     for seed in range(6):

@@ -33,6 +33,7 @@ def test_simulate_json(capsys):
     assert d["level"] == "A" and not d["jump_predicted"]
 
 
+@pytest.mark.slow
 def test_simulate_text_files_and_level_b(tmp_path, capsys):
     out, plots = tmp_path / "r.json", tmp_path / "figs"
     assert main(["valvetrain", "simulate", "--rig", RIG, "--rpm", "3000", "--level", "B", "--out", str(out), "--plots",
@@ -59,6 +60,7 @@ def test_jump_speed_json(capsys):
     assert d["jump_speed_rpm"] == pytest.approx(3239.5, abs=0.1)
 
 
+@pytest.mark.slow
 def test_synth_then_fit_surge(tmp_path, capsys):
     rec = tmp_path / "rec.h5"
     assert main(["valvetrain", "synth", "--rig", RIG, "--rpm", "3000", "--revolutions", "3", "--sample-rate", "20000",

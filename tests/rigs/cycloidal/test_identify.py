@@ -23,6 +23,7 @@ def truth_rig(rig):
     return rig.replace(**TRUE)
 
 
+@pytest.mark.slow
 def test_contact_load_noise_free_recovery(rig, truth_rig):
     rec = synth_recording(truth_rig, 3000.0, revolutions=3, sample_rate_hz=20_000.0,
                           channels=("cam_angle", "contact_load")).recording.with_rig(rig)
@@ -37,6 +38,7 @@ def test_contact_load_noise_free_recovery(rig, truth_rig):
     assert fit.plot() is not None
 
 
+@pytest.mark.slow
 def test_contact_load_with_noise_inside_the_intervals(rig, truth_rig):
     # 3 N of white noise on a 250-770 N load (a good piezo load washer), two speeds jointly
     recs = [synth_recording(truth_rig, rpm, revolutions=3, sample_rate_hz=20_000.0, channels=("cam_angle",
@@ -51,6 +53,7 @@ def test_contact_load_with_noise_inside_the_intervals(rig, truth_rig):
     assert len(fit.to_pandas()) == 2
 
 
+@pytest.mark.slow
 def test_free_k0(rig, truth_rig):
     rec = synth_recording(truth_rig.replace(k0=38_000.0), 3000.0, revolutions=3, sample_rate_hz=20_000.0,
                           channels=("cam_angle", "contact_load")).recording.with_rig(rig)
@@ -60,6 +63,7 @@ def test_free_k0(rig, truth_rig):
     assert free.statistics["residual_rms"] < 1e-3 * fixed.statistics["residual_rms"]
 
 
+@pytest.mark.slow
 def test_valve_displacement_level_b(rig, truth_rig):
     # below the jump speed the displacement carries the load through the Hertz approach (um): with a
     # sensor resolving 5 nm the level-B fit recovers everything
@@ -92,6 +96,7 @@ def test_refusals(rig, truth_rig):
         fit_surge([])
 
 
+@pytest.mark.slow
 def test_samples_without_contact_are_excluded(rig):
     # above the level-A jump speed the adherent load goes negative; a measured load cannot, and the fit
     # leaves those samples out and says so

@@ -55,6 +55,15 @@ def reference_displacement_recording(p, rpm, **kw):
     return _record(rpm, cyc["dense"], cyc["T"], "valve_displacement", lambda ph, dense: dense(ph)[0], **kw)
 
 
+def test_contact_load_from_the_reference_noise_free(ref_truth):
+    """The fast loop's share of the next test: one noise-free reference cycle (no joint noisy fit)."""
+    fit = fit_surge(reference_load_recording(ref_truth, 3000.0))
+    assert fit.statistics["model"] == "level A"
+    for k in NAMES:
+        assert fit.value(k) == pytest.approx(TRUE[k], rel=1e-6), k
+
+
+@pytest.mark.slow
 def test_contact_load_from_the_reference(ref_truth):
     fit = fit_surge(reference_load_recording(ref_truth, 3000.0))
     for k in NAMES:

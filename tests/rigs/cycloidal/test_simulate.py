@@ -108,6 +108,7 @@ def test_level_a_quasistatic_limit(rig):
     assert np.max(np.abs(c.W - (rig.f_p + rig.k0 * c.s + rig.m3 * w**2 * c.s2))) > 0.05
 
 
+@pytest.mark.slow
 def test_level_a_jump_speed(rig, ref_p):
     res = S.jump_speed(rig, "A", rpm_range=(3000.0, 3400.0), scan_step=50.0)
     assert res.rpm == pytest.approx(3175.86, abs=0.05)  # first W < 0 of the reference: 3176
@@ -132,6 +133,7 @@ def test_level_b_static_state(rig, ref_p):
     assert xl[0] == pytest.approx(-lashed.f_p / (lashed.K_se + lashed.k0), rel=1e-10) and ml == 2 * K.SEAT_ON
 
 
+@pytest.mark.slow
 def test_level_b_steady_cycle_matches_the_reference(rig, ref_p):
     rpm = 3000.0
     cyc = S.level_b_steady_cycle(rig, rpm)

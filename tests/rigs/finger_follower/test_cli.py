@@ -53,6 +53,7 @@ def test_modes_json(capsys):
     assert seated[0] == pytest.approx(504, rel=0.01) and seated[-1] == pytest.approx(11.3e3, rel=0.005)
 
 
+@pytest.mark.slow
 def test_jump_speed_json(capsys):
     assert main(["valvetrain", "jump-speed", *FF, "--rpm-from", "3000", "--rpm-to", "3750", "--rpm-step", "250",
                  "--json"]) == 0
@@ -61,6 +62,7 @@ def test_jump_speed_json(capsys):
     assert data["bounce_speed_rpm"] == pytest.approx(3641.0, abs=2.0)
 
 
+@pytest.mark.slow
 def test_synth_then_fit_tappet_and_fit_lift(tmp_path, capsys):
     rec = tmp_path / "ff900.h5"
     assert main(["valvetrain", "synth", *FF, "--rpm", "900", "--revolutions", "4", "--out", str(rec)]) == 0

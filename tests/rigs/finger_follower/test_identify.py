@@ -89,6 +89,7 @@ def test_synchronous_average_time_domain(rig):
     assert np.abs(model - cyc.mean["tappet_displacement"]).max() < 1e-8
 
 
+@pytest.mark.slow
 def test_tappet_fit_noise_free_compiled(rig):
     s = synth_recording(rig, 1200.0, revolutions=1, sensors=IDEAL, alpha=0.012, beta=0.2)
     fit = fit_tappet_drag(s.recording)
@@ -98,6 +99,7 @@ def test_tappet_fit_noise_free_compiled(rig):
     assert fit.value("tau") == pytest.approx(s.truth["c_t"] / s.truth["k_t"], rel=1e-3)
 
 
+@pytest.mark.slow
 def test_tappet_fit_noisy_time_domain_inside_intervals(rig):
     s = synth_recording(rig, 1600.0, revolutions=16, sampling="time", seed=1)
     fit = fit_tappet_drag(s.recording)
@@ -120,6 +122,7 @@ def test_tappet_fit_on_the_reference_model(ref900, rig):
         assert noisy[name].contains(truth[name]), (name, noisy[name], truth[name])
 
 
+@pytest.mark.slow
 def test_joint_fit_of_two_speeds_and_per_speed_fits(rig):
     recs = [synth_recording(rig, rpm, revolutions=1, sensors=IDEAL, alpha=0.008, beta=0.3).recording
             for rpm in (900.0, 1600.0)]
@@ -132,6 +135,7 @@ def test_joint_fit_of_two_speeds_and_per_speed_fits(rig):
     assert all(f.value("alpha") == pytest.approx(0.008, rel=1e-3) for f in separate)
 
 
+@pytest.mark.slow
 def test_not_separable_is_reported(rig):
     """One revolution with a gap sensor 700 times noisier than the default: the damping is not
     determined (its relative error exceeds 50 %) and the result says so."""
@@ -142,6 +146,7 @@ def test_not_separable_is_reported(rig):
     assert fit["k_t"].contains(s.truth["k_t"]) and fit["c_t"].contains(s.truth["c_t"])
 
 
+@pytest.mark.slow
 def test_lift_fit_noise_free_and_noisy(rig):
     clean = synth_recording(rig, 600.0, revolutions=1, sensors=IDEAL, lift=CycloidalLift(5.5e-3, 1.45, 1.7))
     fit = fit_cam_lift(clean.recording)
@@ -181,6 +186,16 @@ def test_recording_file_round_trip_keeps_the_rig_and_truth_apart(rig, tmp_path):
     assert read_truth(path)["alpha"] == pytest.approx(0.0071)
 
 
+def test_damping_ratios_noise_free(rig):
+    """The fast loop's identification: the noise-free half of the next test (one revolution, about 1 s)."""
+    from impactid.rigs.finger_follower.identify import fit_damping
+
+    clean = fit_damping(synth_recording(rig, 2450.0, revolutions=1, sensors=IDEAL).recording)
+    assert clean.value("zeta_contact") == pytest.approx(0.06, rel=1e-3)
+    assert clean.value("zeta_spring") == pytest.approx(0.04, rel=1e-3)
+
+
+@pytest.mark.slow
 def test_damping_ratios_from_the_ringing_after_closure(rig):
     """Contact and spring damping ratios (truth 0.06 and 0.04) from the valve around closure at 2450 rpm."""
     from impactid.rigs.finger_follower.identify import fit_damping

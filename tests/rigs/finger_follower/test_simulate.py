@@ -39,6 +39,7 @@ def steady2450(train):
     return steady_state(train, 2450.0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("rpm", [900.0, 2450.0])
 def test_one_revolution_from_rest_matches_the_reference(train, ref, ref_params, ref_kin, rpm):
     omega = 2 * math.pi * rpm / 60
@@ -125,6 +126,7 @@ def test_natural_frequencies_match_the_reference(train, ref, ref_params, ref_kin
         natural_frequencies(train, "half")
 
 
+@pytest.mark.slow
 def test_jump_and_bounce_speeds_by_bisection(train):
     """A narrow sweep around the transitions found by the full sweep (3130 and 3641 rpm with the
     default 1000-6000 rpm sweep); bisection to 1 rpm: the flags differ across the final bracket."""

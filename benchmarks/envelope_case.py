@@ -1,0 +1,625 @@
+"""Re-run one case of the envelope validation by id, with diagnostics of its errors.
+
+The case is read from ``docs/validation_envelope_cases.json`` (the cases of
+``benchmarks/validate_envelope.py``), and its recording is regenerated exactly as the validation
+made it (:func:`tests.envelope.make_recording`). The clean channels (with the anti-alias
+decimation) are generated once, and the sensor chain (:func:`impactid.synth.sensors.apply_sensors`,
+which both generators share) is applied to them. Other noise seeds and single sensor imperfections
+therefore cost no new simulation; ``--check`` verifies that the regenerated recording equals the
+validation's bit for bit. The truth is read only to score. The analysis written with this script is
+``benchmarks/envelope_notes.md``.
+
+Usage::
+
+    NUMBA_NUM_THREADS=1 python benchmarks/envelope_case.py CASE [options]
+
+Run it single-threaded; one case takes seconds to minutes per option (a joint fit several minutes).
+
+Notes
+-----
+The command-line options, each a diagnostic or an experiment:
+
+--check
+    Compare the regenerated recording with the validation's.
+--motion
+    The true motion: contacts per revolution, contact duration, share of the time in contact,
+    the contact runs and the force 1 ms after their peak (a follower riding the cam), the tensile
+    share of the contact impulse, the gaps, and the reconstruction's Hertz ratios.
+--events
+    Per event: ``alpha_m`` against the true apex, split into the anchor error (onset angle) and
+    the excursion error (``alpha_m - alpha(0)``), the onset rate, time and cam-phase errors, the
+    approach speed, the detected contact duration and the Hertz ratio; plus the return-time
+    anchor's error.
+--decompose
+    lambda1 at the true law per event, split into the part from the measured ``alpha_m`` and the
+    part from the measured onset state. Also the sensitivities ``d lambda1 / d ln beta`` and
+    ``d lambda1 / d n``, the implied shift of ``beta`` and, for two recordings, the linearised
+    joint shift of ``(ln beta, n)`` with the condition number of the pair. Then n-fixed fits
+    (uncalibrated) on oracle event sets: true cam phase, true ``alpha_m``, true onset state, both.
+--fit, --joint
+    The n-fixed (joint) fit through :func:`impactid.estimates.estimate` as the validation ran it,
+    with its calibration record, and again without calibration.
+--joint-oracle SET [SET ...]
+    Joint fits (uncalibrated) on oracle event sets of both recordings.
+--calibration
+    The ``alpha_m`` bias :func:`impactid.calibration.pipeline_bias` measures at the true law,
+    against the actual mean ``alpha_m`` error, per recording.
+--seeds K
+    The n-fixed fit on K further noise realisations (seeds ``case.seed + 7919 k``): error,
+    interval, coverage, the truth's distance in half-widths, and the anchor and excursion errors.
+--anchor-study K, --scales S [S ...]
+    Anchor and excursion errors over K noise seeds at the given multiples of the case's noise,
+    with the detected contact duration.
+--variants
+    The n-fixed fit with one sensor imperfection at a time (noise, ADC, offset and drift, none);
+    for decimated cases also the same rate without the anti-alias filter, and 204.8 kHz.
+--phase-scan
+    n-fixed refits with the cam phase moved by -2 to +2 of its standard errors.
+--profile, --factors F [F ...]
+    Mean ``|lambda1|``, the S1 contact count and apex time along ``beta`` (n fixed) for the
+    oracle event sets, and where the estimator's 41-point scan puts its best point.
+--keep-all
+    n-fixed fits with lambda1, lambda2 and lambda3 with the events the Hertz check drops kept.
+--anchor-margin N, --anchor NAME, --residual NAME
+    Experiments: start the return-time anchor's free flight N samples after the detected
+    separation (8 in impactid); use another anchor or residual in the reconstructions and fits.
+--json PATH
+    Also write the results as JSON.
+
+Examples
+--------
+``python benchmarks/envelope_case.py hc21 --events --decompose --seeds 5`` shows a noisy case's
+errors against the truth; ``python benchmarks/envelope_case.py hc56 --decompose`` gives a pair's
+linearised joint bias.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+import warnings
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from impactid.estimates import C_BOUNDS, _Objective, estimate, fit_contact_damping, reference_indentation  # noqa: E402
+from impactid.reconstruct import reconstruct  # noqa: E402
+from impactid.residuals import EventSet  # noqa: E402
+from impactid.synth.sensors import SensorModel, apply_sensors  # noqa: E402
+from tests import envelope as E  # noqa: E402
+
+CASES = ROOT / "docs" / "validation_envelope_cases.json"
+SEED_STEP = 7919
+#: Pipeline options of the reconstructions and fits here (``--anchor``, ``--residual``; default: the validation's).
+OPTIONS = {"anchor": "cam-phase", "residual": "lambda1"}
+
+
+def load_case(case_id: str, path: Path = CASES) -> E.Case:
+    """The case ``case_id`` of the cached envelope cases."""
+    for c in json.loads(path.read_text())["cases"]:
+        if c["id"] == case_id:
+            return E.Case(**{**c, "pair": tuple(c["pair"]) if c["pair"] else None})
+    raise SystemExit(f"no case {case_id!r} in {path}")
+
+
+def clean_recording(case: E.Case, point=None):
+    """The recording of ``case`` (at ``point``) with the anti-alias decimation only, and its truth."""
+    bare = replace(case, noise=0.0, adc_bits=None, accel_offset=0.0, accel_drift=0.0)
+    return E.make_recording(bare, point)
+
+
+def with_sensors(clean, sensors: SensorModel):
+    """``clean`` through the sensor chain ``sensors`` (as both generators apply it)."""
+    rng = np.random.default_rng(sensors.seed)
+    channels = {k: np.asarray(v) for k, v in clean.channels.items() if k != "cam_angle"}
+    measured, _ = apply_sensors(channels, clean.sample_rate_hz, sensors, rng)
+    if "cam_angle" in clean.channels:
+        measured["cam_angle"] = np.asarray(clean.channels["cam_angle"])
+    return replace(clean, channels={k: measured[k] for k in clean.channels})
+
+
+def _quiet(fn, *args, **kwargs):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = fn(*args, **kwargs)
+    return out, [str(w.message) for w in caught]
+
+
+def reconstruction(rec):
+    """The reconstruction and event set the pipeline makes (rk integration, the anchor of :data:`OPTIONS`)."""
+    recon, _ = _quiet(reconstruct, rec, integration="rk", anchor=OPTIONS["anchor"])
+    return recon, EventSet.from_reconstruction(recon, source="recording")
+
+
+def true_events(recon, truth, case: E.Case, point=None) -> pd.DataFrame:
+    """Per reconstructed event: the true apex, onset state and next onset (nearest true contact)."""
+    imp = truth["impacts"]
+    ts = np.asarray(imp["t_start"], float)
+    apex_t, apex_a = (np.asarray(truth["apexes"][k], float) for k in ("t", "alpha"))
+    f = point[1] if point is not None else case.cam_speed_hz
+    rows = []
+    for event, row in recon.table.iterrows():
+        k = int(np.argmin(np.abs(ts - row["t_onset"])))
+        later = np.flatnonzero((apex_t > row["t_onset"]) & (apex_t < row["t_next"]))
+        rows.append(dict(event=event, t_start=ts[k], dt_onset=row["t_onset"] - ts[k],
+                         alpha_start=imp["alpha_start"][k], alpha_dot_start=imp["alpha_dot_start"][k],
+                         theta_start=truth["theta_ref"] + 2 * math.pi * f * ts[k],
+                         theta_at_onset=truth["theta_ref"] + 2 * math.pi * f * row["t_onset"],
+                         alpha_at_onset=float(np.interp(row["t_onset"], truth["t"], truth["alpha"])),
+                         t_end=(ts[k + 1] - ts[k]) if k + 1 < ts.size else math.nan,
+                         v_a=-imp["gap_rate_start"][k],
+                         apex=float(np.max(apex_a[later])) if later.size else math.nan))
+    return pd.DataFrame(rows).set_index("event")
+
+
+def _wrap(angle):
+    """Angle difference wrapped to (-pi, pi]."""
+    return np.angle(np.exp(1j * np.asarray(angle, dtype=float)))
+
+
+def event_table(recon, tr: pd.DataFrame) -> pd.DataFrame:
+    """Measured against true, per event."""
+    tab = recon.table
+    return pd.DataFrame({
+        "alpha_m": tab["alpha_m"], "alpha_m_err": tab["alpha_m"] / tr["apex"] - 1.0,
+        "anchor_err": (tab["alpha_onset"] - tr["alpha_at_onset"]) / tr["apex"],
+        "excursion_err": ((tab["alpha_m"] - tab["alpha_onset"]) - (tr["apex"] - tr["alpha_at_onset"])) / tr["apex"],
+        "rate0_err": tab["alpha_dot_onset"] - tr["alpha_dot_start"],
+        "dt_onset_us": 1e6 * tr["dt_onset"], "phase_err": _wrap(tab["theta_onset"] - tr["theta_at_onset"]),
+        "v_a": tab["approach_speed"],
+        "v_a_err": tab["approach_speed"] / tr["v_a"] - 1.0, "contact_ms": 1e3 * tab["contact_duration"],
+        "hertz_ratio": tab["hertz_ratio"], "consistent": tab["contact_consistent"]})
+
+
+def motion(truth, case: E.Case, point=None) -> dict:
+    """The true motion over the recording: contacts, their durations, the gap between them."""
+    f = point[1] if point is not None else case.cam_speed_hz
+    imp = truth["impacts"]
+    ts, te = np.asarray(imp["t_start"], float), np.asarray(imp["t_end"], float)
+    t = np.asarray(truth["t"], float)
+    mode = np.asarray(truth["mode"]) != 0
+    gap = np.asarray(truth["gap"], float)
+    revs = (t[-1] - t[0]) * f
+    period = 1.0 / f
+    force = np.asarray(truth["contact_force"], float)
+    # tensile (negative) Hunt-Crossley force late in the restitution: its impulse against the compressive one
+    tension = float(-np.sum(np.minimum(force, 0.0)) / max(np.sum(np.maximum(force, 0.0)), 1e-300))
+    # contact runs of the sampled truth: their length and the force more than 1 ms after their peak (riding)
+    edges = np.flatnonzero(np.diff(np.concatenate(([0], mode.astype(np.int8), [0]))))
+    runs = [(a, b) for a, b in zip(edges[::2], edges[1::2]) if a > 0 and b < mode.size]
+    lengths = [1e3 * (t[b - 1] - t[a]) for a, b in runs]
+    late = [np.median(force[a:b][t[a:b] > t[a + int(np.argmax(force[a:b]))] + 1e-3]) for a, b in runs
+            if np.any(t[a:b] > t[a + int(np.argmax(force[a:b]))] + 1e-3)]
+    return {"contacts": int(ts.size), "revolutions": round(float(revs), 2),
+            "contacts_per_revolution": round(float(ts.size / revs), 3),
+            "kinds": pd.Series(str(truth.get("impact_kinds", "")).split(",")).value_counts().to_dict(),
+            "contact_ms_median": float(1e3 * np.median(te - ts)),
+            "contact_share_of_revolution": float(np.median(te - ts) / period),
+            "samples_in_contact_share": float(mode.mean()),
+            "largest_gap_um": float(1e6 * gap.max()), "median_gap_um": float(1e6 * np.median(gap)),
+            "peak_indentation_um": float(1e6 * np.nanmedian(imp["peak_indentation"])),
+            "tensile_force_min_rel": float(force.min() / force.max()), "tensile_impulse_share": tension,
+            "contact_run_ms_median": float(np.median(lengths)) if lengths else math.nan,
+            "force_1ms_after_peak_N": float(np.median(late)) if late else math.nan,
+            "v_a": float(np.median(-np.asarray(imp["gap_rate_start"], float)))}
+
+
+def sensitivities(es: EventSet, beta: float, n: float, h: float = 0.01) -> dict:
+    """lambda1 at the truth and its derivatives in ln beta (n fixed) and in n (beta fixed), per event."""
+    trials = np.array([[beta, n], [beta * math.exp(h), n], [beta * math.exp(-h), n], [beta, n + h], [beta, n - h]])
+    r = es.residuals(trials)
+    return {"lambda1": r[0], "d_lnbeta": (r[1] - r[2]) / (2 * h), "d_n": (r[3] - r[4]) / (2 * h)}
+
+
+def oracle_sets(es: EventSet, tr: pd.DataFrame) -> dict[str, EventSet]:
+    """The event set with the true alpha_m, the true onset state (and next onset), or both."""
+    t = tr.loc[es.events]
+    states = np.ascontiguousarray(t[["alpha_start", "alpha_dot_start", "theta_start"]].to_numpy(float))
+    t_end = np.ascontiguousarray(t["t_end"].to_numpy(float))
+    apex = t["apex"].to_numpy(float)
+    ok = np.isfinite(apex) & np.isfinite(t_end)
+    es = es.subset(np.flatnonzero(ok))
+    states, t_end, apex = states[ok], t_end[ok], apex[ok]
+    phase_err = float(np.median(_wrap(es.states[:, 2] - t["theta_at_onset"].to_numpy(float)[ok])))
+    return {"measured": es, "true cam phase": es.shift_phase(-phase_err), "true alpha_m": replace(es, alpha_m=apex),
+            "true onset state": replace(es, states=states, t_end=t_end),
+            "both true": replace(es, alpha_m=apex, states=states, t_end=t_end)}
+
+
+def phase_scan(es: EventSet, case: E.Case, steps=(-2.0, -1.0, 0.0, 1.0, 2.0)) -> list[dict]:
+    """The n-fixed estimate with the recording's cam phase moved by ``steps`` standard errors: the
+    response of ``beta`` to the phase, against the linear one-sided propagation of the intervals."""
+    out = []
+    for k in steps:
+        d, _ = _quiet(fit_contact_damping, [es.shift_phase(k * es.phase_stderr)], "lambda1", fix_n=case.n)
+        out.append({"phase_shift_se": k, "phase_shift_rad": k * es.phase_stderr, "beta_error": d.beta / case.beta - 1.0,
+                    "phase_beta_rel_sd": d.phase_beta_sd / d.beta})
+        print(f"phase scan: {_fmt(out[-1])}", flush=True)
+    return out
+
+
+def profile(sets: dict[str, EventSet], case: E.Case, factors=None) -> dict:
+    """Mean |lambda1|, the median S1 contact count and apex time along ``beta`` (n fixed) for each event set,
+    and where the estimator's 41-point scan of ``log10 c`` puts its best point (measured set)."""
+    factors = np.geomspace(1e-3, 30.0, 37) if factors is None else np.asarray(factors, float)
+    trials = np.column_stack([case.beta * factors, np.full(factors.size, case.n)])
+    out = {"beta_factor": factors.tolist()}
+    lines = [["beta/true"] + [f"{x:.3g}" for x in factors]]
+    for label, es in sets.items():
+        batch = es.simulate(trials)
+        j = np.nanmean(np.abs((batch.alpha_m - es.alpha_m) / es.alpha_m), axis=1)
+        contacts = np.median(batch.n_contacts, axis=1)
+        apex = 1e3 * np.median(batch.t_alpha_m, axis=1)
+        out[label] = {"objective": j.tolist(), "median_contacts": contacts.tolist(), "apex_ms": apex.tolist()}
+        lines.append([f"J {label}"] + [f"{x:.2g}" for x in j])
+        lines.append([f"contacts {label}"] + [f"{x:.0f}" for x in contacts])
+        lines.append([f"apex ms {label}"] + [f"{x:.4g}" for x in apex])
+    width = max(len(r[0]) for r in lines)
+    for row in lines:
+        print(row[0].ljust(width), " ".join(x.rjust(7) for x in row[1:]))
+    es = sets["measured"]
+    obj = _Objective([es], "lambda1", reference_indentation([es]))
+    grid = np.linspace(math.log10(C_BOUNDS[0]), math.log10(C_BOUNDS[1]), 41)  # the estimator's scan
+    scan = obj.mean(obj.per_event(grid, case.n))
+    true_logc = math.log10(case.beta * obj.delta_ref ** case.n)
+    k = int(np.argmin(scan))
+    near = sorted(np.argsort(np.abs(grid - true_logc))[:2])
+    out["scan"] = {"best_beta_factor": 10 ** (grid[k] - true_logc), "best_objective": float(scan[k]),
+                   "bracketing_truth": [(10 ** (grid[i] - true_logc), float(scan[i])) for i in near],
+                   "objective_at_truth": obj(true_logc, case.n)}
+    print(f"estimator's scan (measured set): {_fmt(out['scan'])}")
+    return out
+
+
+def anchor_study(clean, truth, case: E.Case, seeds: int, scales=(1.0, 0.5, 0.25)) -> list[dict]:
+    """Errors of the return-time and cam-phase onset angles and of the excursion ``alpha_m - alpha(0)``
+    (each relative to the true apex, mean over events) over noise seeds, at fractions of the case's noise."""
+    out = []
+    for scale in scales:
+        rows = []
+        for k in range(seeds):
+            sensors = replace(case.sensors(), noise=case.noise * scale, seed=case.seed + SEED_STEP * k)
+            r = with_sensors(clean, sensors)
+            recon, _ = reconstruction(r)
+            tr = true_events(recon, truth, case)
+            tab = event_table(recon, tr)
+            rt, _ = _quiet(reconstruct, r, integration="rk", anchor="return-time")
+            rt_err = (rt.table["alpha_onset"] - tr["alpha_at_onset"].reindex(rt.table.index)) / tr["apex"]
+            rows.append({"return_time": float(rt_err.mean()), "return_time_sd": float(rt_err.std()),
+                         "cam_phase": float(tab["anchor_err"].median()),
+                         "phase_z": float(tab["phase_err"].median() / recon.cam_phase_stderr),
+                         "excursion": float(tab["excursion_err"].mean()),
+                         "excursion_sd": float(tab["excursion_err"].std()), "events": len(tab),
+                         "contact_ms": float(tab["contact_ms"].median())})
+        f = pd.DataFrame(rows)
+        m = len(f)
+        line = {"noise": case.noise * scale, "seeds": m,
+                "return_time_mean": float(f["return_time"].mean()),
+                "return_time_se": float(f["return_time"].std() / math.sqrt(m)),
+                "return_time_event_sd": float(f["return_time_sd"].mean()),
+                "cam_phase_mean": float(f["cam_phase"].mean()),
+                "cam_phase_se": float(f["cam_phase"].std() / math.sqrt(m)),
+                "phase_z_rms": float(np.sqrt(np.mean(f["phase_z"] ** 2))),
+                "excursion_mean": float(f["excursion"].mean()),
+                "excursion_se": float(f["excursion"].std() / math.sqrt(m)),
+                "excursion_event_sd": float(f["excursion_sd"].mean()),
+                "measured_contact_ms": float(f["contact_ms"].median())}
+        print(f"anchor study: {_fmt(line)}", flush=True)
+        out.append(line)
+    return out
+
+
+def _fit_summary(result, case: E.Case) -> dict:
+    d = result.damping
+    out = {"beta_error": d.beta / case.beta - 1.0, "beta_lo_rel": d.beta_interval[0] / case.beta - 1.0,
+           "beta_hi_rel": d.beta_interval[1] / case.beta - 1.0,
+           "boot_lo_rel": d.beta_bootstrap_interval[0] / case.beta - 1.0,
+           "boot_hi_rel": d.beta_bootstrap_interval[1] / case.beta - 1.0,
+           "indifference": d.indifference, "objective": d.objective, "events": int(len(d.per_event)),
+           "covered": bool(d.beta_interval[0] <= case.beta <= d.beta_interval[1]),
+           "half_widths": _half_widths(d.beta, d.beta_interval, case.beta),
+           "phase_beta_rel_sd": d.phase_beta_sd / d.beta}
+    if not d.fixed_n:
+        out.update(n=d.n, n_error=d.n - case.n, n_interval=list(d.n_interval), separable=d.separable,
+                   n_half_widths=_half_widths(d.n, d.n_interval, case.n), phase_n_sd=d.phase_n_sd)
+    out["calibration"] = [dict(c) for c in result.calibration]
+    return out
+
+
+def _half_widths(value, interval, truth) -> float:
+    """Signed distance of the truth from the estimate in units of the interval's half-width on that side."""
+    side = interval[1] - value if truth >= value else value - interval[0]
+    return (truth - value) / side if side > 0 else math.inf
+
+
+def run_fit(recs, case: E.Case, **options) -> dict:
+    started = time.perf_counter()
+    try:
+        result, notes = _quiet(estimate, recs, **{**OPTIONS, **options})
+    except Exception as exc:  # noqa: BLE001 - a refusal is an answer here
+        return {"outcome": f"{type(exc).__name__}: {str(exc)[:300]}"}
+    out = _fit_summary(result, case)
+    out["seconds"] = round(time.perf_counter() - started, 1)
+    out["notes"] = [m[:240] for m in notes if "bias of alpha_m" in m or "not separable" in m or "left out" in m]
+    return out
+
+
+def _fmt(d: dict) -> str:
+    def one(v):
+        if isinstance(v, float):
+            return f"{v:.4g}"
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(one(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{" + _fmt(v) + "}"
+        return str(v)
+    return ", ".join(f"{k} {one(v)}" for k, v in d.items())
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("case", help="case id, e.g. hc21")
+    parser.add_argument("--check", action="store_true", help="verify the recording against the validation's")
+    parser.add_argument("--motion", action="store_true")
+    parser.add_argument("--events", action="store_true")
+    parser.add_argument("--decompose", action="store_true")
+    parser.add_argument("--fit", action="store_true")
+    parser.add_argument("--joint", action="store_true")
+    parser.add_argument("--seeds", type=int, default=0)
+    parser.add_argument("--variants", action="store_true")
+    parser.add_argument("--anchor-study", type=int, default=0, metavar="K",
+                        help="anchor and excursion errors over K noise seeds at --scales times the case's noise")
+    parser.add_argument("--scales", type=float, nargs="+", default=[1.0, 0.5, 0.25])
+    parser.add_argument("--keep-all", action="store_true")
+    parser.add_argument("--calibration", action="store_true",
+                        help="the pipeline bias impactid.calibration measures at the true law, per recording, "
+                             "against the actual mean alpha_m error")
+    parser.add_argument("--joint-oracle", nargs="+", default=[], metavar="SET",
+                        help="joint fits (uncalibrated) on oracle event sets of both recordings: measured, "
+                             "'true cam phase', 'true alpha_m', 'true onset state', 'both true'")
+    parser.add_argument("--phase-scan", action="store_true",
+                        help="n-fixed refits with the cam phase moved by -2..2 of its standard errors")
+    parser.add_argument("--profile", action="store_true",
+                        help="mean |lambda1| along beta (n fixed) for the measured and the oracle event sets")
+    parser.add_argument("--factors", type=float, nargs="+", help="beta/true values of --profile (default 1e-3..30)")
+    parser.add_argument("--anchor-margin", type=int, default=None, metavar="SAMPLES",
+                        help="experiment: start the return-time anchor's free flight this many samples after the "
+                             "detected separation and end it this many samples before the next onset "
+                             "(impactid.reconstruct.ANCHOR_MARGIN, default 8; the start is the later of this and "
+                             "--anchor-delay)")
+    parser.add_argument("--anchor-delay", type=float, default=None, metavar="SECONDS",
+                        help="experiment: the return-time anchor's free flight starts this long after the detected "
+                             "separation (impactid.reconstruct.ANCHOR_SEPARATION_DELAY, default 1.2e-3; 0 gives "
+                             "the anchoring of the validation runs before the fix, 8 samples)")
+    parser.add_argument("--anchor", default="cam-phase", help="anchor of the reconstructions and fits (experiment)")
+    parser.add_argument("--residual", default="lambda1", help="residual of the --fit/--joint/--seeds fits (experiment)")
+    parser.add_argument("--json", type=Path, help="also write the results here")
+    args = parser.parse_args(argv)
+    case = load_case(args.case)
+    OPTIONS.update(anchor=args.anchor, residual=args.residual)
+    if args.anchor_margin is not None:
+        sys.modules["impactid.reconstruct"].ANCHOR_MARGIN = int(args.anchor_margin)  # (the package exports
+        # a function of the same name, so the module is taken from sys.modules)
+    if args.anchor_delay is not None:
+        sys.modules["impactid.reconstruct"].ANCHOR_SEPARATION_DELAY = float(args.anchor_delay)
+    pd.set_option("display.width", 200)
+    pd.set_option("display.max_columns", 30)
+    report: dict = {"case": case.id}
+    print(f"{case.id}: {case.klass}, {case.generator}, e/r_c {case.e_over_rc}, {case.cam_speed_hz} Hz, "
+          f"beta {case.beta:.4g}, n {case.n:.4f}, noise {case.noise:.4g}, ADC {case.adc_bits}, offset "
+          f"{case.accel_offset:.3g}, drift {case.accel_drift:.3g}, {case.sample_rate_hz:g} Hz (q {case.decimation}), "
+          f"v_a {case.approach_speed:.4g} / pair {case.pair_approach_speed:.4g} m/s", flush=True)
+    clean, truth = clean_recording(case)
+    rec = with_sensors(clean, case.sensors())
+    if args.check:
+        original, _ = E.make_recording(case)
+        same = all(np.array_equal(original.channels[k], rec.channels[k]) for k in original.channels)
+        print(f"check: the regenerated recording equals the validation's: {same}")
+        report["check"] = same
+    partner = partner_truth = None
+    if case.pair and (args.joint or args.joint_oracle or args.decompose or args.calibration):
+        pclean, partner_truth = clean_recording(case, case.pair)
+        partner = with_sensors(pclean, case.sensors())
+    points = [("recording 1", rec, truth, None)]
+    if partner is not None:
+        points.append(("recording 2", partner, partner_truth, case.pair))
+
+    oracles: list[dict] = []
+    if any((args.motion, args.events, args.decompose, args.keep_all, args.profile, args.phase_scan, args.joint_oracle,
+            args.calibration)):
+        for name, r, tr_, point in points:
+            recon, es = reconstruction(r)
+            tr = true_events(recon, tr_, case, point)
+            if args.motion:
+                m = motion(tr_, case, point)
+                ratio = recon.table["hertz_ratio"].to_numpy(float)
+                m.update(events=len(recon.table), events_used=len(es), hertz_ratio_median=float(np.nanmedian(ratio)),
+                         hertz_ratio_range=[float(np.nanmin(ratio)), float(np.nanmax(ratio))],
+                         measured_contact_ms=float(1e3 * recon.table["contact_duration"].median()))
+                print(f"motion ({name}): {_fmt(m)}")
+                report.setdefault("motion", {})[name] = m
+            if args.events:
+                tab = event_table(recon, tr)
+                print(f"events ({name}):\n{tab.to_string(float_format=lambda x: f'{x:.4g}')}")
+                rt, _ = _quiet(reconstruct, r, integration="rk", anchor="return-time")
+                rt_err = (rt.table["alpha_onset"] - tr["alpha_at_onset"].reindex(rt.table.index)) / tr["apex"]
+                summary = {"alpha_m_err_mean": float(tab["alpha_m_err"].mean()),
+                           "alpha_m_err_median": float(tab["alpha_m_err"].median()),
+                           "alpha_m_err_sd": float(tab["alpha_m_err"].std()),
+                           "anchor_err_median": float(tab["anchor_err"].median()),
+                           "excursion_err_mean": float(tab["excursion_err"].mean()),
+                           "excursion_err_sd": float(tab["excursion_err"].std()),
+                           "v_a_err_median": float(tab["v_a_err"].median()),
+                           "dt_onset_us_median": float(tab["dt_onset_us"].median()),
+                           "t_alpha_m_ms": [float(1e3 * recon.table["t_alpha_m"].min()),
+                                            float(1e3 * recon.table["t_alpha_m"].max())],
+                           "phase_err": float(tab["phase_err"].median()), "phase_stderr": recon.cam_phase_stderr,
+                           "return_time_anchor_err_mean": float(rt_err.mean()),
+                           "return_time_anchor_err_sd": float(rt_err.std())}
+                print(f"  summary: {_fmt(summary)}")
+                report.setdefault("events", {})[name] = summary
+            if args.decompose and len(es):
+                sets = oracle_sets(es, tr)
+                s_meas = sensitivities(sets["measured"], case.beta, case.n)
+                s_state = sensitivities(sets["true alpha_m"], case.beta, case.n)
+                dec = {"lambda1_median": float(np.median(s_meas["lambda1"])),
+                       "lambda1_from_onset_state": float(np.median(s_state["lambda1"])),
+                       "lambda1_from_alpha_m": float(np.median(s_meas["lambda1"] - s_state["lambda1"])),
+                       "d_lambda1_d_lnbeta": float(np.median(s_meas["d_lnbeta"])),
+                       "d_lambda1_d_n": float(np.median(s_meas["d_n"]))}
+                dec["implied_beta_shift"] = math.expm1(-dec["lambda1_median"] / dec["d_lambda1_d_lnbeta"])
+                fits = {}
+                for label, s in sets.items():
+                    d, _ = _quiet(fit_contact_damping, [s], "lambda1", fix_n=case.n)
+                    fits[label] = {"beta_error": d.beta / case.beta - 1.0,
+                                   "interval_rel": [d.beta_interval[0] / case.beta - 1,
+                                                    d.beta_interval[1] / case.beta - 1]}
+                dec["oracle_fits_n_fixed_uncalibrated"] = fits
+                print(f"decompose ({name}): {_fmt({k: v for k, v in dec.items() if not isinstance(v, dict)})}")
+                for label, v in fits.items():
+                    print(f"  oracle n-fixed fit, {label}: {_fmt(v)}")
+                report.setdefault("decompose", {})[name] = dec
+            if args.joint_oracle:
+                oracles.append(oracle_sets(es, tr))
+            if args.calibration:
+                from impactid.calibration import pipeline_bias
+                from impactid.contact import HuntCrossley
+
+                bias, _ = _quiet(pipeline_bias, r, HuntCrossley(case.beta, case.n))
+                actual = event_table(recon, tr)["alpha_m_err"]
+                cal = {"calibrated_bias": bias.alpha_m, "calibrated_stderr": bias.stderr, "events": bias.events,
+                       "actual_alpha_m_err_mean": float(actual.mean()),
+                       "actual_stderr": float(actual.std() / math.sqrt(actual.size))}
+                print(f"calibration at the true law ({name}): {_fmt(cal)}", flush=True)
+                report.setdefault("calibration", {})[name] = cal
+            if args.phase_scan and name == "recording 1":
+                report["phase_scan"] = phase_scan(es, case)
+            if args.profile and name == "recording 1":
+                report["profile"] = profile(oracle_sets(es, tr), case, args.factors)
+            if args.keep_all and name == "recording 1":
+                tab = recon.table.copy()
+                tab["contact_consistent"] = True
+                es_all = EventSet.from_reconstruction(replace(recon, table=tab), source="recording")
+                k = {"events": len(es_all)}
+                for residual in ("lambda1", "lambda2", "lambda3"):
+                    try:
+                        d, _ = _quiet(fit_contact_damping, [es_all], residual, fix_n=case.n)
+                        k[residual] = {"beta_error": d.beta / case.beta - 1.0, "objective": d.objective,
+                                       "interval_rel": [d.beta_interval[0] / case.beta - 1,
+                                                        d.beta_interval[1] / case.beta - 1]}
+                    except Exception as exc:  # noqa: BLE001 - a refusal is an answer here
+                        k[residual] = {"outcome": f"{type(exc).__name__}: {str(exc)[:200]}"}
+                s_all = sensitivities(es_all, case.beta, case.n)
+                k.update(lambda1_at_truth_median=float(np.median(s_all["lambda1"])),
+                         d_lambda1_d_lnbeta=float(np.median(s_all["d_lnbeta"])))
+                print(f"keep-all n-fixed fits (uncalibrated): {_fmt(k)}")
+                report["keep_all"] = k
+        if args.decompose and len(report.get("decompose", {})) == 2:
+            d1, d2 = report["decompose"]["recording 1"], report["decompose"]["recording 2"]
+            a = np.array([[d["d_lambda1_d_lnbeta"], d["d_lambda1_d_n"]] for d in (d1, d2)])
+            b = -np.array([d1["lambda1_median"], d2["lambda1_median"]])
+            x = np.linalg.solve(a, b)
+            joint = {"lnbeta_shift": float(x[0]), "beta_shift": math.expm1(float(x[0])), "n_shift": float(x[1]),
+                     "condition_number": float(np.linalg.cond(a))}
+            print(f"linearised joint shift from the per-recording lambda1 at the truth: {_fmt(joint)}")
+            report["joint_linearised"] = joint
+
+    for label in args.joint_oracle:
+        d, _ = _quiet(fit_contact_damping, [o[label] for o in oracles], "lambda1")
+        out = {"beta_error": d.beta / case.beta - 1.0, "n_error": d.n - case.n,
+               "beta_interval_rel": [d.beta_interval[0] / case.beta - 1, d.beta_interval[1] / case.beta - 1],
+               "n_interval": list(d.n_interval), "objective": d.objective, "separable": d.separable}
+        print(f"joint oracle fit (uncalibrated), {label}: {_fmt(out)}", flush=True)
+        report.setdefault("joint_oracle", {})[label] = out
+    if args.fit:
+        for label, calibrate in (("as validated", True), ("uncalibrated", False)):
+            out = run_fit([rec], case, fix_n=case.n, calibrate=calibrate)
+            print(f"n-fixed fit {label}: {_fmt({k: v for k, v in out.items() if k != 'notes'})}")
+            for note in out.get("notes", []):
+                print(f"    note: {note}")
+            report.setdefault("fit", {})[label] = out
+    if args.joint and partner is not None:
+        for label, calibrate in (("as validated", True), ("uncalibrated", False)):
+            out = run_fit([rec, partner], case, calibrate=calibrate)
+            print(f"joint fit {label}: {_fmt({k: v for k, v in out.items() if k != 'notes'})}", flush=True)
+            report.setdefault("joint", {})[label] = out
+    if args.seeds:
+        rows = []
+        for k in range(args.seeds + 1):
+            sensors = replace(case.sensors(), seed=case.seed + SEED_STEP * k)
+            r = with_sensors(clean, sensors)
+            out = run_fit([r], case, fix_n=case.n)
+            recon, _ = reconstruction(r)
+            tr = true_events(recon, truth, case)
+            err = recon.table["alpha_m"] / tr["apex"] - 1.0
+            cal = out.get("calibration") or [{}]
+            tab = event_table(recon, tr)
+            rows.append({"seed": sensors.seed, "beta_error": out.get("beta_error", math.nan),
+                         "lo": out.get("beta_lo_rel", math.nan), "hi": out.get("beta_hi_rel", math.nan),
+                         "covered": out.get("covered"), "half_widths": out.get("half_widths", math.nan),
+                         "alpha_m_err_mean": float(err.mean()), "alpha_m_err_median": float(err.median()),
+                         "anchor_err": float(tab["anchor_err"].median()),
+                         "excursion_err_mean": float(tab["excursion_err"].mean()),
+                         "phase_z": float(tab["phase_err"].median() / recon.cam_phase_stderr),
+                         "calibrated_bias": cal[0].get("alpha_m", math.nan), "outcome": out.get("outcome", "estimate")})
+            print(f"seed {sensors.seed}: {_fmt(rows[-1])}", flush=True)
+        frame = pd.DataFrame(rows)
+        ok = frame[frame["outcome"] == "estimate"]
+        summary = {"realisations": len(frame), "estimates": len(ok), "coverage": float(ok["covered"].mean()),
+                   "anchor_err_mean": float(ok["anchor_err"].mean()),
+                   "excursion_err_mean": float(ok["excursion_err_mean"].mean()),
+                   "excursion_err_sd_of_means": float(ok["excursion_err_mean"].std()),
+                   "phase_z_rms": float(np.sqrt(np.mean(ok["phase_z"] ** 2))),
+                   "beta_error_mean": float(ok["beta_error"].mean()), "beta_error_sd": float(ok["beta_error"].std()),
+                   "half_widths_median": float(ok["half_widths"].median()),
+                   "alpha_m_err_mean": float(ok["alpha_m_err_mean"].mean()),
+                   "calibrated_bias_mean": float(ok["calibrated_bias"].mean())}
+        print(f"seeds summary: {_fmt(summary)}")
+        report["seeds"] = {"rows": rows, "summary": summary}
+    if args.anchor_study:
+        report["anchor_study"] = anchor_study(clean, truth, case, args.anchor_study, args.scales)
+    if args.variants:
+        base = case.sensors()
+        variants = {"as drawn": base,
+                    "noise only": replace(base, adc_bits=None, accel_offset=0.0, accel_drift=0.0),
+                    "ADC only": replace(base, noise=0.0, accel_offset=0.0, accel_drift=0.0),
+                    "offset and drift only": replace(base, noise=0.0, adc_bits=None),
+                    "noise, ADC, no offset or drift": replace(base, accel_offset=0.0, accel_drift=0.0),
+                    "none": replace(base, noise=0.0, adc_bits=None, accel_offset=0.0, accel_drift=0.0)}
+        for label, sensors in variants.items():
+            if label != "as drawn" and sensors == base:
+                continue
+            r = with_sensors(clean, sensors)
+            out = run_fit([r], case, fix_n=case.n)
+            out.pop("notes", None)
+            print(f"variant {label}: {_fmt(out)}", flush=True)
+            report.setdefault("variants", {})[label] = out
+        if case.decimation > 1:
+            plain = replace(case, decimation=1, noise=0.0, adc_bits=None, accel_offset=0.0, accel_drift=0.0)
+            r, _ = E.make_recording(plain)
+            out = run_fit([r], case, fix_n=case.n)
+            out.pop("notes", None)
+            print(f"variant same rate, no anti-alias filter: {_fmt(out)}", flush=True)
+            report.setdefault("variants", {})["no anti-alias filter"] = out
+            full = replace(plain, sample_rate_hz=204_800.0)
+            r, _ = E.make_recording(full)
+            out = run_fit([r], case, fix_n=case.n)
+            out.pop("notes", None)
+            print(f"variant 204.8 kHz: {_fmt(out)}", flush=True)
+            report.setdefault("variants", {})["204.8 kHz"] = out
+    if args.json:
+        args.json.write_text(json.dumps(report, indent=1, default=lambda v: v.item() if hasattr(v, "item") else str(v))
+                             + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

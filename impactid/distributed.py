@@ -1,0 +1,324 @@
+"""Independent tasks on a ``dask.distributed`` cluster, or one after the other in this process.
+
+The long jobs of impactid are made of independent parts: the recordings and fits of a campaign
+(:mod:`impactid.campaign`), the operating points of a regime map
+(:func:`impactid.simulate.regimes.regime_map`), the cam speeds of a bifurcation diagram
+(:func:`impactid.rigs.flat.simulate.bifurcation`), the cases of the envelope validation
+(``benchmarks/validate_envelope.py``). Each accepts a ``client`` (a :class:`distributed.Client`):
+with one, the parts are mapped over the cluster's workers; without (the default), they run here,
+in order, as before.
+
+* :func:`connect` opens the client of a command's ``--scheduler ADDRESS`` (an existing cluster,
+  used as it is) or ``--workers N`` (a local cluster of ``N`` single-threaded worker processes on
+  this machine, closed on exit);
+* :func:`map_tasks` and :func:`iter_tasks` run a function over items, on the client or serially;
+* :func:`progress_bar` is the one progress display of the long runs (tqdm on stderr).
+
+``dask[distributed]`` is an optional dependency (the ``campaign`` extra: ``pip install
+'impactid[campaign]'``); :func:`require` raises an :class:`~impactid.errors.ImpactidError`
+naming what to install when it is missing, and nothing here imports dask unless a cluster is asked
+for, so the serial path works without it.
+
+Worker processes of the local cluster run with ``NUMBA_NUM_THREADS=1``: each worker is one core,
+and numba's parallel kernels inside it would otherwise start one thread per core in every
+worker. An existing cluster is left as it was started (give its workers that variable yourself:
+``NUMBA_NUM_THREADS=1 dask worker ADDRESS --nthreads 1``; one thread per worker process also keeps
+the warnings each estimate collects apart, which Python's warning filters cannot do between
+threads of one process). Functions sent to workers are pickled
+by reference to their module, so the workers must import the same impactid (and, for the envelope
+validation, the repository's ``tests`` package); recordings are read by the workers from their
+paths, so every worker must see them under the same paths (a shared file system).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import logging
+import os
+import sys
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from typing import Any
+
+from impactid.errors import ImpactidError
+
+__all__ = ["ProgressFn", "add_scheduler_arguments", "cluster_from_args", "connect", "default_workers", "iter_tasks",
+           "map_tasks", "missing", "progress_bar", "require", "scheduler_arguments", "scheduler_client"]
+
+#: Callback ``progress(done, total)`` of the long runs.
+ProgressFn = Callable[[int, int], None]
+
+#: How long :func:`connect` tries to reach an existing scheduler.
+CONNECT_TIMEOUT = "20s"
+
+#: Environment of the local cluster's worker processes (one core each: numba single-threaded).
+WORKER_ENV = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+              "OPENBLAS_NUM_THREADS": "1"}
+
+
+def missing(*modules: str) -> list[str]:
+    """The modules of ``modules`` that cannot be imported here (without importing them)."""
+    return [m for m in modules if importlib.util.find_spec(m) is None]
+
+
+def require(*modules: str, what: str = "this") -> None:
+    """Raise an :class:`ImpactidError` naming the extra to install if a module is missing.
+
+    Parameters
+    ----------
+    modules : top-level module names, e.g. ``"distributed"``, ``"pyarrow"``.
+    what : what needs them, for the message (e.g. ``"impactid campaign"``).
+    """
+    absent = missing(*modules)
+    if absent:
+        raise ImpactidError(f"{what} needs {', '.join(absent)}, not installed here: install the 'campaign' extra "
+                            "(pip install 'impactid[campaign]')")
+
+
+def default_workers() -> int:
+    """Worker processes of a local cluster by default: the cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@contextlib.contextmanager
+def connect(address: str | None = None, workers: int | None = None, *, what: str = "this command",
+            memory_limit: str | float | None = "auto") -> Iterator[Any]:
+    """A :class:`distributed.Client` for the duration of a ``with`` block.
+
+    Parameters
+    ----------
+    address : the scheduler of an existing cluster (``tcp://host:8786`` or a scheduler file's
+        path ending in ``.json``); the cluster is used as it is and only this connection is closed
+        on exit.
+    workers : without ``address``: the number of single-threaded worker processes of a local
+        cluster started here and closed on exit (default :func:`default_workers`).
+    what : the command, for the message when dask is missing.
+    memory_limit : memory limit of each local worker (dask's ``"auto"``: the machine's memory
+        shared among the workers), bytes or a string such as ``"4GB"``.
+
+    Raises
+    ------
+    ImpactidError
+        dask is not installed, or the scheduler cannot be reached.
+    """
+    require("distributed", what=what)
+    import dask
+    from distributed import Client, LocalCluster
+
+    if address is not None:
+        try:
+            if address.endswith(".json"):
+                client = Client(scheduler_file=address, timeout=CONNECT_TIMEOUT)
+            else:
+                client = Client(address, timeout=CONNECT_TIMEOUT)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ImpactidError(f"argument --scheduler: cannot connect to {address} ({exc})") from None
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    n = default_workers() if workers is None else int(workers)
+    if n < 1:
+        raise ImpactidError(f"a local cluster needs at least one worker, got {n}")
+    # the worker processes start with one numba thread each: set before they are spawned (they may
+    # import numba while starting, e.g. when the main module imports impactid). A nanny sets these in
+    # the environment of its own process, which for a local cluster is this one: restored below
+    # (numba refuses to compile once its threads run if NUMBA_NUM_THREADS has changed since)
+    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_ENV}
+    saved = {key: os.environ.get(key) for key in environ}
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            # no dashboard; the scheduler's small HTTP server (health checks) on a free port, not on 8787
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
+                                   scheduler_kwargs={"dashboard_address": ":0"}, memory_limit=memory_limit)
+    finally:
+        _restore_environ(saved)
+    try:
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+    finally:
+        # a worker busy with a cancelled task is killed after a few seconds: not worth a warning
+        nanny = logging.getLogger("distributed.nanny")
+        level = nanny.level
+        nanny.setLevel(logging.ERROR)
+        try:
+            cluster.close()
+        finally:
+            nanny.setLevel(level)
+            _restore_environ(saved)  # a nanny that restarted a dead worker set them again
+
+
+def _restore_environ(saved: dict[str, str | None]) -> None:
+    """Put back the environment variables ``saved`` (None: unset)."""
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
+
+
+def scheduler_arguments(*, local_default: bool = False) -> tuple:
+    """``--scheduler ADDRESS`` and ``--workers N`` (mutually exclusive), as the
+    :class:`~impactid.rigs.base.Argument` declarations of a command.
+
+    Parameters
+    ----------
+    local_default : without either option, run on a local cluster of one worker per core (the
+        campaign); False: run serially in this process (the sweeps; ``--workers N`` asks for a
+        local cluster).
+    """
+    from impactid.commandline import integer_in
+    from impactid.rigs.base import Argument
+
+    default = (f"default: {default_workers()}, one per core" if local_default
+               else "default: serially in this process")
+    return (
+        Argument(("--scheduler",), {"metavar": "ADDRESS", "default": None,
+                                    "help": "run on an existing dask cluster (tcp://HOST:8786 or a scheduler file "
+                                            ".json), used as it is"}, exclusive="scheduler"),
+        Argument(("--workers",), {"type": integer_in(0, 4096), "default": None, "metavar": "N",
+                                  "help": f"run on a local dask cluster of N single-threaded worker processes; 0: "
+                                          f"serially in this process ({default})"}, exclusive="scheduler"),
+    )
+
+
+def add_scheduler_arguments(parser, *, local_default: bool = False) -> None:
+    """Add :func:`scheduler_arguments` to an argparse parser (or a sub-command's)."""
+    for argument in scheduler_arguments(local_default=local_default):
+        argument.add_to(parser)
+
+
+def cluster_from_args(args, *, local_default: bool = False, what: str = "this command"):
+    """The cluster of :func:`add_scheduler_arguments`' options: a callable that returns the context
+    manager of :func:`connect`, or None to run serially. Checks that dask is installed."""
+    address = getattr(args, "scheduler", None)
+    workers = getattr(args, "workers", None)
+    if address is None and (workers == 0 or (workers is None and not local_default)):
+        return None
+    require("distributed", what=what)
+    return lambda: connect(address, workers, what=what)
+
+
+@contextlib.contextmanager
+def scheduler_client(args, *, local_default: bool = False, what: str = "this command") -> Iterator[Any]:
+    """The client of :func:`add_scheduler_arguments`' options for a ``with`` block (None: serially)."""
+    factory = cluster_from_args(args, local_default=local_default, what=what)
+    if factory is None:
+        yield None
+        return
+    with factory() as client:
+        yield client
+
+
+def iter_tasks(fn: Callable[[Any], Any], items: Sequence[Any], *, client: Any = None) -> Iterator[tuple[int, Any]]:
+    """``(index, fn(items[index]))`` for every item, in the order the results arrive.
+
+    Serially (``client=None``) that is the order of ``items``; on a cluster, the order in which the
+    workers finish. An exception of ``fn`` is raised here (the other tasks are cancelled).
+    """
+    if client is None:
+        for k, item in enumerate(items):
+            yield k, fn(item)
+        return
+    from distributed import as_completed
+
+    futures = client.map(fn, list(items), pure=False)
+    index = {f.key: k for k, f in enumerate(futures)}
+    try:
+        for future in as_completed(futures):
+            yield index[future.key], future.result()
+    finally:
+        client.cancel([f for f in futures if not f.done()])
+
+
+def map_tasks(fn: Callable[[Any], Any], items: Iterable[Any], *, client: Any = None,
+              progress: ProgressFn | None = None) -> list[Any]:
+    """``[fn(item) for item in items]``, on the cluster of ``client`` or serially (``client=None``).
+
+    Parameters
+    ----------
+    fn : a function of one item; on a cluster it and the items are pickled (module-level
+        functions, :func:`functools.partial` of them, dataclasses).
+    items : the independent inputs.
+    client : a :class:`distributed.Client`, or None to run here, in order.
+    progress : ``progress(done, total)`` after each finished item.
+
+    Returns
+    -------
+    list
+        the results in the order of ``items`` (the same on a cluster as serially).
+    """
+    items = list(items)
+    results: list[Any] = [None] * len(items)
+    for done, (k, value) in enumerate(iter_tasks(fn, items, client=client), start=1):
+        results[k] = value
+        if progress is not None:
+            progress(done, len(items))
+    return results
+
+
+def progress_bar(total: int, *, enabled: bool | None = None, desc: str = "", unit: str = "task"):
+    """A progress bar on stderr: a :class:`tqdm.tqdm` (a plain counter line without tqdm).
+
+    Parameters
+    ----------
+    total : number of steps.
+    enabled : show it (default: when stderr is a terminal).
+    desc, unit : label and unit of the bar.
+
+    Returns
+    -------
+    An object with ``update(n)``, ``set_postfix_str(text)``, ``clear()`` and ``refresh()`` (around a
+    line printed while it is shown) and ``close()``, usable as a context manager; it shows nothing
+    when disabled.
+    """
+    if enabled is None:
+        enabled = sys.stderr.isatty()
+    if enabled and not missing("tqdm"):
+        from tqdm import tqdm
+
+        return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True, leave=True)
+    return _Counter(total, desc, enabled)
+
+
+class _Counter:
+    """The progress bar without tqdm: one ``\\r``-rewritten line ``desc: done/total``."""
+
+    def __init__(self, total: int, desc: str, enabled: bool):
+        self.total, self.desc, self.enabled, self.n, self.note = total, desc, enabled, 0, ""
+
+    def __enter__(self) -> _Counter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _show(self, end: str = "") -> None:
+        if self.enabled:
+            print(f"\r{self.desc}: {self.n}/{self.total} {self.note}", end=end, file=sys.stderr, flush=True)
+
+    def update(self, n: int = 1) -> None:
+        self.n += n
+        self._show()
+
+    def clear(self) -> None:
+        if self.enabled:
+            print("\r\033[K", end="", file=sys.stderr, flush=True)
+
+    def refresh(self) -> None:
+        self._show()
+
+    def set_postfix_str(self, text: str) -> None:
+        self.note = text
+        self._show()
+
+    def close(self) -> None:
+        self._show("\n")
+        self.enabled = False

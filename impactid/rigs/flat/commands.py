@@ -1,0 +1,308 @@
+"""The commands rig F contributes: ``impactid bifurcation | restitution | cam-fit``, and its
+implementations of ``impactid detachment`` and ``impactid synth`` (shared with rig P; ``--rig
+flat-follower``, ``--rig ALZATE2007`` or a flat-follower rig file runs them).
+
+Thin: parse arguments, call the public API, print results. Cam speeds in rpm or Hz as in the paper;
+output paths are checked before any computation and written as transactions
+(:mod:`impactid.commandline`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+
+import numpy as np
+
+from impactid.commandline import (
+    CAM_PPR,
+    JSON,
+    MAX_SWEEP_POINTS,
+    MAX_SYNTH_SAMPLES,
+    NOISE_CHANNEL,
+    SAMPLE_RATE,
+    SEED,
+    SYNTH_DURATION,
+    SYNTH_OUT,
+    UsageError,
+    cam_speed,
+    check_outputs,
+    command_inputs,
+    deliver,
+    fraction,
+    integer_in,
+    json_text,
+    noise_channels,
+    num,
+    number,
+    pair,
+    positive,
+    print_json,
+    recording_arguments,
+    recording_paths,
+    recording_rig,
+    rig_help,
+    say_written,
+    speed_arguments,
+)
+from impactid.distributed import scheduler_arguments
+from impactid.rigs.base import Argument, CommandSpec
+from impactid.rigs.flat.parameters import MODEL_NAME
+
+__all__ = ["COMMANDS"]
+
+
+def run_detachment(args, model) -> int:
+    if args.e_over_rc is not None or args.mu is not None:
+        raise UsageError("arguments --e-over-rc and --mu apply to the pivoted-follower rig only")
+    rig = args.resolved_rig.rig
+    hz = rig.detachment_speed_hz()
+    data = {"rig": rig.model, "cam_speed_hz": hz, "cam_speed_rpm": hz * 60.0,
+            "method": "inverse kinematics: contact torque (A-11) reaches 0"}
+    if args.json:
+        print_json(data)
+    else:
+        print(f"detachment at {hz:.6g} Hz ({hz * 60:.6g} rpm)")
+    return 0
+
+
+def _restitution_law(args):
+    from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, SpeedRestitution
+
+    if args.restitution is not None:
+        return SpeedRestitution(a=args.restitution)
+    if args.restitution_law is not None:
+        a, b = args.restitution_law
+        return SpeedRestitution.from_rpm(a, b)
+    return DEFAULT_RESTITUTION
+
+
+def run_bifurcation(args, model) -> int:
+    from impactid._files import StagedFiles
+    from impactid.reports import write_bifurcation
+    from impactid.rigs.flat.simulate import bifurcation
+    from impactid.rigs.registry import resolve_rig
+
+    resolved = resolve_rig(args.rig, default=MODEL_NAME)
+    if resolved.model.name != MODEL_NAME:
+        raise UsageError(f"argument --rig: the bifurcation diagram is implemented for the 'flat-follower' rig only, "
+                         f"got {resolved.model.name!r} (use impactid regime-map for the pivoted follower)")
+    rig = resolved.rig
+    if not args.start < args.stop:
+        raise UsageError(f"arguments --from/--to: need from < to, got {args.start:g} and {args.stop:g}")
+    if args.kept is not None and args.kept > args.revolutions:
+        raise UsageError(f"argument --kept: at most --revolutions ({args.revolutions}), got {args.kept}")
+    scale = {"rpm": 1.0 / 60.0, "hz": 1.0}[args.unit]
+    inputs = command_inputs(args, [])
+    check_outputs(args, inputs, out_is_dir=True)
+    speeds = np.linspace(args.start, args.stop, args.speeds) * scale
+    law = _restitution_law(args)
+    from impactid.distributed import progress_bar as task_bar
+    from impactid.distributed import scheduler_client
+
+    with scheduler_client(args, what="impactid bifurcation") as client, \
+            task_bar(args.speeds, desc="bifurcation", unit="speed") as bar:
+        result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept, client=client,
+                             progress=lambda done, total: bar.update(done - bar.n))
+    with StagedFiles(protect=inputs) as staged:
+        paths = write_bifurcation(result, args.out, staged)
+    transitions = result.transitions()
+    data = {"transitions": transitions, "detachment_rpm_inverse_kinematics": rig.detachment_speed_hz() * 60.0,
+            "restitution_law": law.to_dict(), "regime_counts": result.table["regime"].value_counts().to_dict(),
+            "revolutions": result.revolutions, "kept": result.kept, "files": [str(x) for x in paths]}
+    if args.json:
+        print_json(data)
+    else:
+        for path in paths:
+            print(path)
+        print(f"impacts from {num(transitions['detachment_rpm'], '.2f')} rpm (inverse kinematics "
+              f"{data['detachment_rpm_inverse_kinematics']:.2f} rpm); period-1 until "
+              f"{num(transitions['period1_end_rpm'], '.2f')} rpm; first irregular "
+              f"{num(transitions['irregular_rpm'], '.2f')} rpm")
+    return 0
+
+
+def run_restitution(args, model) -> int:
+    from impactid._files import StagedFiles
+    from impactid.encoder_impacts import fit_speed_law, restitution_at_speed
+    from impactid.io import read_recording
+    from impactid.rigs.registry import resolve_rig
+
+    if not args.recordings:
+        raise UsageError("give one impacting encoder recording per cam speed")
+    inputs = command_inputs(args, args.recordings, [args.profile])
+    check_outputs(args, inputs)
+    profile = None
+    if args.profile:
+        from impactid.camprofile import load_profile_json
+
+        profile = load_profile_json(args.profile)
+    rig = resolve_rig(args.rig).rig if args.rig else None
+    points = []
+    notes = []
+    for path in args.recordings:
+        recording = read_recording(path)
+        point = restitution_at_speed(recording, profile, method=args.method, rig=rig, warn=False)
+        points.append(point)
+        notes += [f"{recording.source or 'recording'}: {note}" for note in point.warnings]
+    fit = fit_speed_law(points) if len(points) > 1 else None
+    data = {"method": args.method, "profile": args.profile or "analytic A-17 of the recording's rig",
+            "points": [p.to_dict() for p in points], "warnings": notes}
+    if fit is not None:
+        data["fit"] = fit.to_dict()["law"] | {"residual_rms": fit.residual_rms}
+    if args.out:
+        with StagedFiles(protect=inputs) as staged:
+            staged.write_text(args.out, json_text(data))
+    if args.json:
+        print_json(data)
+    else:
+        for p in points:
+            print(f"{p.source}: {p.cam_speed_rpm:.2f} rpm, r = {num(p.restitution, '.4f')} +- {num(p.stderr, '.4f')} "
+                  f"({p.n_impacts} first impacts, {args.method})")
+        if fit is not None:
+            law = fit.law.to_dict()
+            print(f"r = {law['a']:.4f} + ({law['b_per_rpm']:.6f} +- {num(fit.stderr_b * 2 * math.pi / 60, '.6f')})"
+                  f" * rpm (residual RMS {fit.residual_rms:.2g})")
+        for note in notes:
+            print(f"impactid: warning: {note}", file=sys.stderr)
+    return 0
+
+
+def _cam_fit_figures(args, fit):
+    """The figures of ``cam-fit --plots``: their names and their writer."""
+    from impactid import reports
+
+    names = ["cam_fit.png"] + (["cam_fit_order.png"] if getattr(fit, "order_table", None) is not None else [])
+    return names, lambda staged: reports.cam_fit_figures(fit, args.plots, staged)
+
+
+def run_cam_fit(args, model) -> int:
+    from impactid.camprofile import fit_cam_profile
+    from impactid.io import read_recording
+
+    path = recording_paths(args)[0]
+    inputs = command_inputs(args, [path])
+    terms = args.terms.strip().lower()
+    if terms != "auto":
+        try:
+            terms = int(terms)
+        except ValueError:
+            raise UsageError(f"argument --terms: expected a positive integer or 'auto', got {args.terms!r}") from None
+        if not 1 <= terms <= 20:
+            raise UsageError(f"argument --terms: must lie in [1, 20], got {terms}")
+    window = None
+    if args.window:
+        try:
+            window = pair(args.window)
+        except argparse.ArgumentTypeError:
+            window = None
+        if window is None or not window[0] < window[1]:
+            raise UsageError(f"argument --window: expected T0,T1 in seconds with T0 < T1, got {args.window!r}")
+    check_outputs(args, inputs)
+    rec = read_recording(path, rig=recording_rig(args))
+    fit = fit_cam_profile(rec, terms, criterion=args.criterion, max_terms=args.max_terms, window=window,
+                          nonnegative=not args.signed, counter=args.counter)
+    data = fit.to_dict(samples=3600)
+    data["recording"] = str(path)
+    deliver(args, data, inputs, _cam_fit_figures(args, fit))
+    if args.json:
+        return 0
+    print(fit.report())
+    say_written(args)
+    return 0
+
+
+def run_synth(args, model) -> int:
+    from impactid.io import write_hdf5
+    from impactid.synth import SensorModel, synth_flat_encoders
+
+    rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
+    noise = noise_channels(args.noise_channel)
+    speed = cam_speed(args, operating)
+    rate = args.sample_rate or 20_000.0
+    samples = args.duration * rate
+    if samples > MAX_SYNTH_SAMPLES:
+        raise UsageError(f"arguments --duration/--sample-rate/--decimate: {samples:.3g} samples to generate; at most "
+                         f"{MAX_SYNTH_SAMPLES:.3g} (split the recording)")
+    check_outputs(args, command_inputs(args, []))
+    sensors = SensorModel(noise=noise or 0.0, seed=args.seed)
+    synthetic = synth_flat_encoders(rig, speed, args.duration, sample_rate_hz=rate, cam_ppr=args.cam_ppr or 5000,
+                                    follower_ppr=args.follower_ppr, cam_zero_offset=args.cam_zero_offset,
+                                    sensors=sensors)
+    path = write_hdf5(synthetic.recording, args.out, truth=synthetic.truth)
+    rec = synthetic.recording
+    print(f"{path}: {rec.rig.model}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
+          f"({', '.join(rec.channels)})")
+    return 0
+
+
+OUT_JSON = Argument(("--out",), {"metavar": "law.json", "help": "write the results as JSON (atomically)"})
+
+COMMANDS = (
+    CommandSpec("", "bifurcation", "rig F bifurcation diagram over cam speed, CSV and PNG (Alzate et al. 2007, "
+                                   "Fig. 16)", (
+        Argument(("--rig",), {"metavar": "MODEL|PRESET|RIG.toml", "help": rig_help(
+            "the flat-follower rig (default: Alzate et al. 2007 Table 5)")}),
+        Argument(("--from",), {"dest": "start", "type": positive, "default": 110.0,
+                               "help": "lowest cam speed (default 110)"}),
+        Argument(("--to",), {"dest": "stop", "type": positive, "default": 165.0,
+                             "help": "highest cam speed (default 165)"}),
+        Argument(("--unit",), {"choices": ["rpm", "hz"], "default": "rpm",
+                               "help": "unit of --from/--to (default rpm)"}),
+        Argument(("--speeds",), {"type": integer_in(2, MAX_SWEEP_POINTS), "default": 200,
+                                 "help": "number of cam speeds (default 200)"}),
+        Argument(("--revolutions",), {"type": integer_in(2, 100_000), "default": 100,
+                                      "help": "revolutions simulated per speed (default 100)"}),
+        Argument(("--kept",), {"type": integer_in(1, 100_000), "default": None,
+                               "help": "last revolutions plotted and classified (default half)"}),
+        Argument(("--restitution",), {"type": fraction, "default": None,
+                                      "help": "constant coefficient of restitution"}, exclusive="restitution"),
+        Argument(("--restitution-law",), {"type": pair, "default": None, "metavar": "A,B",
+                                          "help": "r = A + B * rpm (default: our stand-in law, see the docs)"},
+                 exclusive="restitution"),
+        Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
+        JSON, *scheduler_arguments()), run_bifurcation),
+    CommandSpec("", "restitution", "rig F: coefficient of restitution per cam speed from impacting encoder "
+                                   "recordings, and r = a + b omega", (
+        Argument(("recordings",), {"metavar": "REC", "nargs": "*",
+                                   "help": "impacting encoder recordings (one per cam speed)"}),
+        Argument(("--profile",), {"metavar": "fit.json",
+                                  "help": "cam profile from impactid cam-fit (default: analytic A-17)"}),
+        Argument(("--method",), {"choices": ["impact-law", "first-bounce"], "default": "impact-law",
+                                 "help": "impact-law: fitted flight rates either side of each first impact; "
+                                         "first-bounce: the model's r that reproduces the first-bounce height "
+                                         "(Alzate et al. 2007)"}),
+        Argument(("--rig",), {"metavar": "RIG.toml|MODEL|PRESET",
+                              "help": rig_help("the rig for first-bounce (default: the recording's)")}),
+        OUT_JSON, JSON), run_restitution),
+    CommandSpec("", "cam-fit", "fit a Gaussian-sum cam profile (Alzate et al. 2007, eq. 1) to rig F encoder data", (
+        *recording_arguments(),
+        Argument(("--terms",), {"default": "7", "metavar": "N|auto",
+                                "help": "number of Gaussian terms, or 'auto' to choose 1..--max-terms by --criterion "
+                                        "(default 7)"}),
+        Argument(("--max-terms",), {"type": integer_in(1, 20), "default": 9,
+                                    "help": "highest order tried by --terms auto"}),
+        Argument(("--criterion",), {"choices": ["bic", "aic"], "default": "bic",
+                                    "help": "order-selection criterion (default bic)"}),
+        Argument(("--window",), {"metavar": "T0,T1", "help": "use only the samples with T0 <= t < T1 [s] "
+                                                           "(revolutions are still checked inside it)"}),
+        Argument(("--counter",), {"choices": ["floor", "round", "none"], "default": "floor",
+                                  "help": "encoder counters floor (incremental counter, default) or round; 'none': "
+                                          "no correction"}),
+        Argument(("--signed",), {"action": "store_true", "help": "allow negative amplitudes (default a_i >= 0)"}),
+        Argument(("--out",), {"metavar": "FIT.json",
+                              "help": "write coefficients, statistics and the sampled profile as JSON (atomically)"}),
+        Argument(("--plots",), {"metavar": "DIR",
+                                "help": "write figures (data and fit, residuals, derivatives, order selection)"}),
+        Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})), run_cam_fit),
+    CommandSpec("", "detachment", "cam speed at which the follower leaves the cam (inverse kinematics)", (JSON,),
+                run_detachment, rig_argument="resolve"),
+    CommandSpec("", "synth", "write a synthetic encoder recording of rig F", (
+        *speed_arguments(rpm=True), SYNTH_DURATION, SAMPLE_RATE, NOISE_CHANNEL, CAM_PPR,
+        Argument(("--follower-ppr",), {"type": integer_in(1, 10_000_000), "default": 10_000,
+                                       "help": "follower encoder pulses/rev (rig F)"}),
+        Argument(("--cam-zero-offset",), {"type": number, "default": None,
+                                          "help": "cam encoder zero [rad] (rig F; default random)"}),
+        SEED, SYNTH_OUT), run_synth, rig_argument="resolve"),
+)

@@ -1,0 +1,460 @@
+"""The commands rig P contributes: ``impactid regime | regime-map | simulate | events | estimate``, and
+its implementations of ``impactid detachment`` and ``impactid synth`` (shared with rig F; the rig
+``--rig`` names runs them, rig P by default).
+
+Thin: parse arguments, call the public API, print results. Units on the command line are SI
+(``--beta`` in N s m^-(n+1), e.g. 24.7e9 for the paper's 24.7 GN s m^-2.5), except cam speeds
+(``--cam-speed`` in Hz, ``--rpm``). Output paths are checked before any computation and written as
+transactions (:mod:`impactid.commandline`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import warnings
+
+import numpy as np
+
+from impactid.commandline import (
+    CAM_PPR,
+    JSON,
+    MAX_SWEEP_POINTS,
+    MAX_SYNTH_SAMPLES,
+    NOISE_CHANNEL,
+    SAMPLE_RATE,
+    SEED,
+    SYNTH_DURATION,
+    SYNTH_OUT,
+    UsageError,
+    cam_speed,
+    check_outputs,
+    command_inputs,
+    deliver,
+    exponent,
+    fraction,
+    integer_in,
+    noise_channels,
+    nonnegative,
+    num,
+    number,
+    positive,
+    print_json,
+    progress_bar,
+    recording_arguments,
+    recording_paths,
+    recording_rig,
+    rig_help,
+    say_written,
+    speed_arguments,
+)
+from impactid.distributed import scheduler_arguments
+from impactid.rigs.base import Argument, CommandSpec
+from impactid.rigs.pivoted.parameters import MODEL_NAME
+
+__all__ = ["COMMANDS", "MAX_GRID_POINTS"]
+
+#: Largest grid of trial laws ``--grid NB,NN`` accepts (each costs one S1 run per impact).
+MAX_GRID_POINTS = 100_000
+
+
+# ---- argument types ---------------------------------------------------------------------------
+
+
+def _range(text: str) -> list[float]:
+    """``a:b:n`` (n values from a to b) or a comma-separated list of positive numbers."""
+    try:
+        if ":" in text:
+            a, b, n = text.split(":")
+            count = int(n)
+            if not 1 <= count <= MAX_SWEEP_POINTS:
+                raise argparse.ArgumentTypeError(f"the count in {text!r} must lie in [1, {MAX_SWEEP_POINTS}]")
+            values = [float(x) for x in np.linspace(number(a), number(b), count)]
+        else:
+            values = [number(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'start:stop:count' or 'v1,v2,...', got {text!r}") from None
+    if not values:
+        raise argparse.ArgumentTypeError(f"no values in {text!r}")
+    if min(values) <= 0.0:
+        raise argparse.ArgumentTypeError(f"values must be positive, got {text!r}")
+    return values
+
+
+def _grid_counts(text: str) -> tuple[int, int]:
+    try:
+        parts = [int(x) for x in text.replace("x", ",").split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NB[,NN] grid counts, got {text!r}") from None
+    if len(parts) == 1:
+        parts.append(21)
+    if len(parts) != 2 or min(parts) < 3:
+        raise argparse.ArgumentTypeError(f"grid counts must be NB[,NN] with each >= 3, got {text!r}")
+    if parts[0] * parts[1] > MAX_GRID_POINTS:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} asks for {parts[0] * parts[1]:,} trial laws (each simulated for every impact); at most "
+            f"{MAX_GRID_POINTS:,}: use the optimiser (no --grid) for a precise estimate")
+    return parts[0], parts[1]
+
+
+# ---- shared plumbing --------------------------------------------------------------------------
+
+
+def _simulated_rig(args, command: str):
+    """Rig P for a simulation command (``--rig``, then ``--e-over-rc``), and the rig file's operating point."""
+    from impactid.rigs.registry import resolve_rig
+
+    resolved = resolve_rig(getattr(args, "rig", None), default=MODEL_NAME)
+    if resolved.model.name != MODEL_NAME:
+        raise UsageError(f"argument --rig: '{command}' simulates the 'pivoted-follower' rig only, "
+                         f"got a {resolved.model.name!r} rig")
+    rig = resolved.rig
+    if getattr(args, "e_over_rc", None) is not None:
+        rig = rig.with_eccentricity_ratio(args.e_over_rc)
+    return rig, resolved.operating
+
+
+def _law(args):
+    from impactid.contact import HuntCrossley
+
+    return HuntCrossley(beta=args.beta, n=args.n, clip=getattr(args, "clip", False))
+
+
+# ---- commands ---------------------------------------------------------------------------------
+
+
+def run_regime(args, model) -> int:
+    from impactid.simulate.regimes import classify_regime, detachment_speed
+
+    rig, operating = _simulated_rig(args, "regime")
+    speed = cam_speed(args, operating)
+    result = classify_regime(rig, speed, _law(args), mu=args.mu, max_revolutions=args.max_revolutions)
+    data = result.to_dict()
+    data["detachment_hz"] = detachment_speed(rig, mu=args.mu).cam_speed_hz
+    if args.json:
+        print_json(data)
+    else:
+        per = f", {result.period_revolutions} revolution(s)" if result.period_revolutions else ""
+        print(f"e/r_c = {rig.e_over_rc:.4g}, cam speed {speed:g} Hz: {result.regime}{per}")
+        print(f"  impacts per revolution (last window): {result.impacts_per_revolution:.3g}")
+        print(f"  simulated {result.simulated_s:.2f} s; detachment speed {data['detachment_hz']:.4g} Hz")
+        if result.settling:
+            print("  note: the motion was still settling when the run ended")
+    return 0
+
+
+def run_detachment(args, model) -> int:
+    from impactid.simulate.regimes import detachment_speed
+
+    rig = args.resolved_rig.rig
+    if args.e_over_rc is not None:
+        rig = rig.with_eccentricity_ratio(args.e_over_rc)
+    result = detachment_speed(rig, mu=args.mu)
+    if args.json:
+        print_json(result.to_dict())
+    else:
+        print(f"detachment at {result.cam_speed_hz:.6g} Hz ({result.cam_speed_rpm:.6g} rpm), "
+              f"cam angle {result.cam_angle:.4f} rad")
+    return 0
+
+
+def run_regime_map(args, model) -> int:
+    from impactid._files import StagedFiles
+    from impactid.reports import write_regime_map
+    from impactid.simulate.regimes import regime_map
+
+    rig, _ = _simulated_rig(args, "regime-map")
+    points = len(args.e_over_rc_values) * len(args.cam_speeds)
+    if points > MAX_SWEEP_POINTS:
+        raise UsageError(f"arguments --e-over-rc-values/--cam-speeds: {points:,} operating points; at most "
+                         f"{MAX_SWEEP_POINTS:,}")
+    inputs = command_inputs(args, [])
+    check_outputs(args, inputs, out_is_dir=True)
+    for ratio in args.e_over_rc_values:  # every ratio checked before the long run
+        rig.with_eccentricity_ratio(ratio)
+
+    from impactid.distributed import progress_bar as task_bar
+    from impactid.distributed import scheduler_client
+
+    with scheduler_client(args, what="impactid regime-map") as client, \
+            task_bar(points, enabled=not args.quiet, desc="regime map", unit="point") as bar:
+        frame = regime_map(rig, args.e_over_rc_values, args.cam_speeds, _law(args), mu=args.mu,
+                           progress=lambda done, total: bar.update(done - bar.n),
+                           max_revolutions=args.max_revolutions, client=client)
+    with StagedFiles(protect=inputs) as staged:
+        paths = write_regime_map(frame, args.out, staged)
+    for path in paths:
+        print(path)
+    return 0
+
+
+def run_simulate(args, model) -> int:
+    from impactid._files import StagedFiles
+    from impactid.simulate import simulate
+
+    rig, operating = _simulated_rig(args, "simulate")
+    speed = cam_speed(args, operating)
+    inputs = command_inputs(args, [])
+    check_outputs(args, inputs)
+    run = simulate(rig, speed, _law(args), args.duration, mu=args.mu)
+    table = run.contacts
+    if args.out:
+        from impactid.reports import write_csv_atomic
+
+        with StagedFiles(protect=inputs) as staged:
+            write_csv_atomic(table, args.out, staged)
+    if args.json:
+        print_json({"contacts": len(table), "final_alpha": run.final_alpha, "final_alpha_dot": run.final_alpha_dot,
+                    "n_steps": run.n_steps, "contact_table": table.to_dict(orient="list")})
+    else:
+        print(f"e/r_c = {rig.e_over_rc:.4g}, {speed:g} Hz, beta = {args.beta:.4g}, n = {args.n:g}: "
+              f"{len(table)} contacts in {args.duration:g} s ({run.n_steps} integrator steps)")
+        cols = ["t_start", "duration", "gap_rate_start", "gap_rate_end", "peak_indentation", "peak_force", "xi"]
+        with_units = table[cols].tail(args.show).rename(columns={
+            "t_start": "t_start[s]", "duration": "duration[s]", "gap_rate_start": "v_approach[m/s]",
+            "gap_rate_end": "v_separation[m/s]", "peak_indentation": "peak_indent[m]", "peak_force": "peak_force[N]"})
+        print(with_units.to_string(index=False, float_format=lambda x: f"{x:.6g}"))
+    return 0
+
+
+def run_synth(args, model) -> int:
+    from impactid.contact import HuntCrossley, Restitution
+    from impactid.io import write_hdf5
+    from impactid.synth import SensorModel, synth_pivoted
+
+    rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
+    noise = noise_channels(args.noise_channel)
+    speed = cam_speed(args, operating)
+    rate = args.sample_rate or 204_800.0
+    samples = args.duration * rate * args.decimate
+    if samples > MAX_SYNTH_SAMPLES:
+        raise UsageError(f"arguments --duration/--sample-rate/--decimate: {samples:.3g} samples to generate; at most "
+                         f"{MAX_SYNTH_SAMPLES:.3g} (split the recording)")
+    check_outputs(args, command_inputs(args, []))
+    if args.e_over_rc is not None:
+        rig = rig.with_eccentricity_ratio(args.e_over_rc)
+    law = (Restitution(gamma=args.gamma) if args.law == "restitution"
+           else HuntCrossley(beta=args.beta, n=args.n, clip=args.clip))
+    sensors = SensorModel(noise=noise or args.noise, adc_bits=args.adc_bits, accel_offset=args.accel_offset,
+                          accel_drift=args.accel_drift, decimation=args.decimate, cam_encoder_ppr=args.cam_ppr,
+                          seed=args.seed)
+    synthetic = synth_pivoted(rig, speed, law, args.duration, settle_s=args.settle, sample_rate_hz=rate,
+                              sensors=sensors, mu=args.mu)
+    path = write_hdf5(synthetic.recording, args.out, truth=synthetic.truth)
+    rec = synthetic.recording
+    print(f"{path}: {rec.rig.model}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
+          f"({', '.join(rec.channels)})")
+    return 0
+
+
+def run_events(args, model) -> int:
+    from impactid._files import StagedFiles
+    from impactid.events import find_events
+    from impactid.io import read_recording
+    from impactid.reconstruct import reconstruct
+
+    path = recording_paths(args)[0]
+    inputs = command_inputs(args, [path])
+    check_outputs(args, inputs)
+    rec = read_recording(path, rig=recording_rig(args))
+    events = find_events(rec, threshold=args.threshold, onset_threshold=args.onset_threshold)
+    result = reconstruct(rec, events, integration=args.integration, anchor=args.anchor)
+    table = result.table
+    if args.out:
+        from impactid.reports import write_csv_atomic
+
+        with StagedFiles(protect=inputs) as staged:
+            write_csv_atomic(table.reset_index(), args.out, staged)
+    if args.json:
+        print_json({"events_found": len(events), "events_used": len(table), "noise_sigma": events.noise_sigma,
+                    "warnings": list(result.warnings), "provenance": list(result.provenance),
+                    "table": table.reset_index().to_dict(orient="list")})
+    else:
+        print(f"{rec.source}: {len(events)} events found, {len(table)} reconstructed "
+              f"(integration {result.integration!r}, anchor {result.anchor!r})")
+        cols = ["t_onset", "contact_duration", "alpha_m", "approach_speed", "separation_speed", "xi", "peak_force"]
+        print(table[cols].head(args.show).to_string(float_format=lambda x: f"{x:.6g}"))
+    return 0
+
+
+def _estimate_figures(args, result):
+    """The figures of ``estimate --plots``: their names and their writer."""
+    from impactid import reports
+
+    names = ["hysteresis.png"] + (["restitution.png"] if result.restitution is not None else []) + [
+        "landscape.png", "residuals.png"]
+    return names, lambda staged: reports.estimate_figures(result, args.plots, staged)
+
+
+def run_estimate(args, model) -> int:
+    from impactid.estimates import C_BOUNDS, EstimationWarning, estimate
+
+    paths = recording_paths(args, several=True)
+    lo, hi = args.n_range
+    if not lo < hi:
+        raise UsageError(f"argument --n-range: need LO < HI, got {lo:g} {hi:g}")
+    inputs = command_inputs(args, paths)
+    check_outputs(args, inputs)
+    progress = progress_bar(args.progress if args.progress is not None else sys.stderr.isatty())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", EstimationWarning)  # the result's notes, printed below
+        result = estimate(paths, residual=args.residual, fix_n=args.fix_n,
+                          method="grid" if args.grid else args.method, grid=args.grid or (41, 21),
+                          rig=recording_rig(args), integration=args.integration, anchor=args.anchor,
+                          c_bounds=C_BOUNDS, n_bounds=(lo, hi), progress=progress)
+    data = result.to_dict()
+    data["recordings_read"] = [str(p) for p in paths]
+    deliver(args, data, inputs, _estimate_figures(args, result))
+    if args.json:
+        return 0
+    d, r = result.damping, result.restitution
+    unc = data["uncertainty"]
+    print(f"impactid estimate: {len(paths)} recording(s), {data['impacts_used']} impacts, residual {d.residual}, "
+          f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)")
+    print(f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(unc['beta_interval'][0])}, "
+          f"{num(unc['beta_interval'][1])}]")
+    if d.fixed_n:
+        print(f"  n     = {d.n:.4g} (fixed)")
+    else:
+        tag = "" if d.separable else "   NOT SEPARABLE from beta (see warnings)"
+        print(f"  n     = {num(d.n, '.4g')}   interval [{num(unc['n_interval'][0], '.4g')}, "
+              f"{num(unc['n_interval'][1], '.4g')}]{tag}")
+    print(f"  objective (mean {d.residual}) = {num(d.objective, '.4g')}")
+    if r is None:
+        print("  restitution law: undetermined (see warnings)")
+    else:
+        print(f"  gamma = {num(r.gamma)} +- {num(r.gamma_stderr, '.2g')} s/m  (xi = 1 - gamma v_a; HC equivalent "
+              f"beta {num(r.beta_equivalent, '.4g')} N s m^-2.5)")
+        print(f"  xi_mean = {num(r.xi_mean)}, va_mean = {num(r.va_mean)} m/s, constant r = {num(r.r_constant)}")
+    for message in data.get("warnings", []):
+        print(f"  warning: {message}")
+    say_written(args)
+    return 0
+
+
+# ---- arguments --------------------------------------------------------------------------------
+
+
+def _simulated_rig_arguments(with_ratio: bool = True) -> tuple[Argument, ...]:
+    out = (Argument(("--rig",), {"metavar": "MODEL|PRESET|RIG.toml", "help": rig_help(
+        "the pivoted-follower rig (default: Sundar et al. 2016 Table 1); a rig file's [operating] table "
+        "supplies defaults such as cam_speed_hz")}),)
+    if with_ratio:
+        out += (Argument(("--e-over-rc",), {"type": positive, "default": None,
+                                            "help": "eccentricity ratio e/r_c (default: rig's)"}),)
+    return out
+
+
+def _kinematics_arguments(anchor: str) -> tuple[Argument, ...]:
+    """``--integration`` and ``--anchor``; their choices are read when the parser is built (the module
+    that defines the anchors loads the simulator, which a rig's import must not)."""
+
+    def integration():
+        from impactid.signal import INTEGRATORS
+
+        return {"default": "rk", "choices": list(INTEGRATORS), "help": "integration method (default rk, as in the "
+                                                                         "paper)"}
+
+    def anchors():
+        from impactid.reconstruct import ANCHORS
+
+        return {"default": anchor, "choices": list(ANCHORS),
+                "help": f"integration-constant anchor (default {anchor}; return-time is the paper's)"}
+
+    return Argument(("--integration",), integration), Argument(("--anchor",), anchors)
+
+
+MU = Argument(("--mu",), {"type": nonnegative, "default": None, "help": "friction coefficient (default: rig's)"})
+LAW = (
+    Argument(("--beta",), {"type": nonnegative, "default": 24.7e9,
+                           "help": "damping coefficient [N s m^-(n+1)] (default 24.7e9)"}),
+    Argument(("--n",), {"type": exponent, "default": 1.5, "help": "damping index (default 1.5)"}),
+    MU,
+    Argument(("--clip",), {"action": "store_true", "help": "clip tensile contact force to 0"}),
+)
+E_OVER_RC_RIG_P = Argument(("--e-over-rc",), {"type": positive, "default": None,
+                                              "help": "eccentricity ratio e/r_c (rig P)"})
+MAX_REVOLUTIONS = {"type": integer_in(1, 1_000_000), "default": 2000}
+
+
+COMMANDS = (
+    CommandSpec("", "regime", "classify the motion of rig P at one operating point", (
+        *_simulated_rig_arguments(), *speed_arguments(), *LAW,
+        Argument(("--max-revolutions",), {**MAX_REVOLUTIONS, "help": "longest run while settling"}),
+        JSON), run_regime),
+    CommandSpec("", "detachment", "cam speed at which the follower leaves the cam (inverse kinematics)", (
+        E_OVER_RC_RIG_P, MU, JSON), run_detachment, rig_argument="resolve", default_rig=True),
+    CommandSpec("", "regime-map", "regime map over (e/r_c, cam speed), CSV and PNG (Sundar et al. 2016, Fig. 3)", (
+        *_simulated_rig_arguments(with_ratio=False),
+        Argument(("--e-over-rc-values",), {"type": _range, "default": _range("0.05:0.25:5"),
+                                           "help": "e/r_c values: 'start:stop:count' or a list (default 0.05:0.25:5)"}),
+        Argument(("--cam-speeds",), {"type": _range, "default": _range("4:24:21"),
+                                     "help": "cam speeds [Hz]: 'start:stop:count' or a list (default 4:24:21)"}),
+        *LAW,
+        Argument(("--max-revolutions",), {**MAX_REVOLUTIONS, "help": "longest run per point while settling"}),
+        Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
+        Argument(("--quiet",), {"action": "store_true", "help": "no progress output"}),
+        *scheduler_arguments()), run_regime_map),
+    CommandSpec("", "simulate", "long S2 run from static equilibrium; prints the contact table", (
+        *_simulated_rig_arguments(), *speed_arguments(),
+        Argument(("--duration",), {"type": positive, "default": 2.0, "help": "simulated time [s] (default 2)"}),
+        *LAW,
+        Argument(("--out",), {"metavar": "CONTACTS.csv", "help": "write the contact table as CSV"}),
+        Argument(("--show",), {"type": integer_in(0, 1_000_000), "default": 8,
+                               "help": "rows of the contact table to print"}),
+        JSON), run_simulate),
+    CommandSpec("", "synth", "write a synthetic recording (S2/S3 of rig P, encoders of rig F)", (
+        E_OVER_RC_RIG_P, *speed_arguments(rpm=True),
+        Argument(("--law",), {"choices": ["hunt-crossley", "restitution"], "default": "hunt-crossley",
+                              "help": "contact law (S2) or restitution law (S3)"}),
+        *LAW,
+        Argument(("--gamma",), {"type": nonnegative, "default": 0.8,
+                                "help": "restitution law xi = 1 - gamma v_a [s/m] (default 0.8)"}),
+        SYNTH_DURATION,
+        Argument(("--settle",), {"type": nonnegative, "default": 40.0,
+                                 "help": "discarded settling time [s] (default 40)"}),
+        SAMPLE_RATE,
+        Argument(("--noise",), {"type": fraction, "default": 0.0,
+                                "help": "Gaussian noise, fraction of peak, analogue channels"}),
+        NOISE_CHANNEL,
+        Argument(("--adc-bits",), {"type": integer_in(2, 32), "default": None,
+                                   "help": "ADC resolution [bits] (default: none)"}),
+        Argument(("--accel-offset",), {"type": number, "default": 0.0, "help": "accelerometer offset [m/s^2]"}),
+        Argument(("--accel-drift",), {"type": number, "default": 0.0,
+                                      "help": "accelerometer drift [m/s^2 per s]"}),
+        Argument(("--decimate",), {"type": integer_in(1, 64), "default": 1,
+                                   "help": "anti-alias filter and decimation factor (default 1)"}),
+        CAM_PPR, SEED, SYNTH_OUT), run_synth, rig_argument="resolve", default_rig=True),
+    CommandSpec("", "events", "find impacts and reconstruct each one (alpha, v_a, xi, contact force)", (
+        *recording_arguments(), *_kinematics_arguments("return-time"),
+        Argument(("--threshold",), {"type": positive, "default": None,
+                                    "help": "pulse detection level [m/s^2] (default: from noise)"}),
+        Argument(("--onset-threshold",), {"type": positive, "default": None,
+                                          "help": "contact onset level [m/s^2]"}),
+        Argument(("--out",), {"metavar": "EVENTS.csv", "help": "write the per-event table as CSV"}),
+        Argument(("--show",), {"type": integer_in(0, 1_000_000), "default": 10, "help": "rows to print"}),
+        JSON), run_events),
+    CommandSpec("", "estimate", "estimate Hunt-Crossley beta, n and the restitution law from recordings", (
+        *recording_arguments(several=True),
+        Argument(("--residual",), {"default": "lambda1", "choices": ["lambda1", "lambda2", "lambda3"],
+                                   "help": "residual minimised (default lambda1: accelerometer only)"}),
+        Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
+                                "help": "fix the exponent n (0: viscous)"}),
+        Argument(("--method",), {"choices": ["least-squares", "optimise"], "default": "least-squares",
+                                 "help": "least-squares (default: trust-region Gauss-Newton, profile intervals) or "
+                                         "optimise (nested Brent searches, lattice and bootstrap intervals; about "
+                                         "100x the simulations)"}),
+        Argument(("--grid",), {"type": _grid_counts, "default": None, "metavar": "NB[,NN]",
+                               "help": "paper-style grid search with NB values of beta (log) and NN of n instead "
+                                       "of --method"}),
+        Argument(("--n-range",), {"type": exponent, "nargs": 2, "default": [0.5, 2.5], "metavar": ("LO", "HI"),
+                                  "help": "search bounds of n (default 0.5 2.5)"}),
+        *_kinematics_arguments("cam-phase"),
+        Argument(("--out",), {"metavar": "RESULT.json", "help": "write the result as JSON (atomically)"}),
+        Argument(("--plots",), {"metavar": "DIR",
+                                "help": "write figures (hysteresis, restitution, landscape, residuals)"}),
+        Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"}),
+        Argument(("--progress",), {"action": argparse.BooleanOptionalAction, "default": None,
+                                   "help": "progress bar on stderr (default: when stderr is a terminal)"})),
+        run_estimate),
+)
