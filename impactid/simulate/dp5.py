@@ -32,10 +32,10 @@ State layouts
 -------------
 The state ``y`` is either a **pair** (a 2-tuple of floats ``(q, v)``: one degree of freedom, the
 angle and the rate of a follower) or a **vector** (a 1-D float array: several degrees of freedom).
-The few operations that depend on the layout (:func:`combine`, :func:`advance`,
-:func:`error_norm`, :func:`dense`) have one implementation per layout (numba overloads chosen by
-the type of ``y``); the algorithm itself is written once. A pair stays in registers, which keeps
-the one-degree-of-freedom rigs as fast as a hand-written scalar integrator.
+The few operations that depend on the layout (:func:`combine`, :func:`tableau_combine`,
+:func:`advance`, :func:`error_norm`, :func:`dense`) have one implementation per layout (numba
+overloads chosen by the type of ``y``); the algorithm itself is written once. A pair stays in
+registers, which keeps the one-degree-of-freedom rigs as fast as a hand-written scalar integrator.
 
 The rig's functions
 -------------------
@@ -48,6 +48,21 @@ The rig's functions
     ``K[s, 1]`` the acceleration). The last stage (``s = 6``) is the derivative at the step's
     end; a rig may also write there, into ``monitor``, the quantities it watches for events
     (a gap, a force), computed from the same evaluation.
+
+Compiling a rig's step
+----------------------
+The stages are inlined into the rig's function that calls :func:`step` (or :func:`initial_step`),
+and numba reference-counts every array an inlined function receives, at every call. When the
+increments and decrements cannot be paired up and removed, each stage pays a few atomic
+operations: about a third of the time of a cheap (free-flight) step. Two things keep them out:
+
+* pass the rig's parameters (``p``, ``law``) as tuples of floats rather than arrays where they
+  are few (they stay in registers, and tuples of floats are not reference-counted);
+* compile that function with ``error_model="numpy"``: under numba's default (Python's) error
+  model every float division in the stages carries a branch that raises ``ZeroDivisionError``,
+  and those branches are what keep the reference counting of the arrays that remain (``K``, the
+  monitor) from being removed. Under numpy's error model a division by zero gives an infinity or
+  a NaN, i.e. a non-finite trial step, which the rig's loop treats like any other.
 
 Status codes
 ------------
@@ -69,7 +84,7 @@ from scipy.integrate._ivp.rk import RK45 as _RK45
 
 __all__ = ["BAD_INPUT", "EVENTS_FULL", "LAW_RANGE", "MAX_STEPS", "NONFINITE", "OK", "SAMPLES_FULL",
            "STATUS_MESSAGES", "STEP_UNDERFLOW", "advance", "brent", "combine", "dense", "dense_coefficients",
-           "error_norm", "initial_step", "step", "step_factor"]
+           "error_norm", "initial_step", "step", "step_factor", "tableau_combine"]
 
 # numba's pedantic SSA check warns about variables of inlined overloads; harmless (numba issue 7236)
 warnings.filterwarnings("ignore", category=NumbaIRAssumptionWarning)
@@ -131,6 +146,53 @@ def _combine(y, K, coeffs, s, h, work):
             work[i] = h * a
         return work
     return vector
+
+
+def tableau_combine(y, K, s, h, work):  # pragma: no cover - replaced by the overload in compiled code
+    """``combine`` with the tableau row of stage ``s`` (a literal integer), its numbers in the code.
+
+    ``s`` = 1..5: the stage increments ``h sum_j A[s, j] K[j]``; 6: the step's increment
+    ``h sum_j B[j] K[j]``; 7: the embedded error estimate ``h sum_j E[j] K[j]``.
+    """
+
+
+def _tableau_row(stage: int) -> np.ndarray:
+    """The row of the tableau that ``tableau_combine`` uses for ``stage`` (its first ``stage`` entries)."""
+    row = A[stage] if stage <= 5 else (B if stage == 6 else E)
+    return row[:stage]
+
+
+def _specialised_combine(stage: int, pair: bool):
+    """``tableau_combine`` for one stage, generated from the tableau: its numbers written into the
+    code and its zeros left out, as a hand-written kernel has them.
+
+    The sum runs over the stages in the same order as :func:`combine`'s loop, and a left-out term
+    ``0 * K[j]`` adds exactly zero to a finite sum, so for finite stages the result is the loop's
+    (up to the sign of a zero).
+    """
+    terms = [(j, float(c)) for j, c in enumerate(_tableau_row(stage)) if c != 0.0]
+
+    def total(component: str) -> str:
+        return " + ".join(f"{c!r} * K[{j}, {component}]" for j, c in terms) or "0.0"
+
+    if pair:
+        source = (f"def impl(y, K, s, h, work):\n"
+                  f"    return (h * ({total('0')}), h * ({total('1')}))\n")
+    else:
+        source = (f"def impl(y, K, s, h, work):\n"
+                  f"    for i in range(y.shape[0]):\n"
+                  f"        work[i] = h * ({total('i')})\n"
+                  f"    return work\n")
+    namespace: dict = {}
+    exec(compile(source, f"<dp5.tableau_combine stage {stage}>", "exec"), namespace)  # noqa: S102 - from the tableau
+    return namespace["impl"]
+
+
+@overload(tableau_combine, inline="always", prefer_literal=True)
+def _tableau_combine(y, K, s, h, work):
+    if isinstance(s, types.IntegerLiteral) and 1 <= s.literal_value <= 7:
+        return _specialised_combine(s.literal_value, _is_pair(y))
+    return None  # only literal stage numbers: the tableau's rows are not looked up at run time
 
 
 def advance(y, d, out):  # pragma: no cover - replaced by the overload in compiled code
@@ -215,13 +277,22 @@ def step(stage, begin, mode, t, y, h, p, law, K, work, ynew, monitor):
     the embedded error estimate, in the layout of ``y``.
     """
     cache = begin(mode, t, y, p, law)
-    for s in range(1, 6):
-        d = combine(y, K, A[s], s, h, work)
-        stage(mode, cache, t, y, d, C[s] * h, p, law, K, s, monitor)
-    d = combine(y, K, B, 6, h, work)
+    # the stages written out with literal stage numbers, so that ``tableau_combine`` is specialised
+    # to each row of the tableau (constants in the code, zeros skipped)
+    d = tableau_combine(y, K, 1, h, work)
+    stage(mode, cache, t, y, d, C[1] * h, p, law, K, 1, monitor)
+    d = tableau_combine(y, K, 2, h, work)
+    stage(mode, cache, t, y, d, C[2] * h, p, law, K, 2, monitor)
+    d = tableau_combine(y, K, 3, h, work)
+    stage(mode, cache, t, y, d, C[3] * h, p, law, K, 3, monitor)
+    d = tableau_combine(y, K, 4, h, work)
+    stage(mode, cache, t, y, d, C[4] * h, p, law, K, 4, monitor)
+    d = tableau_combine(y, K, 5, h, work)
+    stage(mode, cache, t, y, d, C[5] * h, p, law, K, 5, monitor)
+    d = tableau_combine(y, K, 6, h, work)
     y1 = advance(y, d, ynew)
     stage(mode, cache, t, y, d, h, p, law, K, 6, monitor)
-    err = combine(y, K, E, 7, h, work)
+    err = tableau_combine(y, K, 7, h, work)
     return y1, err
 
 

@@ -85,13 +85,27 @@ DEFAULT_TOLERANCES = Tolerances()
 # ---------------------------------------------------------------------------------------------
 
 
+#: The last rig (with its own ``mu``) and the last law packed, with their vectors: S1 events are
+#: simulated by the thousand with one rig and law, and the identity check costs a tenth of the
+#: ``lru_cache`` lookup, which hashes every field of the frozen dataclass (about 1 us for a rig).
+_last_rig: tuple = (None, None)
+_last_law: tuple = (None, None)
+
+
 def pack_rig(rig: PivotedFollowerRig, mu: float | None = None) -> np.ndarray:
     """Rig parameters as the kernel's parameter vector (optionally overriding ``mu``).
 
     Cached per (rig, mu): rigs are frozen, and S1 events are simulated by the thousand."""
+    global _last_rig
+    last = _last_rig  # one read: another thread may replace it
+    if mu is None and rig is last[0]:
+        return last[1]
     if getattr(rig, "model", None) != MODEL_NAME:
         raise SimulationInputError(f"expected a {MODEL_NAME!r} rig, got {type(rig).__name__}")
-    return _pack_rig_cached(rig, None if mu is None else _finite("mu", mu))
+    p = _pack_rig_cached(rig, None if mu is None else _finite("mu", mu))
+    if mu is None:
+        _last_rig = (rig, p)
+    return p
 
 
 @functools.lru_cache(maxsize=256)
@@ -112,9 +126,19 @@ def _pack_rig_cached(rig: PivotedFollowerRig, mu: float | None) -> np.ndarray:
     return p
 
 
-@functools.lru_cache(maxsize=256)
 def pack_law(law: Law) -> np.ndarray:
     """Contact or restitution law as the kernel's law vector (cached; read-only)."""
+    global _last_law
+    last = _last_law
+    if law is last[0]:
+        return last[1]
+    v = _pack_law_cached(law)
+    _last_law = (law, v)
+    return v
+
+
+@functools.lru_cache(maxsize=256)
+def _pack_law_cached(law: Law) -> np.ndarray:
     v = np.zeros(K.N_LAW)
     if isinstance(law, HuntCrossley):
         v[K.LAW_KIND] = K.KIND_COMPLIANT
@@ -140,6 +164,15 @@ def _finite(name: str, value) -> float:
     return value
 
 
+def _all_finite(a, b, c, d) -> bool:
+    """True if the four values are finite numbers (the fast check of valid input; False also for
+    values that :func:`_finite` accepts after converting them, such as numeric strings)."""
+    try:
+        return math.isfinite(a) and math.isfinite(b) and math.isfinite(c) and math.isfinite(d)
+    except TypeError:
+        return False
+
+
 def _cam_speed(cam_speed_hz) -> float:
     cam_speed_hz = _finite("cam_speed_hz", cam_speed_hz)
     if cam_speed_hz <= 0.0:
@@ -152,38 +185,53 @@ def _raise_status(status: int, what: str, t: float) -> None:
         raise SimulationError(f"{what}: {K.STATUS_MESSAGES.get(status, status)} (at t = {t:.9g} s)")
 
 
+#: Columns of the contact frame after ``kind``, ``t_start``, ``t_end`` and ``duration``, and the
+#: kernel's table columns they come from (``friction_reversals`` follows, as an integer column).
+_CONTACT_COLUMNS = {
+    "gap_rate_start": K.C_DPSI_START, "gap_rate_end": K.C_DPSI_END, "peak_indentation": K.C_PEAK_DELTA,
+    "peak_force": K.C_PEAK_FORCE, "t_peak_force": K.C_T_PEAK_FORCE, "t_peak_indentation": K.C_T_PEAK_DELTA,
+    "alpha_start": K.C_ALPHA_START, "alpha_dot_start": K.C_RATE_START, "alpha_end": K.C_ALPHA_END,
+    "alpha_dot_end": K.C_RATE_END, "xi": K.C_XI,
+}
+
+
 def _contact_frame(table: np.ndarray) -> pd.DataFrame:
-    cols = {
-        "t_start": K.C_T_START, "t_end": K.C_T_END, "gap_rate_start": K.C_DPSI_START,
-        "gap_rate_end": K.C_DPSI_END, "peak_indentation": K.C_PEAK_DELTA, "peak_force": K.C_PEAK_FORCE,
-        "t_peak_force": K.C_T_PEAK_FORCE, "t_peak_indentation": K.C_T_PEAK_DELTA,
-        "alpha_start": K.C_ALPHA_START, "alpha_dot_start": K.C_RATE_START,
-        "alpha_end": K.C_ALPHA_END, "alpha_dot_end": K.C_RATE_END, "xi": K.C_XI,
-        "friction_reversals": K.C_FRICTION_REVERSALS,
-    }
-    frame = pd.DataFrame({name: table[:, c] for name, c in cols.items()})
-    frame.insert(2, "duration", frame["t_end"] - frame["t_start"])
-    frame.insert(0, "kind", [_ROW_KINDS.get(k, "?") for k in table[:, K.C_KIND]])
-    frame["friction_reversals"] = frame["friction_reversals"].fillna(0).astype(int)
-    return frame
+    """The kernel's contact table as the public DataFrame (one row per contact phase or impact).
+
+    Built in one constructor call with every column in its place: inserting and replacing columns
+    afterwards cost pandas about four times as much, as much as half of a 2 s run's simulation."""
+    start, end = table[:, K.C_T_START], table[:, K.C_T_END]
+    reversals = table[:, K.C_FRICTION_REVERSALS]
+    columns = {"kind": [_ROW_KINDS.get(k, "?") for k in table[:, K.C_KIND]], "t_start": start, "t_end": end,
+               "duration": end - start}
+    columns.update((name, table[:, c]) for name, c in _CONTACT_COLUMNS.items())
+    columns["friction_reversals"] = np.where(np.isnan(reversals), 0.0, reversals).astype(int)
+    return pd.DataFrame(columns)
+
+
+#: The apex table of a run that keeps none (capacity 0: the kernel never writes it).
+_NO_APEXES = np.empty((0, 2))
 
 
 def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, grid, capacity, apex_capacity):
     """Call the kernel, growing the tables until they are large enough."""
     mode0 = -1  # the kernel derives the initial mode from the state (saves a dispatch)
     h_max = tol.max_step_revolutions * 2.0 * math.pi / omega
-    g_a = np.empty(grid.shape[0])
-    g_d = np.empty(grid.shape[0])
+    if grid.shape[0]:
+        g_a = np.empty(grid.shape[0])
+        g_d = np.empty(grid.shape[0])
+    else:  # nothing is written: the empty grid serves (S1 events are simulated by the thousand)
+        g_a = g_d = grid
     g_m = np.empty(grid.shape[0], dtype=np.int8)
     # grow the tables (x8) when they fill, but never beyond about 400 MB: a run with that many
     # contacts is chattering and is reported rather than allowed to exhaust memory
     limit = 4_000_000
     while True:
         contacts = np.empty((capacity, K.N_CCOL))
-        apexes = np.empty((apex_capacity, 2))
-        res = K.integrate(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
-                          tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
-                          grid, g_a, g_d, g_m, contacts, apexes)
+        apexes = np.empty((apex_capacity, 2)) if apex_capacity else _NO_APEXES
+        res = K.RunEnd._make(K.integrate_fields(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
+                                                tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
+                                                grid, g_a, g_d, g_m, contacts, apexes))
         status = res.status
         if status == K.CONTACTS_FULL and capacity < limit:
             capacity = min(capacity * 8, limit)
@@ -300,6 +348,20 @@ class EventResult:
         return _contact_frame(self.contact_table)
 
 
+def _frozen_record(cls, values: dict):
+    """An instance of the frozen dataclass ``cls`` whose ``__dict__`` is ``values`` (every field,
+    by name), made without its generated ``__init__``.
+
+    That ``__init__`` sets each field through ``object.__setattr__`` (the price of being frozen):
+    for the 19 fields of :class:`EventResult` it took three times as long as a dict display handed
+    over as the instance's ``__dict__``, about 5 us, some 5 % of a simulated S1 event. The class
+    must not need ``__post_init__``.
+    """
+    record = object.__new__(cls)
+    object.__setattr__(record, "__dict__", values)
+    return record
+
+
 @dataclass(frozen=True)
 class BatchResult:
     """Many S1 events for many trial laws. Arrays have shape (n_trials, n_events)."""
@@ -391,7 +453,7 @@ def simulate(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, duration: f
     _raise_status(status, f"simulation at {cam_speed_hz} Hz", t_fin)
     return SimulationResult(
         t=grid, alpha=g_a, alpha_dot=g_d, mode=g_m, contacts=_contact_frame(contacts[:n_c]),
-        apexes=pd.DataFrame({"t": apexes[:n_ap, 0], "alpha": apexes[:n_ap, 1]}),
+        apexes=pd.DataFrame(apexes[:n_ap], columns=["t", "alpha"]),
         final_time=t_fin, final_alpha=a_fin, final_alpha_dot=ad_fin, rig=rig, law=law,
         cam_speed_hz=cam_speed_hz, theta_ref=theta_ref, mu=float(p[K.MU]), n_steps=int(res.n_steps),
         n_rejected=int(res.n_rejected))
@@ -406,8 +468,9 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
     flight; it follows every contact and free-flight phase until ``t_end`` [s].
     """
     cam_speed_hz = _cam_speed(cam_speed_hz)
-    for name, v in (("alpha0", alpha0), ("alpha_dot0", alpha_dot0), ("theta0", theta0), ("t_end", t_end)):
-        _finite(name, v)
+    if not _all_finite(alpha0, alpha_dot0, theta0, t_end):  # else the slow check names the culprit
+        for name, v in (("alpha0", alpha0), ("alpha_dot0", alpha_dot0), ("theta0", theta0), ("t_end", t_end)):
+            _finite(name, v)
     if t_end <= 0.0:
         raise SimulationInputError(f"t_end must be positive, got {t_end!r} s")
     p = pack_rig(rig, mu)
@@ -434,12 +497,18 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
         peak_f, peak_d = first[K.C_PEAK_FORCE], first[K.C_PEAK_DELTA]
     else:
         duration = exit_a = exit_ad = approach = separation = peak_f = peak_d = math.nan
-    return EventResult(
-        alpha_m=res.alpha_max, t_alpha_m=res.t_alpha_max, contact_duration=duration, exit_alpha=exit_a,
-        exit_alpha_dot=exit_ad, approach_gap_rate=approach, separation_gap_rate=separation, peak_force=peak_f,
-        peak_indentation=peak_d, n_contacts=n_contacts, contact_table=table, t=grid,
-        contact_force=force, indentation=indentation, alpha=g_a,
-        alpha_dot=g_d, final_alpha=res.alpha, final_alpha_dot=res.alpha_dot, n_steps=int(res.n_steps))
+    return _frozen_record(EventResult, {
+        "alpha_m": res.alpha_max, "t_alpha_m": res.t_alpha_max, "contact_duration": duration, "exit_alpha": exit_a,
+        "exit_alpha_dot": exit_ad, "approach_gap_rate": approach, "separation_gap_rate": separation,
+        "peak_force": peak_f, "peak_indentation": peak_d, "n_contacts": n_contacts, "contact_table": table,
+        "t": grid, "contact_force": force, "indentation": indentation, "alpha": g_a, "alpha_dot": g_d,
+        "final_alpha": res.alpha, "final_alpha_dot": res.alpha_dot, "n_steps": int(res.n_steps)})
+
+
+@functools.lru_cache(maxsize=4)
+def _batch_law(clip: bool) -> np.ndarray:
+    """The law vector of a batch: Hunt–Crossley, ``beta`` and ``n`` set per trial by the kernel."""
+    return pack_law(HuntCrossley(beta=1.0, n=1.5, clip=clip))
 
 
 def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.ndarray, t_end: np.ndarray,
@@ -481,15 +550,16 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         raise SimulationInputError(f"t_end must have one entry per event ({states.shape[0]}), got {t_end.shape}")
     if trials.shape[1] != 2:
         raise SimulationInputError(f"trials must have shape (n_trials, 2) of (beta, n), got {trials.shape}")
+    # (the arrays' own methods: numpy's functions add a dispatch that cost as much as the checks)
     for name, arr in (("states", states), ("t_end", t_end), ("trials", trials)):
-        if not np.all(np.isfinite(arr)):
+        if not np.isfinite(arr).all():
             raise SimulationInputError(f"{name} contains non-finite values")
-    if np.any(t_end <= 0.0):
+    if (t_end <= 0.0).any():
         raise SimulationInputError("every t_end must be positive")
-    if np.any(trials < 0.0):
+    if (trials < 0.0).any():
         raise SimulationInputError("trial beta and n must be >= 0")
     p = pack_rig(rig, mu)
-    law_vec = pack_law(HuntCrossley(beta=1.0, n=1.5, clip=clip))
+    law_vec = _batch_law(clip)
     omega = 2.0 * math.pi * cam_speed_hz
     n_ev, n_tr = states.shape[0], trials.shape[0]
     if grids is not None:
@@ -515,7 +585,7 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
                        hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS)
     status = summary[:, :, K.S_STATUS].astype(int)
     failed = status != K.OK
-    if np.any(failed):
+    if failed.any():
         if on_failure == "raise":
             tr, ev = np.argwhere(failed)[0]
             raise SimulationError(

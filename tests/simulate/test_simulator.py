@@ -3,7 +3,9 @@ point and the errors it raises. (The comparison with solve_ivp is in test_agains
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -22,7 +24,7 @@ from impactid import (
     simulate_events,
 )
 from impactid.rigs.pivoted import kernel as K
-from impactid.simulate.runs import pack_law, pack_rig
+from impactid.simulate.runs import EventResult, pack_law, pack_rig
 
 
 def _point_mass_parameters(mass, stiffness, arm=1000.0, contact_radius=0.03):
@@ -159,6 +161,19 @@ def test_s1_event_reproduces_the_s2_event_it_starts_from(seed_law):
     assert np.all(ev.indentation[ev.t > ev.contact_duration + 1e-6] == 0)
 
 
+def test_event_result_has_every_field_and_behaves_as_a_frozen_dataclass(seed_law):
+    """simulate_event builds its record without the dataclass's __init__ (runs._frozen_record)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
+    (a0, ad0, th0), t_e, _ = _period1_onset(rig, 15.0, seed_law)
+    ev = simulate_event(rig, 15.0, seed_law, a0, ad0, th0, t_e)
+    assert set(vars(ev)) == {f.name for f in dataclasses.fields(EventResult)}
+    assert ev == dataclasses.replace(ev)  # the same record through __init__ (the arrays compare by identity)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        ev.alpha_m = 0.0
+    assert ev.contacts["t_start"].iloc[0] == ev.contact_table[0, K.C_T_START]
+    assert pickle.loads(pickle.dumps(ev)).alpha_m == ev.alpha_m
+
+
 def test_batch_equals_single_events(seed_law):
     rig = SUNDAR2016.with_eccentricity_ratio(0.25)
     (a0, ad0, th0), t_e, _ = _period1_onset(rig, 15.0, seed_law)
@@ -201,6 +216,29 @@ def test_batch_equals_single_events(seed_law):
 def test_non_physical_inputs_raise_clear_errors(call, error, message):
     with pytest.raises(error, match=message):
         call()
+
+
+def test_packing_is_remembered_per_object_and_agrees_with_equal_objects():
+    """pack_rig and pack_law answer a repeated rig or law from an identity check (runs._last_rig)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
+    p = pack_rig(rig)
+    assert pack_rig(rig) is p
+    assert np.array_equal(pack_rig(SUNDAR2016.with_eccentricity_ratio(0.25)), p)  # an equal rig: same vector
+    assert pack_rig(rig, mu=0.3)[K.MU] == 0.3 and pack_rig(rig)[K.MU] == rig.mu
+    assert pack_rig(SUNDAR2016)[K.ECC] == SUNDAR2016.e and pack_rig(rig) is p
+    law = HuntCrossley(24.7e9, 1.5)
+    assert pack_law(law) is pack_law(law)
+    assert pack_law(HuntCrossley(1e9, 1.0))[K.BETA] == 1e9 and pack_law(law)[K.BETA] == 24.7e9
+    with pytest.raises(SimulationInputError, match="expected a .* rig"):
+        pack_rig(object())
+
+
+def test_event_inputs_that_convert_to_numbers_are_accepted(seed_law):
+    """simulate_event's fast finiteness check falls back to the converting one (runs._finite)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.25)
+    (a0, ad0, th0), t_e, _ = _period1_onset(rig, 15.0, seed_law)
+    ev = simulate_event(rig, 15.0, seed_law, a0, ad0, th0, t_e)
+    assert simulate_event(rig, 15.0, seed_law, str(a0), ad0, np.float64(th0), t_e).alpha_m == ev.alpha_m
 
 
 def test_solver_failure_raises():

@@ -46,8 +46,8 @@ from impactid.rigs.pivoted import parameters as _geo
 from impactid.simulate import dp5
 
 __all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "N_CCOL", "N_LAW", "N_RIG", "N_SUM", "STATUS_MESSAGES", "RunEnd",
-           "acceleration", "batch_events", "contact_force", "initial_mode", "integrate", "observe",
-           "stick_force"]
+           "acceleration", "batch_events", "contact_force", "initial_mode", "integrate", "integrate_fields",
+           "observe", "stick_force"]
 
 _jit = njit(cache=True, inline="always")
 
@@ -332,15 +332,35 @@ def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
 _NO_WORK = np.empty(0)
 
 
-@njit(cache=True)
+@_jit
+def _run_constants(p, law, theta_ref, omega):
+    """The rig's and the law's parameters as tuples of floats, with the cam's ``theta_ref`` and
+    ``omega``: what the core's stages read (``run`` and ``law`` of ``_begin`` and ``_stage``).
+
+    Tuples stay in registers; arrays passed to the stages would be reference-counted at every stage
+    (see :mod:`impactid.simulate.dp5`, "Compiling a rig's step"). Indexed with the same layout
+    constants as the arrays."""
+    run = ((p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14],
+            p[15], p[16]), theta_ref, omega)
+    return run, (law[0], law[1], law[2], law[3], law[4], law[5], law[6], law[7])
+
+
+assert N_RIG == 17 and N_LAW == 8, "_run_constants spells out the layouts' lengths"
+
+
+@njit(cache=True, error_model="numpy")
 def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S):
     """One step of the core from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2) and, with the
     monitored quantities ``(g, dpsi, force, dforce, v_r)`` at the step's end, S (5).
 
+    Compiled with numpy's error model, as the core asks (:mod:`impactid.simulate.dp5`, "Compiling
+    a rig's step"); the stages read the parameters as tuples (``_run_constants``).
+
     Returns (a_new, ad_new, err_a, err_ad)."""
     K[0, 0] = ad
     K[0, 1] = f0
-    y1, err = dp5.step(_stage, _begin, mode, t, (a, ad), h, (p, theta_ref, omega), law, K, _NO_WORK, _NO_WORK, S)
+    run, law_t = _run_constants(p, law, theta_ref, omega)
+    y1, err = dp5.step(_stage, _begin, mode, t, (a, ad), h, run, law_t, K, _NO_WORK, _NO_WORK, S)
     return y1[0], y1[1], err[0], err[1]
 
 
@@ -364,14 +384,16 @@ def _root_dense(kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega, g0, g1)
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True)
-def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max):
-    """The core's starting step (Hairer–Nørsett–Wanner, as scipy's ``select_initial_step``)."""
-    K = np.empty((7, 2))
+@njit(cache=True, error_model="numpy")
+def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S):
+    """The core's starting step (Hairer–Nørsett–Wanner, as scipy's ``select_initial_step``).
+
+    ``K`` (7x2) and ``S`` (5) are the caller's scratch arrays: ``K[0]`` and ``K[1]`` are overwritten."""
     K[0, 0] = ad
     K[0, 1] = f0
-    return dp5.initial_step(_stage, _begin, mode, t, (a, ad), (p, theta_ref, omega), law, K, _NO_WORK,
-                            np.empty(5), rtol, (atol_a, atol_d), h_max)
+    run, law_t = _run_constants(p, law, theta_ref, omega)
+    return dp5.initial_step(_stage, _begin, mode, t, (a, ad), run, law_t, K, _NO_WORK, S, rtol, (atol_a, atol_d),
+                            h_max)
 
 
 # ============================================================================================
@@ -496,7 +518,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         n_contacts += 1
     f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
     g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
-    h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
+    h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S)
     step_rejected = False
     onset = mode == CONTACT  # True until the first accepted step of a compliant contact
     span = t_end - t0
@@ -724,11 +746,24 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
         g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
         h_prev = h
-        h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max)
+        h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S)
         onset = mode == CONTACT
         if h_prev > 0.0 and mode == FREE:
             h = max(h, min(h_prev, h_max))
     return RunEnd(status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rej)
+
+
+@njit(cache=True)
+def integrate_fields(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, max_steps,
+                     grid, g_a, g_d, g_mode, contacts, apexes):
+    """:func:`integrate` (with ``overflow_ok`` false) for callers in Python: :data:`RunEnd`'s fields
+    as a plain tuple, in its order (``RunEnd._make`` names them).
+
+    numba hands a named record to Python by unpickling a reference to its class and calling it,
+    about 1.5 us per call against 0.5 us for ``RunEnd._make`` of a tuple; an S1 event takes 50 us.
+    """
+    return integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, max_steps,
+                     grid, g_a, g_d, g_mode, contacts, apexes)[:]
 
 
 # ============================================================================================
