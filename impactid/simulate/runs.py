@@ -231,7 +231,7 @@ def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, gri
         apexes = np.empty((apex_capacity, 2)) if apex_capacity else _NO_APEXES
         res = K.RunEnd._make(K.integrate_fields(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
                                                 tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
-                                                grid, g_a, g_d, g_m, contacts, apexes))
+                                                grid, g_a, g_d, g_m, contacts, apexes, False))
         status = res.status
         if status == K.CONTACTS_FULL and capacity < limit:
             capacity = min(capacity * 8, limit)
@@ -582,7 +582,7 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         hi = min(lo + per_call, n_tr)
         K.batch_events(states, t_end, trials[lo:hi], p, law_vec, omega, tolerances.rtol, tolerances.atol_alpha,
                        tolerances.atol_rate, h_max, budget, grid, offsets, summary[lo:hi],
-                       hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS)
+                       hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS, True)
     status = summary[:, :, K.S_STATUS].astype(int)
     failed = status != K.OK
     if failed.any():

@@ -755,15 +755,18 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
 
 @njit(cache=True)
 def integrate_fields(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, max_steps,
-                     grid, g_a, g_d, g_mode, contacts, apexes):
-    """:func:`integrate` (with ``overflow_ok`` false) for callers in Python: :data:`RunEnd`'s fields
-    as a plain tuple, in its order (``RunEnd._make`` names them).
+                     grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok):
+    """:func:`integrate` for callers in Python: :data:`RunEnd`'s fields as a plain tuple, in its
+    order (``RunEnd._make`` names them).
 
     numba hands a named record to Python by unpickling a reference to its class and calling it,
     about 1.5 us per call against 0.5 us for ``RunEnd._make`` of a tuple; an S1 event takes 50 us.
+    The law vector is copied (a writable array, like the batch's) and ``overflow_ok`` is a run-time
+    flag (the batch's too), so that :func:`integrate`, the largest function numba compiles here
+    (about a minute), is compiled for one signature only, whoever calls it first.
     """
-    return integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, max_steps,
-                     grid, g_a, g_d, g_mode, contacts, apexes)[:]
+    return integrate(t0, a0, ad0, mode0, t_end, p, law.copy(), theta_ref, omega, rtol, atol_a, atol_d, h_max,
+                     max_steps, grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok)[:]
 
 
 # ============================================================================================
@@ -773,13 +776,15 @@ def integrate_fields(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega, rtol, 
 
 @njit(cache=True, parallel=True)
 def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_d, h_max,
-                 max_steps, grid, grid_offsets, summary, hist_force, hist_gap, contact_capacity):
+                 max_steps, grid, grid_offsets, summary, hist_force, hist_gap, contact_capacity, overflow_ok):
     """Run every event (rows of ``states`` = alpha, alpha_dot, Theta at t = 0) for every trial
     law (rows of ``trials`` = beta, n), in parallel over the flattened (trial, event) pairs.
 
     ``summary`` (n_trials, n_events, N_SUM) receives the per-run summary; when ``grid`` is not
     empty, ``hist_force`` / ``hist_gap`` (n_trials, len(grid)) receive the contact force and gap
     on each event's slice ``grid[grid_offsets[i]:grid_offsets[i+1]]`` (times from the event start).
+    ``overflow_ok`` is passed to :func:`integrate` (true: a chattering trial fills its table and
+    goes on); a run-time flag, not a constant, so that ``integrate`` has one compiled signature.
     """
     n_ev = states.shape[0]
     n_tr = trials.shape[0]
@@ -795,12 +800,12 @@ def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_
         law = law_base.copy()
         for job in range(chunk, n_jobs, n_chunks):
             _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, atol_d, h_max, max_steps,
-                       grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist)
+                       grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist, overflow_ok)
 
 
 @njit(cache=True)
 def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, atol_d, h_max, max_steps,
-               grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist):
+               grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist, overflow_ok):
     tr = job // n_ev
     ev = job % n_ev
     law[BETA] = trials[tr, 0]
@@ -820,7 +825,7 @@ def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, a
     gm = np.empty(hi - lo, dtype=np.int8)
     mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
     res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
-                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes, True)
+                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes, overflow_ok)
     st = res.status
     nc = res.n_contacts
     out = summary[tr, ev]
