@@ -25,7 +25,7 @@ import pytest
 #: The warm-up, per family of kernels: a file of numba's cache that is there once the family is
 #: compiled (a glob relative to the package), and tests that compile the family and do little else.
 WARMUP_GROUPS = (
-    ("rigs/pivoted/__pycache__/kernel.integrate_fields-*.nbi",
+    ("rigs/pivoted/__pycache__/kernel.integrate-*.nbi",
      ("tests/simulate/test_simulator.py::test_batch_equals_single_events",
       "tests/test_reconstruct.py::test_onsets_within_one_sample")),
     ("rigs/cycloidal/__pycache__/kernel.integrate_a-*.nbi",

@@ -91,11 +91,11 @@ def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int,
     contacts, apexes = np.empty((64, K.N_CCOL)), np.empty((0, 2))
 
     def run():
-        return K.integrate_fields(0.0, a0, ad0, -1, t_end, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
-                                  tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes,
-                                  False)
+        return K.integrate(0.0, a0, ad0, -1, t_end, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
+                           tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes, False)
 
-    end = K.RunEnd._make(run())
+    law_vec = law_vec.copy()  # writable, as the package passes it (the same compiled signature)
+    end = run()
     return best_time(run, repeat=repeat) * 1e6, int(end.n_steps), int(end.n_rejected)
 
 

@@ -229,9 +229,14 @@ def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, gri
     while True:
         contacts = np.empty((capacity, K.N_CCOL))
         apexes = np.empty((apex_capacity, 2)) if apex_capacity else _NO_APEXES
-        res = K.RunEnd._make(K.integrate_fields(t0, alpha0, rate0, mode0, t_end, p, law_vec, theta_ref, omega,
-                                                tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
-                                                grid, g_a, g_d, g_m, contacts, apexes, False))
+        # a writable copy of the law vector and a run-time overflow_ok, as the batch passes them:
+        # ``integrate``, the largest function numba compiles here (about a minute and a half cold),
+        # then has one compiled signature, whichever entry point comes first. (A compiled wrapper
+        # returning a plain tuple would save the 1 us numba takes to hand the named record over,
+        # but LLVM then compiles the whole integrator again inside it: 75 s more on a cold start.)
+        res = K.integrate(t0, alpha0, rate0, mode0, t_end, p, law_vec.copy(), theta_ref, omega,
+                          tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
+                          grid, g_a, g_d, g_m, contacts, apexes, False)
         status = res.status
         if status == K.CONTACTS_FULL and capacity < limit:
             capacity = min(capacity * 8, limit)

@@ -45,14 +45,13 @@ def _point_mass_parameters(mass, stiffness, arm=1000.0, contact_radius=0.03):
 def _run(p, law, a0, ad0, t_end, rtol=1e-12, atol_alpha=1e-15, atol_rate=1e-13):
     contacts = np.empty((8, K.N_CCOL))
     empty = np.empty(0)
-    # the argument types of the package's own call (read-only parameter vectors): the kernel is
-    # compiled once for them, not again for this test
+    # the argument types of the package's own call (a read-only rig vector, a writable law vector,
+    # a run-time overflow_ok): the kernel is compiled once for them, not again for this test
     p, law = p.copy(), law.copy()
     p.setflags(write=False)
-    law.setflags(write=False)
-    res = K.integrate_fields(0.0, a0, ad0, K.initial_mode(0.0, a0, ad0, p, law, 0.0, 1.0), t_end, p, law, 0.0, 1.0,
-                             rtol, atol_alpha, atol_rate, 1e-3, 1_000_000, empty, empty, empty,
-                             np.empty(0, np.int8), contacts, np.empty((0, 2)), False)
+    res = K.integrate(0.0, a0, ad0, K.initial_mode(0.0, a0, ad0, p, law, 0.0, 1.0), t_end, p, law, 0.0, 1.0,
+                      rtol, atol_alpha, atol_rate, 1e-3, 1_000_000, empty, empty, empty,
+                      np.empty(0, np.int8), contacts, np.empty((0, 2)), False)
     assert res[0] == K.OK
     return res, contacts[: res[1]]
 

@@ -46,8 +46,8 @@ from impactid.rigs.pivoted import parameters as _geo
 from impactid.simulate import dp5
 
 __all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "N_CCOL", "N_LAW", "N_RIG", "N_SUM", "STATUS_MESSAGES", "RunEnd",
-           "acceleration", "batch_events", "contact_force", "initial_mode", "integrate", "integrate_fields",
-           "observe", "stick_force"]
+           "acceleration", "batch_events", "contact_force", "initial_mode", "integrate", "observe",
+           "stick_force"]
 
 _jit = njit(cache=True, inline="always")
 
@@ -751,22 +751,6 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         if h_prev > 0.0 and mode == FREE:
             h = max(h, min(h_prev, h_max))
     return RunEnd(status, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, n_steps, n_rej)
-
-
-@njit(cache=True)
-def integrate_fields(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, max_steps,
-                     grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok):
-    """:func:`integrate` for callers in Python: :data:`RunEnd`'s fields as a plain tuple, in its
-    order (``RunEnd._make`` names them).
-
-    numba hands a named record to Python by unpickling a reference to its class and calling it,
-    about 1.5 us per call against 0.5 us for ``RunEnd._make`` of a tuple; an S1 event takes 50 us.
-    The law vector is copied (a writable array, like the batch's) and ``overflow_ok`` is a run-time
-    flag (the batch's too), so that :func:`integrate`, the largest function numba compiles here
-    (about a minute), is compiled for one signature only, whoever calls it first.
-    """
-    return integrate(t0, a0, ad0, mode0, t_end, p, law.copy(), theta_ref, omega, rtol, atol_a, atol_d, h_max,
-                     max_steps, grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok)[:]
 
 
 # ============================================================================================
