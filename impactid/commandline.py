@@ -25,10 +25,11 @@ from impactid.errors import ImpactidError
 from impactid.rigs.base import Argument
 
 __all__ = ["CAM_PPR", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "SAMPLE_RATE", "SEED",
-           "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "command_inputs", "deliver",
-           "end_progress_line", "exponent", "fraction", "integer_in", "is_rig_file", "json_text", "noise_channels",
-           "nonnegative", "num", "number", "pair", "positive", "print_json", "progress_bar", "recording_arguments",
-           "recording_paths", "recording_rig", "rig_help", "say_written", "speed_arguments"]
+           "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "check_synth_size",
+           "command_inputs", "deliver", "end_progress_line", "exponent", "fraction", "integer_in", "is_rig_file",
+           "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive", "print_json",
+           "progress_bar", "recording_arguments", "recording_paths", "recording_rig", "rig_help", "say_written",
+           "speed_arguments", "write_synthetic"]
 
 #: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
 MAX_SWEEP_POINTS = 10_000
@@ -262,6 +263,24 @@ def say_written(args) -> None:
         print(f"  result written to {args.out}")
     if args.plots:
         print(f"  figures written to {args.plots}")
+
+
+def check_synth_size(samples: float) -> None:
+    """Refuse a synthetic recording of more than :data:`MAX_SYNTH_SAMPLES` samples (before any work)."""
+    if samples > MAX_SYNTH_SAMPLES:
+        raise UsageError(f"arguments --duration/--sample-rate/--decimate: {samples:.3g} samples to generate; at most "
+                         f"{MAX_SYNTH_SAMPLES:.3g} (split the recording)")
+
+
+def write_synthetic(synthetic, out) -> int:
+    """Write a synthetic recording and its truth to HDF5 ``out`` and print one line about it."""
+    from impactid.io import write_hdf5
+
+    path = write_hdf5(synthetic.recording, out, truth=synthetic.truth)
+    rec = synthetic.recording
+    print(f"{path}: {rec.rig.model}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
+          f"({', '.join(rec.channels)})")
+    return 0
 
 
 _progress_line_open = False

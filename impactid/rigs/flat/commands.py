@@ -19,7 +19,6 @@ from impactid.commandline import (
     CAM_PPR,
     JSON,
     MAX_SWEEP_POINTS,
-    MAX_SYNTH_SAMPLES,
     NOISE_CHANNEL,
     SAMPLE_RATE,
     SEED,
@@ -28,6 +27,7 @@ from impactid.commandline import (
     UsageError,
     cam_speed,
     check_outputs,
+    check_synth_size,
     command_inputs,
     deliver,
     fraction,
@@ -45,6 +45,7 @@ from impactid.commandline import (
     rig_help,
     say_written,
     speed_arguments,
+    write_synthetic,
 )
 from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
@@ -214,7 +215,6 @@ def run_cam_fit(args, model) -> int:
 
 
 def run_synth(args, model) -> int:
-    from impactid.io import write_hdf5
     from impactid.synth import SensorModel, synth_flat_encoders
 
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
@@ -222,19 +222,13 @@ def run_synth(args, model) -> int:
     speed = cam_speed(args, operating)
     rate = args.sample_rate or 20_000.0
     samples = args.duration * rate
-    if samples > MAX_SYNTH_SAMPLES:
-        raise UsageError(f"arguments --duration/--sample-rate/--decimate: {samples:.3g} samples to generate; at most "
-                         f"{MAX_SYNTH_SAMPLES:.3g} (split the recording)")
+    check_synth_size(samples)
     check_outputs(args, command_inputs(args, []))
     sensors = SensorModel(noise=noise or 0.0, seed=args.seed)
     synthetic = synth_flat_encoders(rig, speed, args.duration, sample_rate_hz=rate, cam_ppr=args.cam_ppr or 5000,
                                     follower_ppr=args.follower_ppr, cam_zero_offset=args.cam_zero_offset,
                                     sensors=sensors)
-    path = write_hdf5(synthetic.recording, args.out, truth=synthetic.truth)
-    rec = synthetic.recording
-    print(f"{path}: {rec.rig.model}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
-          f"({', '.join(rec.channels)})")
-    return 0
+    return write_synthetic(synthetic, args.out)
 
 
 OUT_JSON = Argument(("--out",), {"metavar": "law.json", "help": "write the results as JSON (atomically)"})

@@ -20,7 +20,6 @@ from impactid.commandline import (
     CAM_PPR,
     JSON,
     MAX_SWEEP_POINTS,
-    MAX_SYNTH_SAMPLES,
     NOISE_CHANNEL,
     SAMPLE_RATE,
     SEED,
@@ -29,6 +28,7 @@ from impactid.commandline import (
     UsageError,
     cam_speed,
     check_outputs,
+    check_synth_size,
     command_inputs,
     deliver,
     exponent,
@@ -47,6 +47,7 @@ from impactid.commandline import (
     rig_help,
     say_written,
     speed_arguments,
+    write_synthetic,
 )
 from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
@@ -219,7 +220,6 @@ def run_simulate(args, model) -> int:
 
 def run_synth(args, model) -> int:
     from impactid.contact import HuntCrossley, Restitution
-    from impactid.io import write_hdf5
     from impactid.synth import SensorModel, synth_pivoted
 
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
@@ -227,9 +227,7 @@ def run_synth(args, model) -> int:
     speed = cam_speed(args, operating)
     rate = args.sample_rate or 204_800.0
     samples = args.duration * rate * args.decimate
-    if samples > MAX_SYNTH_SAMPLES:
-        raise UsageError(f"arguments --duration/--sample-rate/--decimate: {samples:.3g} samples to generate; at most "
-                         f"{MAX_SYNTH_SAMPLES:.3g} (split the recording)")
+    check_synth_size(samples)
     check_outputs(args, command_inputs(args, []))
     if args.e_over_rc is not None:
         rig = rig.with_eccentricity_ratio(args.e_over_rc)
@@ -240,11 +238,7 @@ def run_synth(args, model) -> int:
                           seed=args.seed)
     synthetic = synth_pivoted(rig, speed, law, args.duration, settle_s=args.settle, sample_rate_hz=rate,
                               sensors=sensors, mu=args.mu)
-    path = write_hdf5(synthetic.recording, args.out, truth=synthetic.truth)
-    rec = synthetic.recording
-    print(f"{path}: {rec.rig.model}, {rec.n_samples} samples at {rec.sample_rate_hz:g} Hz "
-          f"({', '.join(rec.channels)})")
-    return 0
+    return write_synthetic(synthetic, args.out)
 
 
 def run_events(args, model) -> int:
