@@ -92,7 +92,8 @@ def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int,
 
     def run():
         return K.integrate(0.0, a0, ad0, -1, t_end, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
-                           tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes, False)
+                           tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes, False,
+                           K.NO_SENS, K.NO_SENS_MAX, K.NO_GRID_SENS)
 
     law_vec = law_vec.copy()  # writable, as the package passes it (the same compiled signature)
     end = run()

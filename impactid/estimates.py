@@ -89,6 +89,8 @@ BOOTSTRAP_SEED = 20161122
 #: Estimation methods: ``"least-squares"`` (trust-region Gauss-Newton, :mod:`impactid.gauss_newton`),
 #: ``"optimise"`` (nested bounded Brent along the valley), ``"grid"`` (the paper's grid search).
 METHODS = ("least-squares", "optimise", "grid")
+#: How the least-squares method differentiates the residuals (``fit_contact_damping(jacobian=...)``).
+JACOBIANS = ("sensitivities", "differences")
 
 _SCAN_POINTS = 41
 _LATTICE_HALF_WIDTH = 0.1  # decades of c around the valley
@@ -123,6 +125,7 @@ class _Objective:
         self.delta_ref = delta_ref
         self.n_simulations = 0
         self.n_failed = 0  # S1 runs that could not be simulated (penalised, see residuals)
+        self.n_sensitivity_runs = 0  # of the S1 runs, those that also integrated forward sensitivities
         self.n_events = sum(len(s) for s in self.sets)
 
     def beta(self, logc, n):
@@ -137,6 +140,29 @@ class _Objective:
         parts = [s.residuals_and_failures(trials, self.residual) for s in self.sets]
         self.n_failed += int(sum(int(f.sum()) for _, f in parts))
         return np.concatenate([r for r, _ in parts], axis=1)
+
+    def per_event_and_jacobian(self, logc, n) -> tuple[np.ndarray, np.ndarray]:
+        """Per-event residuals ``(k, n_events)`` and their derivatives ``(k, n_events, 2)`` by
+        ``(log10 c, n)``, from the simulator's forward sensitivities (one run per trial and event).
+
+        The kernel differentiates by ``(ln beta, n)`` with ``beta`` held; with
+        ``ln beta = ln(10) log10 c - n ln(delta_ref)``::
+
+            dr/dlog10 c = ln(10) dr/dln beta,    dr/dn (c held) = dr/dn (beta held) - ln(delta_ref) dr/dln beta
+        """
+        logc, n = np.broadcast_arrays(np.atleast_1d(np.asarray(logc, dtype=float)),
+                                      np.atleast_1d(np.asarray(n, dtype=float)))
+        trials = np.column_stack([self.beta(logc, n), n])
+        self.n_simulations += trials.shape[0] * self.n_events
+        self.n_sensitivity_runs += trials.shape[0] * self.n_events
+        parts = [s.residuals_and_jacobian(trials, self.residual) for s in self.sets]
+        self.n_failed += int(sum(int(f.sum()) for _, _, f in parts))
+        r = np.concatenate([p[0] for p in parts], axis=1)
+        by_law = np.concatenate([p[1] for p in parts], axis=1)
+        jac = np.empty_like(by_law)
+        jac[..., 0] = math.log(10.0) * by_law[..., 0]
+        jac[..., 1] = by_law[..., 1] - math.log(self.delta_ref) * by_law[..., 0]
+        return r, jac
 
     @staticmethod
     def mean(per_event: np.ndarray) -> np.ndarray:
@@ -348,7 +374,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                         landscape: bool = False, progress: Progress | None = None,
                         systematic: float = 0.0, residual_floor: float | None = None,
                         separability_width: float = SEPARABILITY_WIDTH, bootstrap_resamples: int = BOOTSTRAP_RESAMPLES,
-                        bootstrap_seed: int = BOOTSTRAP_SEED, warn: bool = True) -> DampingEstimate:
+                        bootstrap_seed: int = BOOTSTRAP_SEED, warn: bool = True,
+                        jacobian: str = "sensitivities") -> DampingEstimate:
     """Estimate the Hunt–Crossley damping ``beta`` (and ``n`` unless ``fix_n``) from measured events.
 
     Parameters
@@ -371,6 +398,10 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     bootstrap_resamples, bootstrap_seed : resamples of the events and the paper of the bootstrap.
     warn : issue an :class:`EstimationWarning` for each note (the result's ``warnings``); callers that
         carry the notes on pass False.
+    jacobian : how the least-squares method differentiates the residuals: ``"sensitivities"``
+        (default: the forward sensitivities the simulator integrates with each run; a point where a
+        run has none, a sliding reversal in a contact with friction, is differenced instead) or
+        ``"differences"`` (central differences of batched runs, the method before sensitivities).
 
     Raises
     ------
@@ -383,6 +414,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     residual = residual_name(residual)
     if method not in METHODS:
         raise ValueError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    if jacobian not in JACOBIANS:
+        raise ValueError(f"unknown jacobian {jacobian!r}; valid: {', '.join(JACOBIANS)}")
     if not sets:
         raise ImpactidError("no recordings to estimate from")
     for s in sets:
@@ -407,7 +440,8 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
                                       systematic=max(floor, float(systematic)), notes=notes, progress=progress,
                                       landscape=landscape, separability_width=separability_width,
                                       bootstrap_resamples=bootstrap_resamples, bootstrap_seed=bootstrap_seed,
-                                      t_start=t_start, warn=warn)
+                                      t_start=t_start, warn=warn,
+                                      sensitivities=jacobian == "sensitivities")
         except SimulationError as exc:
             raise ImpactidError(f"simulation failed inside the search bounds: {exc}") from exc
 
@@ -579,14 +613,15 @@ def _identifiability(sets, residual, fix_n, n_hat, logc_hat, n_iv, beta_iv, lc_b
 def _fit_least_squares(obj: _Objective, sets: list[EventSet], *, fix_n, lc_bounds, n_bounds, systematic: float,
                        notes: list[str], progress, landscape: bool, separability_width: float,
                        bootstrap_resamples: int, bootstrap_seed: int, t_start: float,
-                       warn: bool = True) -> DampingEstimate:
+                       warn: bool = True, sensitivities: bool = True) -> DampingEstimate:
     """The ``"least-squares"`` method (:mod:`impactid.gauss_newton`) as a :class:`DampingEstimate`."""
     from impactid.gauss_newton import fit_least_squares
 
     residual = obj.residual
     fit = fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=lc_bounds, n_bounds=n_bounds, progress=progress,
                             choose=lambda points: _by_contact_duration(obj, sets, points, fix_n, notes),
-                            rss_tolerance=obj.n_events * systematic ** 2)
+                            rss_tolerance=obj.n_events * systematic ** 2,
+                            per_event_jacobian=obj.per_event_and_jacobian if sensitivities else None)
     logc_hat = fit.x[0]
     n_hat = float(fix_n) if fix_n is not None else fit.x[1]
     beta_hat = float(obj.beta(logc_hat, n_hat))

@@ -12,11 +12,18 @@ trust-region reflective ``least_squares`` (bounded) converges in a few Gauss–N
 lowest end point is kept, unless another fits as well at another ``c`` (within the 95 % threshold
 or the caller's tolerance): then the caller's other evidence decides (the estimator compares the
 simulated and measured contact durations), or the fit reports the minima as unresolved.
-The Jacobian ``dr/dx`` is computed by **central
-differences in one batched S1 call** per iteration (four trial laws for ``(log10 c, n)``, two for
-``log10 c`` alone): with the simulator at ``rtol`` 1e-10, steps of 1e-3 (decades of ``c``, and in
-``n``) give derivatives accurate to about 1e-6 relative (truncation ``h^2`` against round-off
-``rtol / h``), checked in tests/test_gauss_newton.py against steps ten times smaller.
+Jacobians. The Jacobian ``dr/dx`` comes from the **forward sensitivities** the simulator integrates
+with each run (``per_event_jacobian``: the variational equations of the S1 model in the compiled
+kernel, on the same steps as the state; ``impactid.rigs.pivoted.kernel``): every residual evaluation
+of the search then also yields its Jacobian, at about 1.3 times the cost of a run without them, where
+differences would take two (``n`` fixed) or four more runs. Checked against central differences of
+the simulator at tight tolerance in tests/simulate/test_sensitivity.py. Where the simulator cannot
+integrate them (friction: the friction force jumps at sliding reversals, which are not located as
+events) the Jacobian is computed by **central differences in one batched S1 call** per iteration
+(four trial laws for ``(log10 c, n)``, two for ``log10 c`` alone): with the simulator at ``rtol``
+1e-10, steps of 1e-3 (decades of ``c``, and in ``n``) give derivatives accurate to about 1e-6
+relative (truncation ``h^2`` against round-off ``rtol / h``), checked in tests/test_gauss_newton.py
+against steps four times smaller.
 
 Uncertainty. With ``s^2 = RSS / (m - p)`` (``m`` events, ``p`` parameters), ``t = t_{0.975, m-p}``:
 
@@ -125,7 +132,9 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
                       lc_bounds: tuple[float, float], n_bounds: tuple[float, float], n_start: float = 1.5,
                       progress: Callable[[str, float], None] | None = None,
                       choose: Callable[[list[np.ndarray]], int | None] | None = None,
-                      rss_tolerance: float = 0.0) -> LeastSquaresFit:
+                      rss_tolerance: float = 0.0,
+                      per_event_jacobian: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+                      | None = None) -> LeastSquaresFit:
     """Minimise the sum of squares of the per-event residuals over ``(log10 c, n)``.
 
     Parameters
@@ -141,6 +150,9 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
         None when it cannot tell (the fit then reports them as unresolved ``alternatives``).
     rss_tolerance : differences of the sum of squares below this (or the 95 % threshold) do not tell
         minima apart (e.g. the number of events times the square of the residual's systematic floor).
+    per_event_jacobian : ``per_event_jacobian(log10_c, n) -> (r, J)``, the residuals ``(k, m_all)`` of
+        ``per_event`` with their derivatives ``(k, m_all, 2)`` by ``(log10 c, n)`` (forward
+        sensitivities); None to difference ``per_event`` instead.
 
     Returns
     -------
@@ -161,7 +173,7 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
     for attempt in range(3):
         ends = []
         for x0 in starts:
-            x, r, jac, nfev = _solve(per_event, used, x0, fix_n, (lc_lo, lc_hi), (n_lo, n_hi))
+            x, r, jac, nfev = _solve(per_event, used, x0, fix_n, (lc_lo, lc_hi), (n_lo, n_hi), per_event_jacobian)
             evaluations += nfev
             ends.append((x, r, jac))
         rss = np.array([np.sum(r ** 2) for _, r, _ in ends])
@@ -184,7 +196,7 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
         if fix_n is not None:
             profile = _cross_valley(fit, x, fix_n, r, jac)
             return _finish(fit, profile, (fix_n, fix_n), (False, False), evaluations)
-        walk = _Profile(per_event, used, fit, (n_lo, n_hi))
+        walk = _Profile(per_event, used, fit, (n_lo, n_hi), per_event_jacobian)
         lower = walk.run(-1)
         upper = walk.run(+1)
         evaluations += walk.evaluations
@@ -217,16 +229,43 @@ def _local_minima(cost: np.ndarray) -> list[int]:
     return [int(i) for i in minima[:MAX_STARTS]]
 
 
-def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds):
-    """Trust-region reflective least squares from ``x0``; returns ``(x, r, J, function evaluations)``."""
+def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds, per_event_jacobian=None):
+    """Trust-region reflective least squares from ``x0``; returns ``(x, r, J, function evaluations)``.
+
+    With ``per_event_jacobian`` every evaluation integrates the sensitivities as well (scipy asks for
+    the Jacobian at nearly every point whose residuals it evaluates: each accepted step), and the
+    Jacobian is read from the same run."""
     cache: dict[tuple, np.ndarray] = {}
     count = [0]
+    p = 1 if fix_n is not None else 2
 
     def residual_of(lc, n):
         lc = np.atleast_1d(lc)
         n = np.full(lc.size, fix_n) if n is None else np.atleast_1d(n)
         count[0] += lc.size
         return per_event(lc, n)[:, used]
+
+    if per_event_jacobian is not None:
+        jacobians: dict[tuple, np.ndarray] = {}
+
+        def evaluate(x):
+            key = tuple(np.round(x, 15))
+            if key not in cache:
+                n = np.array([fix_n if fix_n is not None else x[1]])
+                r, J = per_event_jacobian(np.array([x[0]]), n)
+                count[0] += 1
+                cache[key], jacobians[key] = r[0, used], J[0, used, :p]
+                if not np.isfinite(jacobians[key]).all():  # a run without sensitivities (friction reversal)
+                    jacobians[key] = jacobian(residual_of, x)
+            return key
+
+        def fun(x):
+            return cache[evaluate(x)]
+
+        def jac(x):
+            return jacobians[evaluate(x)]
+
+        return _trust_region(fun, jac, x0, fix_n, lc_bounds, n_bounds, count)
 
     def fun(x):
         key = tuple(np.round(x, 15))
@@ -237,6 +276,10 @@ def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds):
     def jac(x):
         return jacobian(residual_of, x)
 
+    return _trust_region(fun, jac, x0, fix_n, lc_bounds, n_bounds, count)
+
+
+def _trust_region(fun, jac, x0, fix_n, lc_bounds, n_bounds, count):
     lower = [lc_bounds[0]] if fix_n is not None else [lc_bounds[0], n_bounds[0]]
     upper = [lc_bounds[1]] if fix_n is not None else [lc_bounds[1], n_bounds[1]]
     res = optimize.least_squares(fun, np.asarray(x0, dtype=float), jac=jac, bounds=(lower, upper), method="trf",
@@ -276,8 +319,9 @@ def _finish(fit: LeastSquaresFit, profile, n_interval, reaches, evaluations) -> 
 class _Profile:
     """Continuation along the valley from the optimum: ``log10 c`` minimised at each ``n``."""
 
-    def __init__(self, per_event, used, fit: LeastSquaresFit, n_bounds):
+    def __init__(self, per_event, used, fit: LeastSquaresFit, n_bounds, per_event_jacobian=None):
         self.per_event = per_event
+        self.per_event_jacobian = per_event_jacobian
         self.used = used
         self.fit = fit
         self.n_bounds = n_bounds
@@ -308,13 +352,19 @@ class _Profile:
                 "half_width": half}
 
     def _minimise_c(self, n, lc):
-        """1-D Gauss–Newton in ``log10 c`` at fixed ``n`` from a predicted ``lc``: a forward-difference
-        slope at the prediction (two trials), then chord steps of one trial each until the step is
-        below 1e-7 decades. Returns ``(log10 c, residuals, |dr/dlog10 c|)``."""
-        h = JACOBIAN_STEP[0]
-        values = self.per_event(np.array([lc, lc + h]), np.full(2, n))[:, self.used]
-        self.evaluations += 2
-        r, d = values[0], (values[1] - values[0]) / h
+        """1-D Gauss–Newton in ``log10 c`` at fixed ``n`` from a predicted ``lc``: the slope at the
+        prediction (the forward sensitivities of one trial, or a forward difference of two), then
+        chord steps of one trial each until the step is below 1e-7 decades. Returns
+        ``(log10 c, residuals, |dr/dlog10 c|)``."""
+        if self.per_event_jacobian is not None:
+            r, J = self.per_event_jacobian(np.array([lc]), np.array([n]))
+            r, d = r[0, self.used], J[0, self.used, 0]
+            self.evaluations += 1
+        if self.per_event_jacobian is None or not np.isfinite(d).all():
+            h = JACOBIAN_STEP[0]
+            values = self.per_event(np.array([lc, lc + h]), np.full(2, n))[:, self.used]
+            self.evaluations += 2
+            r, d = values[0], (values[1] - values[0]) / h
         dd = float(d @ d)
         for _ in range(8):
             step = -float(d @ r) / dd if dd > 0 else 0.0

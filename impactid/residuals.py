@@ -214,11 +214,65 @@ class EventSet:
             raise ImpactidError(f"{self.source}: no event with a reconstructed onset state to simulate")
 
     def simulate(self, trials: np.ndarray, *, histories: bool = False,
-                 tolerances: Tolerances = DEFAULT_TOLERANCES) -> BatchResult:
-        """Batch S1 of every event for every trial ``(beta, n)`` (histories on the contact samples)."""
+                 tolerances: Tolerances = DEFAULT_TOLERANCES, sensitivities: bool = False) -> BatchResult:
+        """Batch S1 of every event for every trial ``(beta, n)`` (histories on the contact samples;
+        with ``sensitivities``, the forward sensitivities as well)."""
         return simulate_events(self.rig, self.cam_speed_hz, self.states, self.t_end, np.atleast_2d(trials),
                                grids=list(self.t) if histories else None, tolerances=tolerances,
-                               on_failure="flag")
+                               on_failure="flag", sensitivities=sensitivities)
+
+    def residuals_and_jacobian(self, trials: np.ndarray, residual: str = "lambda1", *,
+                               tolerances: Tolerances = DEFAULT_TOLERANCES
+                               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per-event residuals, their derivatives by ``(ln beta, n)`` and the failed runs.
+
+        The derivatives come from the forward sensitivities the simulator integrates with each run
+        (``simulate_events(..., sensitivities=True)``), not from differences: ``lambda1`` from
+        ``d alpha_m``, ``lambda2`` and ``lambda3`` from the derivatives of the simulated force and
+        gap histories at the contact samples, through the same integration rules as the residuals
+        (the trapezoid rules of the module docstring, differentiated). Returns ``(r, J, failed)`` with
+        shapes ``(k, m)``, ``(k, m, 2)`` and ``(k, m)`` for ``k`` trials and ``m`` events; a failed run
+        has the penalty residual and a zero derivative, an event without a residual NaN in both, and
+        a run whose sliding velocity reversed during a contact NaN derivatives (see
+        :func:`~impactid.simulate.runs.simulate_events`).
+        """
+        residual = residual_name(residual)
+        self.require(residual)
+        trials = np.atleast_2d(np.asarray(trials, dtype=float))
+        batch = self.simulate(trials, histories=residual != "lambda1", tolerances=tolerances, sensitivities=True)
+        failed = batch.failed
+        out = self._residuals_of(batch, trials, residual)
+        jac = self._jacobian_of(batch, trials, residual, out)
+        if failed.any():
+            out = np.where(failed, FAILED_SIMULATION_RESIDUAL, out)
+            jac = np.where(failed[:, :, None], 0.0, jac)
+        return out, jac, failed
+
+    def _jacobian_of(self, batch: BatchResult, trials: np.ndarray, residual: str, r: np.ndarray) -> np.ndarray:
+        if residual == "lambda1":
+            return batch.alpha_m_sensitivity / self.alpha_m[None, :, None]
+        out = np.empty((trials.shape[0], len(self), 2))
+        off = batch.grid_offsets
+        for i in range(len(self)):
+            t, f = self.t[i], self.force[i]
+            cols = slice(off[i], off[i + 1])
+            sim_f = batch.contact_force[:, None, cols]  # (k, 1, samples)
+            d_f = batch.contact_force_sensitivity[:, :, cols]  # (k, 2, samples)
+            if residual == "lambda2":
+                den = np.trapezoid(f ** 2, t)
+                d_num = np.trapezoid(-2.0 * (f[None, None, :] - sim_f) * d_f, t, axis=2)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    value = np.where(r[:, i, None] > 0, d_num / (2.0 * den * r[:, i, None]), 0.0)
+                out[:, i, :] = value if den > 0 else math.nan
+            else:
+                area = loop_area(f, self.indentation[i])
+                gap = batch.gap[:, None, cols]
+                sim_delta = np.maximum(-gap, 0.0)
+                d_delta = np.where(gap < 0.0, -batch.gap_sensitivity[:, :, cols], 0.0)
+                d_area = np.sum(0.5 * (d_f[:, :, 1:] + d_f[:, :, :-1]) * np.diff(sim_delta, axis=2)
+                                + 0.5 * (sim_f[:, :, 1:] + sim_f[:, :, :-1]) * np.diff(d_delta, axis=2), axis=2)
+                out[:, i, :] = -d_area / area if area > 0 else math.nan
+        return out
 
     def residuals(self, trials: np.ndarray, residual: str = "lambda1", *,
                   tolerances: Tolerances = DEFAULT_TOLERANCES) -> np.ndarray:

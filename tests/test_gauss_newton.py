@@ -155,3 +155,38 @@ def test_equally_good_minima_are_told_apart_by_other_evidence_or_reported():
     fit = fit_least_squares(_two_minima, fix_n=1.5, lc_bounds=(0.0, 6.0), n_bounds=(0.5, 2.5),
                             choose=lambda points: None, rss_tolerance=1e-6)
     assert not fit.resolved and len(fit.alternatives) == 1
+
+
+def test_jacobian_callable_is_used_and_a_missing_one_is_differenced():
+    """With exact derivatives the linear model's solution is found as before; a Jacobian of NaN (a
+    run without sensitivities) falls back to differences with the same result."""
+    per_event, A, e, x_ls = _linear_model()
+    calls = {"exact": 0}
+
+    def exact(lc, n):
+        calls["exact"] += 1
+        r = per_event(lc, n)
+        return r, np.broadcast_to(A, r.shape + (2,)).copy()
+
+    def missing(lc, n):
+        r = per_event(lc, n)
+        return r, np.full(r.shape + (2,), np.nan)
+
+    bounds = dict(fix_n=None, lc_bounds=(0.0, 6.0), n_bounds=(0.5, 2.5))
+    with_exact = fit_least_squares(per_event, per_event_jacobian=exact, **bounds)
+    with_missing = fit_least_squares(per_event, per_event_jacobian=missing, **bounds)
+    assert calls["exact"] > 0
+    for fit in (with_exact, with_missing):
+        assert fit.x == pytest.approx(tuple(x_ls), abs=1e-8)
+        assert fit.jacobian == pytest.approx(A, rel=1e-6)
+
+
+def test_sensitivity_jacobian_gives_the_fit_of_differences_with_fewer_simulations(s2_events):
+    sens = fit_contact_damping(s2_events, fix_n=N, method="least-squares", jacobian="sensitivities")
+    diff = fit_contact_damping(s2_events, fix_n=N, method="least-squares", jacobian="differences")
+    # the same minimum to the search's stopping rule, the same interval to its resolution
+    assert sens.beta == pytest.approx(diff.beta, rel=1e-5)
+    assert sens.beta_interval == pytest.approx(diff.beta_interval, rel=1e-3)
+    assert sens.n_simulations < diff.n_simulations
+    with pytest.raises(ValueError, match="jacobian"):
+        fit_contact_damping(s2_events, fix_n=N, jacobian="adjoint")

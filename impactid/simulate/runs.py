@@ -236,7 +236,8 @@ def _run_kernel(t0, alpha0, rate0, t_end, p, law_vec, theta_ref, omega, tol, gri
         # but LLVM then compiles the whole integrator again inside it: 75 s more on a cold start.)
         res = K.integrate(t0, alpha0, rate0, mode0, t_end, p, law_vec.copy(), theta_ref, omega,
                           tol.rtol, tol.atol_alpha, tol.atol_rate, h_max, tol.max_steps,
-                          grid, g_a, g_d, g_m, contacts, apexes, False)
+                          grid, g_a, g_d, g_m, contacts, apexes, False, K.NO_SENS, K.NO_SENS_MAX,
+                          K.NO_GRID_SENS)
         status = res.status
         if status == K.CONTACTS_FULL and capacity < limit:
             capacity = min(capacity * 8, limit)
@@ -389,6 +390,13 @@ class BatchResult:
     contact_force: np.ndarray | None
     gap: np.ndarray | None
     status: np.ndarray | None = None
+    #: (n_trials, n_events, 2): forward sensitivities ``d alpha_m / d(ln beta, n)`` [rad] (``beta`` held
+    #: for ``n``), when asked for (``sensitivities=True``), else None.
+    alpha_m_sensitivity: np.ndarray | None = None
+    #: (n_trials, 2, total grid length): ``d F / d(ln beta, n)`` [N] and ``d psi / d(ln beta, n)`` [m]
+    #: on the grids, when asked for with grids, else None.
+    contact_force_sensitivity: np.ndarray | None = None
+    gap_sensitivity: np.ndarray | None = None
 
     @property
     def failed(self) -> np.ndarray:
@@ -520,7 +528,7 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
                     trials: np.ndarray, *, clip: bool = False, mu: float | None = None,
                     grids: Sequence[np.ndarray] | None = None,
                     tolerances: Tolerances = DEFAULT_TOLERANCES, on_failure: str = "raise",
-                    max_steps: int = S1_MAX_STEPS) -> BatchResult:
+                    max_steps: int = S1_MAX_STEPS, sensitivities: bool = False) -> BatchResult:
     """Batch S1: every event for every trial ``(beta, n)``, in parallel (numba ``prange``).
 
     Parameters
@@ -537,6 +545,13 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         impossible to simulate without that being an error of the job).
     max_steps : step budget of one event (default :data:`S1_MAX_STEPS`, about 1000 times what a
         period-1 event takes); a run that needs more fails with ``MAX_STEPS``.
+    sensitivities : also integrate the forward sensitivities of each run with respect to ``ln beta``
+        and ``n`` (the variational equations, in the kernel, on the same steps: see
+        ``kernel._sensitivity_step``), returned as ``alpha_m_sensitivity`` and, with grids,
+        ``contact_force_sensitivity`` and ``gap_sensitivity``. With friction, a run in which the
+        sliding velocity reverses during a contact (the friction force jumps there, and the kernel
+        does not locate the instant as an event) has NaN sensitivities from that step on; the
+        period-1 impacts measured have none (``friction_reversals`` of the contact table).
 
     A chattering trial law (any number of contacts in one event) is simulated to the end: the
     first contact's summary and ``alpha_m`` stay exact, only the count is reported for the rest.
@@ -580,6 +595,10 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
     hist_force = np.empty((n_tr, grid.shape[0]))
     hist_gap = np.empty((n_tr, grid.shape[0]))
     summary = np.empty((n_tr, n_ev, K.N_SUM))
+    n_sens = K.N_SENS if sensitivities else 0
+    sens_summary = np.empty((n_tr, n_ev, n_sens))
+    hist_dforce = np.empty((n_tr, n_sens, grid.shape[0] if n_sens else 0))
+    hist_dgap = np.empty_like(hist_dforce)
     h_max = tolerances.max_step_revolutions * 2.0 * math.pi / omega
     budget = int(min(max_steps, tolerances.max_steps))
     per_call = max(1, BATCH_CHUNK_JOBS // max(n_ev, 1))
@@ -587,7 +606,8 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         hi = min(lo + per_call, n_tr)
         K.batch_events(states, t_end, trials[lo:hi], p, law_vec, omega, tolerances.rtol, tolerances.atol_alpha,
                        tolerances.atol_rate, h_max, budget, grid, offsets, summary[lo:hi],
-                       hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS, True)
+                       hist_force[lo:hi], hist_gap[lo:hi], S1_CONTACT_ROWS, True, sens_summary[lo:hi],
+                       hist_dforce[lo:hi], hist_dgap[lo:hi])
     status = summary[:, :, K.S_STATUS].astype(int)
     failed = status != K.OK
     if failed.any():
@@ -605,6 +625,9 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
                 if bad.any():
                     hist_force[bad, offsets[i]:offsets[i + 1]] = np.nan
                     hist_gap[bad, offsets[i]:offsets[i + 1]] = np.nan
+                    hist_dforce[bad, :, offsets[i]:offsets[i + 1]] = np.nan
+                    hist_dgap[bad, :, offsets[i]:offsets[i + 1]] = np.nan
+        sens_summary[failed] = np.nan
     s = summary
     return BatchResult(
         trials=trials, alpha_m=s[:, :, K.S_ALPHA_M], t_alpha_m=s[:, :, K.S_T_ALPHA_M],
@@ -615,7 +638,9 @@ def simulate_events(rig: PivotedFollowerRig, cam_speed_hz: float, states: np.nda
         final_alpha_dot=s[:, :, K.S_RATE_END], n_steps=s[:, :, K.S_N_STEPS].astype(int),
         grid=grid, grid_offsets=offsets,
         contact_force=hist_force if grid.size else None, gap=hist_gap if grid.size else None,
-        status=status)
+        status=status, alpha_m_sensitivity=sens_summary if sensitivities else None,
+        contact_force_sensitivity=hist_dforce if sensitivities and grid.size else None,
+        gap_sensitivity=hist_dgap if sensitivities and grid.size else None)
 
 
 def observables(rig: PivotedFollowerRig, law: Law, cam_speed_hz: float, t, alpha, alpha_dot, mode, *,

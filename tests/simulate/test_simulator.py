@@ -51,7 +51,8 @@ def _run(p, law, a0, ad0, t_end, rtol=1e-12, atol_alpha=1e-15, atol_rate=1e-13):
     p.setflags(write=False)
     res = K.integrate(0.0, a0, ad0, K.initial_mode(0.0, a0, ad0, p, law, 0.0, 1.0), t_end, p, law, 0.0, 1.0,
                       rtol, atol_alpha, atol_rate, 1e-3, 1_000_000, empty, empty, empty,
-                      np.empty(0, np.int8), contacts, np.empty((0, 2)), False)
+                      np.empty(0, np.int8), contacts, np.empty((0, 2)), False, K.NO_SENS, K.NO_SENS_MAX,
+                      K.NO_GRID_SENS)
     assert res[0] == K.OK
     return res, contacts[: res[1]]
 

@@ -45,9 +45,9 @@ from numba import njit, prange
 from impactid.rigs.pivoted import parameters as _geo
 from impactid.simulate import dp5
 
-__all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "N_CCOL", "N_LAW", "N_RIG", "N_SUM", "STATUS_MESSAGES", "RunEnd",
-           "acceleration", "batch_events", "contact_force", "initial_mode", "integrate", "observe",
-           "stick_force"]
+__all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "NO_GRID_SENS", "NO_SENS", "NO_SENS_MAX", "N_CCOL", "N_LAW", "N_RIG",
+           "N_SENS", "N_SUM", "STATUS_MESSAGES", "RunEnd", "acceleration", "batch_events", "contact_force",
+           "initial_mode", "integrate", "observe", "rhs_partials", "stick_force"]
 
 _jit = njit(cache=True, inline="always")
 
@@ -132,18 +132,24 @@ def _evaluate(mode, t, a, ad, add, p, law, theta_ref, omega, want_acceleration):
                           want_acceleration)
 
 
+# reciprocals of the Taylor series' divisors (compile-time constants of ``_sincos_shifted``)
+_INV6, _INV12, _INV20, _INV30, _INV42, _INV56, _INV72 = (1.0 / k for k in (6, 12, 20, 30, 42, 56, 72))
+
+
 @_jit
 def _sincos_shifted(x0, s0, c0, d):
     """``sin(x0 + d), cos(x0 + d)`` from ``s0 = sin(x0), c0 = cos(x0)``.
 
     For the small in-step increments (``|d| < 0.03``) by the angle-addition formulas with the
     Taylor series of ``sin d`` and ``cos d - 1`` (truncation below 1e-19 relative, i.e. below
-    round-off), which is about 4x cheaper than two library calls; otherwise directly.
+    round-off), which is about 4x cheaper than two library calls; otherwise directly. The series'
+    divisions are multiplications by the reciprocals (constants): a division's latency, taken seven
+    times in a chain at every stage, was most of a free-flight step's time.
     """
     if abs(d) < 0.03:
         d2 = d * d
-        sd = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0 * (1.0 - d2 / 72.0))))
-        cm1 = -0.5 * d2 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)))
+        sd = d * (1.0 - d2 * _INV6 * (1.0 - d2 * _INV20 * (1.0 - d2 * _INV42 * (1.0 - d2 * _INV72))))
+        cm1 = -0.5 * d2 * (1.0 - d2 * _INV12 * (1.0 - d2 * _INV30 * (1.0 - d2 * _INV56)))
         return s0 + (s0 * cm1 + c0 * sd), c0 + (c0 * cm1 - s0 * sd)
     return math.sin(x0 + d), math.cos(x0 + d)
 
@@ -161,7 +167,7 @@ def _evaluate_trig(mode, a, ad, add, sa, ca, st, ct, p, law, omega, want_acceler
     torque = _free_torque_of(sa, ca, p)
     if mode == FREE:
         if want_acceleration:
-            add = torque / p[I_B]
+            add = torque * (1.0 / p[I_B])
         return add, psi, dpsi, 0.0, 0.0, 0.0
     chi_dot = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
     vr = -chi_dot - (p[R_C] + p[ECC] * s) * (ad + omega)
@@ -181,7 +187,7 @@ def _evaluate_trig(mode, a, ad, add, sa, ca, st, ct, p, law, omega, want_acceler
     if clipped:
         force = 0.0
     if want_acceleration:
-        add = (torque + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) / p[I_B]
+        add = (torque + force * chi - p[MU] * force * np.sign(vr) * p[H_P]) * (1.0 / p[I_B])
     dforce = 0.0
     if d > 0.0 and not (law[CLIP] != 0.0 and force <= 0.0):
         ddpsi = chi_dot * ad + chi * add + p[ECC] * s * (ad + omega) * omega
@@ -209,6 +215,71 @@ def _power(d, exponent):
     if exponent == 0.5:
         return math.sqrt(d)
     return d**exponent
+
+
+@njit(cache=True)
+def rhs_partials(mode, t, a, ad, p, law, theta_ref, omega):
+    """Partial derivatives of ``alpha_ddot`` and of the contact force with respect to the state and the law.
+
+    Returns ``(f_a, f_ad, f_lnb, f_n, F_a, F_ad, F_lnb, F_n)``: ``f = alpha_ddot`` [rad/s^2] and ``F``
+    the Hunt–Crossley force [N], differentiated by ``alpha`` [rad], ``alpha_dot`` [rad/s],
+    ``ln beta`` and ``n`` (``beta`` held). The coefficients of the forward-sensitivity equations
+    (:func:`_sensitivity_step`). For FREE and CONTACT; a clipped force (``F = 0`` where it would pull)
+    has zero partials, as has the damping term at ``delta = 0``. With friction the direction
+    ``sigma = sgn(v_r)`` of the sliding velocity is held (it is piecewise constant: the friction force
+    jumps where it reverses, which :func:`integrate` handles).
+
+    With ``psi`` the gap, ``chi = d psi / d alpha`` the lever arm, ``delta = -psi``,
+    ``dpsi = chi alpha_dot - e omega cos(alpha + Theta)``::
+
+        d chi / d alpha = -(psi + R),   d dpsi / d alpha = -(psi + R) alpha_dot + e omega sin(alpha + Theta)
+        F_a  = -chi (p k delta^(p-1) - n beta delta^(n-1) dpsi) - beta delta^n d dpsi / d alpha
+        F_ad = -beta delta^n chi,  F_lnb = -beta delta^n dpsi,  F_n = F_lnb ln delta
+        f_a  = (T'(alpha) + F_a arm - F (psi + R)) / I_b,  f_ad = F_ad arm / I_b,  f_x = F_x arm / I_b
+
+    with ``arm = chi - mu sigma h_p``, the moment arm of the normal force with its friction (S-16).
+
+    with ``T'`` the derivative of the spring and gravity torque (S-9). ``tests/simulate/test_sensitivity.py``
+    checks every entry against central differences of :func:`acceleration` and :func:`contact_force`.
+    """
+    th = theta_ref + omega * t
+    return _partials_trig(mode, ad, math.sin(a), math.cos(a), math.sin(th), math.cos(th), p, law, omega)
+
+
+@_jit
+def _partials_trig(mode, ad, sa, ca, st, ct, p, law, omega):
+    """:func:`rhs_partials` from the sines and cosines of alpha (``sa, ca``) and Theta (``st, ct``;
+    not read in FREE)."""
+    torque_a = -p[M_B] * p[GRAV] * p[L_G] * sa - p[K_S] * p[D_X] * (p[D_X] + 0.5 * p[W_B] * sa) / (ca * ca)
+    inv_i = 1.0 / p[I_B]
+    if mode != CONTACT:
+        return torque_a * inv_i, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    gx = p[PE_X] - p[ECC] * ct
+    gy = p[PE_Y] - p[ECC] * st
+    psi = sa * gx + ca * gy - p[RSUM]
+    chi = ca * gx - sa * gy
+    s = sa * ct + ca * st  # sin(alpha + Theta)
+    c = ca * ct - sa * st  # cos(alpha + Theta)
+    dpsi = chi * ad - p[ECC] * c * omega
+    dpsi_a = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
+    d = -psi if psi < 0.0 else 0.0
+    pe = law[P_EXP]
+    n = law[N_EXP]
+    beta = law[BETA]
+    force = p[K_H] * _power(d, pe) - beta * _power(d, n) * dpsi
+    if d <= 0.0 or (law[CLIP] != 0.0 and force < 0.0):
+        return torque_a * inv_i, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    damp = beta * _power(d, n)
+    force_a = -chi * (pe * p[K_H] * _power(d, pe - 1.0) - n * beta * _power(d, n - 1.0) * dpsi) - damp * dpsi_a
+    force_ad = -damp * chi
+    force_lnb = -damp * dpsi
+    force_n = force_lnb * math.log(d)
+    arm = chi
+    if p[MU] != 0.0:
+        vr = -dpsi_a - (p[R_C] + p[ECC] * s) * (ad + omega)  # dpsi_a is also d chi / dt
+        arm = chi - p[MU] * np.sign(vr) * p[H_P]
+    return ((torque_a + force_a * arm - force * (psi + p[RSUM])) * inv_i, force_ad * arm * inv_i,
+            force_lnb * arm * inv_i, force_n * arm * inv_i, force_a, force_ad, force_lnb, force_n)
 
 
 @njit(cache=True, inline="always")
@@ -316,7 +387,7 @@ def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
     ss, cs = _sincos_shifted(y[0], sa0, ca0, d[0])
     if s < 6:
         if mode == FREE:
-            K[s, 1] = _free_torque_of(ss, cs, p) / p[I_B]
+            K[s, 1] = _free_torque_of(ss, cs, p) * (1.0 / p[I_B])
         else:
             st, ct = _sincos_shifted(th0, st0, ct0, omega * ch)
             K[s, 1] = _evaluate_trig(mode, a, ad, 0.0, ss, cs, st, ct, p, law, omega, True)[0]
@@ -397,6 +468,93 @@ def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, at
 
 
 # ============================================================================================
+# Forward sensitivities
+# ============================================================================================
+
+#: Parameters of the forward sensitivities: ``ln beta`` and ``n`` (``beta`` held).
+N_SENS = 2
+#: The sensitivity arguments of :func:`integrate` for a run without sensitivities.
+NO_SENS, NO_SENS_MAX, NO_GRID_SENS = np.zeros((0, 2)), np.zeros(0), np.zeros((0, N_SENS, 2))
+_C = dp5.C
+
+
+@njit(cache=True, error_model="numpy")
+def _sensitivity_step(mode, t, a, ad, h, K, sens0, sens1, KS, work, p, law, theta_ref, omega):
+    """Advance the forward sensitivities over the step just accepted (stages ``K``, 7x2, of the step
+    from ``(t, a, ad)`` of length ``h``).
+
+    ``sens0`` (N_SENS x 2): ``d(alpha, alpha_dot)/d(ln beta, n)`` at ``t``; ``sens1`` receives them at
+    ``t + h``; ``KS`` (7 x 2 N_SENS) receives their stages (for dense output); ``work`` (2 N_SENS) is scratch.
+
+    The variational equations ``s' = (s_ad, f_a s_a + f_ad s_ad + f_x)`` (:func:`rhs_partials`) are
+    integrated with the same Dormand–Prince tableau, at the same stage states and on the same steps
+    as the state: the Runge–Kutta method applied to the augmented system, with the error control on
+    the state alone (CVODES's "partial error control"). The state's steps, events and results are
+    therefore exactly those of a run without sensitivities, and the sensitivities are the exact
+    derivatives of the discrete solution up to the truncation error of the variational equations.
+
+    At a switch between FREE and CONTACT the Hunt–Crossley force is zero on both sides, so the
+    right-hand side is continuous and the sensitivities need no jump (saltation) there. Where the
+    sliding velocity reverses in a contact with friction the right-hand side does jump, and the
+    kernel does not locate that instant as an event: :func:`integrate` then makes the sensitivities
+    NaN from there on, and the caller differentiates that run otherwise (finite differences).
+    """
+    # the stages written out with literal stage numbers, so that the core's ``tableau_combine`` has
+    # the tableau's numbers in the code (as in ``dp5.step``); the parameters as tuples of floats
+    run, law_t = _run_constants(p, law, theta_ref, omega)
+    pt = run[0]
+    th0 = theta_ref + omega * t
+    contact = mode == CONTACT
+    trig0 = (math.sin(a), math.cos(a), th0, math.sin(th0) if contact else 0.0, math.cos(th0) if contact else 1.0)
+    y = (a, ad)
+    for i in range(work.shape[0]):
+        work[i] = 0.0
+    _sensitivity_stage(mode, 0, a, ad, (0.0, 0.0), work, 0.0, sens0, KS, trig0, pt, law_t, omega)
+    _sensitivity_stage(mode, 1, a, ad, dp5.tableau_combine(y, K, 1, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 1, h, work), _C[1] * h, sens0, KS, trig0, pt, law_t, omega)
+    _sensitivity_stage(mode, 2, a, ad, dp5.tableau_combine(y, K, 2, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 2, h, work), _C[2] * h, sens0, KS, trig0, pt, law_t, omega)
+    _sensitivity_stage(mode, 3, a, ad, dp5.tableau_combine(y, K, 3, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 3, h, work), _C[3] * h, sens0, KS, trig0, pt, law_t, omega)
+    _sensitivity_stage(mode, 4, a, ad, dp5.tableau_combine(y, K, 4, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 4, h, work), _C[4] * h, sens0, KS, trig0, pt, law_t, omega)
+    _sensitivity_stage(mode, 5, a, ad, dp5.tableau_combine(y, K, 5, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 5, h, work), _C[5] * h, sens0, KS, trig0, pt, law_t, omega)
+    dS = dp5.tableau_combine(work, KS, 6, h, work)
+    for q in range(sens0.shape[0]):
+        sens1[q, 0] = sens0[q, 0] + dS[2 * q]
+        sens1[q, 1] = sens0[q, 1] + dS[2 * q + 1]
+    _sensitivity_stage(mode, 6, a, ad, dp5.tableau_combine(y, K, 6, h, _NO_WORK), dS, h, sens0, KS, trig0, pt,
+                       law_t, omega)
+
+
+@_jit
+def _sensitivity_stage(mode, s, a, ad, d, dS, ch, sens0, KS, trig0, p, law, omega):
+    """Row ``s`` of the sensitivities' stages: the variational right-hand side at the stage state
+    ``(a, ad) + d`` and time ``t + ch``, for the sensitivities ``sens0 + dS`` (``dS`` flat, 2 per
+    parameter)."""
+    sa0, ca0, th0, st0, ct0 = trig0
+    sa, ca = _sincos_shifted(a, sa0, ca0, d[0])
+    if mode == CONTACT:
+        st, ct = _sincos_shifted(th0, st0, ct0, omega * ch)
+    else:
+        st, ct = 0.0, 1.0
+    f_a, f_ad, f_lnb, f_n, _, _, _, _ = _partials_trig(mode, ad + d[1], sa, ca, st, ct, p, law, omega)
+    for q in range(sens0.shape[0]):
+        s_a = sens0[q, 0] + dS[2 * q]
+        s_d = sens0[q, 1] + dS[2 * q + 1]
+        KS[s, 2 * q] = s_d
+        KS[s, 2 * q + 1] = f_a * s_a + f_ad * s_d + (f_lnb if q == 0 else f_n)
+
+
+@njit(cache=True, inline="always")
+def _dense_sensitivity(x, h, sens0, QS, q, component):
+    """Sensitivity ``component`` (0: alpha, 1: alpha_dot) of parameter ``q`` at fraction ``x`` of a step."""
+    c = 2 * q + component
+    return sens0[q, component] + h * x * (QS[c, 0] + x * (QS[c, 1] + x * (QS[c, 2] + x * QS[c, 3])))
+
+
+# ============================================================================================
 # The hybrid integrator
 # ============================================================================================
 
@@ -453,7 +611,7 @@ def _close_row(contacts, r, t, a, ad, dpsi):
 @njit(cache=True)
 def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
               rtol, atol_a, atol_d, h_max, max_steps,
-              grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok=False):
+              grid, g_a, g_d, g_mode, contacts, apexes, overflow_ok, sens, sens_max, g_sens):
     """Integrate the hybrid model from ``t0`` to ``t_end``.
 
     Parameters
@@ -473,6 +631,12 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         each further contact in turn (the first rows and the count stay right); otherwise stop
         with ``CONTACTS_FULL`` so that the caller can grow the table. S1 events use it: a
         chattering trial law still has an ``alpha_m``.
+    sens : (N_SENS, 2) forward sensitivities ``d(alpha, alpha_dot)/d(ln beta, n)`` at ``t0`` (zeros for a
+        measured initial state), advanced in place to ``t_end`` (:func:`_sensitivity_step`); shape
+        (0, 2) for none. Only for the Hunt–Crossley law without friction (the caller checks).
+    sens_max : (N_SENS,) receives ``d alpha_max / d(ln beta, n)`` (at an apex ``alpha_dot = 0``, so it
+        is the sensitivity of ``alpha`` there); g_sens : (len(grid), N_SENS, 2) receives the
+        sensitivities on the grid (shape (0, N_SENS, 2) with no sensitivities).
 
     Returns
     -------
@@ -494,6 +658,14 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     Q = np.empty((2, 4))
     S = np.empty(5)
     restitution = law[LAW_KIND] == KIND_RESTITUTION
+    want_sens = sens.shape[0] > 0
+    n_sens = sens.shape[0]
+    KS = np.empty((7, 2 * n_sens))
+    QS = np.empty((2 * n_sens, 4))
+    sens_new = np.empty((n_sens, 2))
+    sens_work = np.empty(2 * n_sens)
+    for q in range(n_sens):
+        sens_max[q] = 0.0  # alpha_max starts as alpha(t0), a measured value
     n_grid = grid.shape[0]
     cap_c = contacts.shape[0]
     cap_a = apexes.shape[0]
@@ -504,6 +676,9 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         g_a[gi] = a0
         g_d[gi] = ad0
         g_mode[gi] = mode0
+        for q in range(n_sens):
+            g_sens[gi, q, 0] = sens[q, 0]
+            g_sens[gi, q, 1] = sens[q, 1]
         gi += 1
     open_row = -1
     if mode == CONTACT or mode == STICK:
@@ -620,10 +795,14 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         t1 = t + h if h > 0.0 else t
         if h > 0.0:
             n_steps += 1
+            if want_sens:  # K now holds the stages of the step taken (re-integrated to an event)
+                _sensitivity_step(mode, t, a, ad, h, K, sens, sens_new, KS, sens_work, p, law, theta_ref, omega)
             # dense-output coefficients only when this step needs them (events, grid points)
             if (ad > 0.0 and ad1 <= 0.0) or (q0 < 0.0 and q1 >= 0.0) or (r0 > 0.0 and r1 <= 0.0) or (
                     gi < n_grid and grid[gi] <= t1):
                 dp5.dense_coefficients(K, Q)
+                if want_sens:
+                    dp5.dense_coefficients(KS, QS)
             # ---- non-terminal events inside [t, t1] -------------------------------------------
             if ad > 0.0 and ad1 <= 0.0:
                 x = _root_dense(EV_RATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, ad, ad1)
@@ -638,9 +817,13 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 if ax > alpha_max:
                     alpha_max = ax
                     t_alpha_max = t + x * h
+                    for q in range(n_sens):
+                        sens_max[q] = _dense_sensitivity(x, h, sens, QS, q, 0)
             if a1 > alpha_max:
                 alpha_max = a1
                 t_alpha_max = t1
+                for q in range(n_sens):
+                    sens_max[q] = sens_new[q, 0]
             if mode == CONTACT and open_row >= 0:
                 # peak indentation: dpsi crosses 0 upwards
                 if -g1 > contacts[open_row, C_PEAK_DELTA]:
@@ -666,6 +849,9 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                         contacts[open_row, C_T_PEAK_FORCE] = t + x * h
                 if p[MU] != 0.0 and (v0 > 0.0) != (v1 > 0.0):
                     contacts[open_row, C_FRICTION_REVERSALS] += 1.0
+                    if want_sens:  # the friction force jumped inside this step: see _sensitivity_step
+                        sens_new[:, :] = np.nan
+                        QS[:, :] = np.nan  # (grid points of this step too)
             elif mode == STICK and open_row >= 0:
                 if f1 > contacts[open_row, C_PEAK_FORCE]:
                     contacts[open_row, C_PEAK_FORCE] = f1
@@ -677,7 +863,13 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 g_a[gi] = ga
                 g_d[gi] = gd
                 g_mode[gi] = mode
+                for q in range(n_sens):
+                    g_sens[gi, q, 0] = _dense_sensitivity(x, h, sens, QS, q, 0)
+                    g_sens[gi, q, 1] = _dense_sensitivity(x, h, sens, QS, q, 1)
                 gi += 1
+            for q in range(n_sens):
+                sens[q, 0] = sens_new[q, 0]
+                sens[q, 1] = sens_new[q, 1]
         t = t1
         a = a1
         ad = ad1
@@ -760,7 +952,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
 
 @njit(cache=True, parallel=True)
 def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_d, h_max,
-                 max_steps, grid, grid_offsets, summary, hist_force, hist_gap, contact_capacity, overflow_ok):
+                 max_steps, grid, grid_offsets, summary, hist_force, hist_gap, contact_capacity, overflow_ok,
+                 sens_summary, hist_dforce, hist_dgap):
     """Run every event (rows of ``states`` = alpha, alpha_dot, Theta at t = 0) for every trial
     law (rows of ``trials`` = beta, n), in parallel over the flattened (trial, event) pairs.
 
@@ -769,6 +962,11 @@ def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_
     on each event's slice ``grid[grid_offsets[i]:grid_offsets[i+1]]`` (times from the event start).
     ``overflow_ok`` is passed to :func:`integrate` (true: a chattering trial fills its table and
     goes on); a run-time flag, not a constant, so that ``integrate`` has one compiled signature.
+
+    Forward sensitivities (Hunt–Crossley without friction): when ``sens_summary`` (n_trials, n_events,
+    N_SENS) is not empty in its last axis it receives ``d alpha_m / d(ln beta, n)``, and with a grid
+    ``hist_dforce`` / ``hist_dgap`` (n_trials, N_SENS, len(grid)) the derivatives of the histories
+    (otherwise pass shapes (n_trials, n_events, 0) and (n_trials, 0, 0)).
     """
     n_ev = states.shape[0]
     n_tr = trials.shape[0]
@@ -782,14 +980,17 @@ def batch_events(states, t_ends, trials, p, law_base, omega, rtol, atol_a, atol_
         contacts = np.empty((contact_capacity, N_CCOL))
         apexes = np.empty((0, 2))
         law = law_base.copy()
+        sens = np.zeros((sens_summary.shape[2], 2))
         for job in range(chunk, n_jobs, n_chunks):
             _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, atol_d, h_max, max_steps,
-                       grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist, overflow_ok)
+                       grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist, overflow_ok,
+                       sens, sens_summary, hist_dforce, hist_dgap)
 
 
 @njit(cache=True)
 def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, atol_d, h_max, max_steps,
-               grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist, overflow_ok):
+               grid, grid_offsets, summary, hist_force, hist_gap, contacts, apexes, want_hist, overflow_ok,
+               sens, sens_summary, hist_dforce, hist_dgap):
     tr = job // n_ev
     ev = job % n_ev
     law[BETA] = trials[tr, 0]
@@ -807,9 +1008,13 @@ def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, a
     ga = np.empty(hi - lo)
     gd = np.empty(hi - lo)
     gm = np.empty(hi - lo, dtype=np.int8)
+    n_sens = sens.shape[0]
+    sens[:, :] = 0.0  # the onset state is measured: independent of the law
+    sens_max = sens_summary[tr, ev]
+    g_sens = np.empty((hi - lo if n_sens > 0 else 0, n_sens, 2))
     mode0 = initial_mode(0.0, a0, ad0, p, law, th0, omega)
     res = integrate(0.0, a0, ad0, mode0, t_ends[ev], p, law, th0, omega, rtol, atol_a, atol_d,
-                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes, overflow_ok)
+                    h_max, max_steps, gt, ga, gd, gm, contacts, apexes, overflow_ok, sens, sens_max, g_sens)
     st = res.status
     nc = res.n_contacts
     out = summary[tr, ev]
@@ -836,3 +1041,12 @@ def _batch_job(job, n_ev, states, t_ends, trials, p, law, omega, rtol, atol_a, a
         for k in range(hi - lo):
             hist_force[tr, lo + k] = obs[k, 3]
             hist_gap[tr, lo + k] = obs[k, 0]
+        for k in range(hi - lo if n_sens > 0 else 0):
+            _, _, _, _, force_a, force_ad, force_lnb, force_n = rhs_partials(gm[k], gt[k], ga[k], gd[k], p, law, th0,
+                                                                             omega)
+            chi = obs[k, 2]
+            for q in range(n_sens):
+                s_a = g_sens[k, q, 0]
+                hist_dforce[tr, q, lo + k] = force_a * s_a + force_ad * g_sens[k, q, 1] + (
+                    force_lnb if q == 0 else force_n)
+                hist_dgap[tr, q, lo + k] = chi * s_a
