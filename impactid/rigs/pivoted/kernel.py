@@ -155,15 +155,22 @@ def _sincos_shifted(x0, s0, c0, d):
 
 
 @_jit
-def _evaluate_trig(mode, a, ad, add, sa, ca, st, ct, p, law, omega, want_acceleration):
-    """``_evaluate`` with the sines and cosines of alpha (``sa, ca``) and Theta (``st, ct``) given."""
+def _contact_geometry(ad, sa, ca, st, ct, p, omega):
+    """Gap ``psi`` [m], lever arm ``chi`` [m], ``sin`` and ``cos`` of ``alpha + Theta`` and the gap
+    rate [m/s] from the sines and cosines of alpha and Theta (S-11..S-14)."""
     gx = p[PE_X] - p[ECC] * ct
     gy = p[PE_Y] - p[ECC] * st
     psi = sa * gx + ca * gy - p[RSUM]
     chi = ca * gx - sa * gy
     s = sa * ct + ca * st  # sin(alpha + Theta)
     c = ca * ct - sa * st  # cos(alpha + Theta)
-    dpsi = chi * ad - p[ECC] * c * omega
+    return psi, chi, s, c, chi * ad - p[ECC] * c * omega
+
+
+@_jit
+def _evaluate_trig(mode, a, ad, add, sa, ca, st, ct, p, law, omega, want_acceleration):
+    """``_evaluate`` with the sines and cosines of alpha (``sa, ca``) and Theta (``st, ct``) given."""
+    psi, chi, s, c, dpsi = _contact_geometry(ad, sa, ca, st, ct, p, omega)
     torque = _free_torque_of(sa, ca, p)
     if mode == FREE:
         if want_acceleration:
@@ -254,13 +261,7 @@ def _partials_trig(mode, ad, sa, ca, st, ct, p, law, omega):
     inv_i = 1.0 / p[I_B]
     if mode != CONTACT:
         return torque_a * inv_i, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    gx = p[PE_X] - p[ECC] * ct
-    gy = p[PE_Y] - p[ECC] * st
-    psi = sa * gx + ca * gy - p[RSUM]
-    chi = ca * gx - sa * gy
-    s = sa * ct + ca * st  # sin(alpha + Theta)
-    c = ca * ct - sa * st  # cos(alpha + Theta)
-    dpsi = chi * ad - p[ECC] * c * omega
+    psi, chi, s, c, dpsi = _contact_geometry(ad, sa, ca, st, ct, p, omega)
     dpsi_a = -ad * (psi + p[RSUM]) + p[ECC] * omega * s
     d = -psi if psi < 0.0 else 0.0
     pe = law[P_EXP]
