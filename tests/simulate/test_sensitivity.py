@@ -127,3 +127,20 @@ def test_residual_jacobian_matches_central_differences_of_the_residuals(events, 
         want = (up - down) / (2 * h)
         # differences at the default tolerance (rtol 1e-10): error ~1e-10 / 1e-4 of the residual's scale
         assert jac[0, :, k] == pytest.approx(want, rel=1e-3, abs=1e-5 * np.max(np.abs(want)))
+
+
+def test_a_friction_reversal_in_a_contact_leaves_the_run_without_sensitivities():
+    """A slow cam (0.5 Hz) hit at 5 rad/s: the sliding velocity reverses during the contact, the
+    friction force jumps there, and the kernel (which does not locate that instant) gives NaN
+    sensitivities rather than ones missing the jump; the run's own results stay."""
+    from impactid import simulate_event
+
+    rig, law = SUNDAR2016.with_eccentricity_ratio(0.2), HuntCrossley(24.7e9, 1.5)
+    th0 = 4.5
+    a0, ad0 = rig.contact_angle(th0) + 1e-6, -5.0
+    assert simulate_event(rig, 0.5, law, a0, ad0, th0, 0.01).contacts["friction_reversals"].sum() >= 1
+    run = simulate_events(rig, 0.5, [[a0, ad0, th0]], [0.01], [[law.beta, law.n]], sensitivities=True)
+    assert np.isnan(run.alpha_m_sensitivity).all()
+    assert np.isfinite(run.alpha_m).all()
+    frictionless = simulate_events(rig, 0.5, [[a0, ad0, th0]], [0.01], [[law.beta, law.n]], sensitivities=True, mu=0.0)
+    assert np.isfinite(frictionless.alpha_m_sensitivity).all()
