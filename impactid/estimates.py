@@ -125,7 +125,6 @@ class _Objective:
         self.delta_ref = delta_ref
         self.n_simulations = 0
         self.n_failed = 0  # S1 runs that could not be simulated (penalised, see residuals)
-        self.n_sensitivity_runs = 0  # of the S1 runs, those that also integrated forward sensitivities
         self.n_events = sum(len(s) for s in self.sets)
 
     def beta(self, logc, n):
@@ -154,7 +153,6 @@ class _Objective:
                                       np.atleast_1d(np.asarray(n, dtype=float)))
         trials = np.column_stack([self.beta(logc, n), n])
         self.n_simulations += trials.shape[0] * self.n_events
-        self.n_sensitivity_runs += trials.shape[0] * self.n_events
         parts = [s.residuals_and_jacobian(trials, self.residual) for s in self.sets]
         self.n_failed += int(sum(int(f.sum()) for _, _, f in parts))
         r = np.concatenate([p[0] for p in parts], axis=1)

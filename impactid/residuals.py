@@ -28,6 +28,7 @@ area of ``lambda3`` is the trapezoid rule of ``F`` in ``delta`` along the sample
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -236,17 +237,7 @@ class EventSet:
         a run whose sliding velocity reversed during a contact NaN derivatives (see
         :func:`~impactid.simulate.runs.simulate_events`).
         """
-        residual = residual_name(residual)
-        self.require(residual)
-        trials = np.atleast_2d(np.asarray(trials, dtype=float))
-        batch = self.simulate(trials, histories=residual != "lambda1", tolerances=tolerances, sensitivities=True)
-        failed = batch.failed
-        out = self._residuals_of(batch, trials, residual)
-        jac = self._jacobian_of(batch, trials, residual, out)
-        if failed.any():
-            out = np.where(failed, FAILED_SIMULATION_RESIDUAL, out)
-            jac = np.where(failed[:, :, None], 0.0, jac)
-        return out, jac, failed
+        return self._evaluate(trials, residual, tolerances, sensitivities=True)
 
     def _jacobian_of(self, batch: BatchResult, trials: np.ndarray, residual: str, r: np.ndarray) -> np.ndarray:
         if residual == "lambda1":
@@ -259,13 +250,13 @@ class EventSet:
             sim_f = batch.contact_force[:, None, cols]  # (k, 1, samples)
             d_f = batch.contact_force_sensitivity[:, :, cols]  # (k, 2, samples)
             if residual == "lambda2":
-                den = np.trapezoid(f ** 2, t)
+                den = self._force_norms[i]
                 d_num = np.trapezoid(-2.0 * (f[None, None, :] - sim_f) * d_f, t, axis=2)
                 with np.errstate(divide="ignore", invalid="ignore"):
                     value = np.where(r[:, i, None] > 0, d_num / (2.0 * den * r[:, i, None]), 0.0)
                 out[:, i, :] = value if den > 0 else math.nan
             else:
-                area = loop_area(f, self.indentation[i])
+                area = self._loop_areas[i]
                 gap = batch.gap[:, None, cols]
                 sim_delta = np.maximum(-gap, 0.0)
                 d_delta = np.where(gap < 0.0, -batch.gap_sensitivity[:, :, cols], 0.0)
@@ -293,15 +284,34 @@ class EventSet:
         gets the documented penalty :data:`FAILED_SIMULATION_RESIDUAL` for that event, so that
         the search goes on and stays away from it.
         """
+        out, _, failed = self._evaluate(trials, residual, tolerances, sensitivities=False)
+        return out, failed
+
+    def _evaluate(self, trials, residual: str, tolerances: Tolerances, sensitivities: bool):
+        """``(residuals, Jacobian or None, failed)``: one batch of S1 runs, the penalty for failed runs."""
         residual = residual_name(residual)
         self.require(residual)
         trials = np.atleast_2d(np.asarray(trials, dtype=float))
-        batch = self.simulate(trials, histories=residual != "lambda1", tolerances=tolerances)
+        batch = self.simulate(trials, histories=residual != "lambda1", tolerances=tolerances,
+                              sensitivities=sensitivities)
         failed = batch.failed
         out = self._residuals_of(batch, trials, residual)
+        jac = self._jacobian_of(batch, trials, residual, out) if sensitivities else None
         if failed.any():
             out = np.where(failed, FAILED_SIMULATION_RESIDUAL, out)
-        return out, failed
+            if jac is not None:
+                jac = np.where(failed[:, :, None], 0.0, jac)
+        return out, jac, failed
+
+    @functools.cached_property
+    def _force_norms(self) -> np.ndarray:
+        """Per event: ``int F^2 dt`` of the measured contact force (the denominator of lambda2) [N^2 s]."""
+        return np.array([np.trapezoid(f ** 2, t) for t, f in zip(self.t, self.force)])
+
+    @functools.cached_property
+    def _loop_areas(self) -> np.ndarray:
+        """Per event: the measured hysteresis loop area (the denominator of lambda3) [J]."""
+        return np.array([loop_area(f, d) for f, d in zip(self.force, self.indentation)])
 
     def _residuals_of(self, batch: BatchResult, trials: np.ndarray, residual: str) -> np.ndarray:
         if residual == "lambda1":
@@ -312,11 +322,11 @@ class EventSet:
             t, f = self.t[i], self.force[i]
             sim_f = batch.contact_force[:, off[i]:off[i + 1]]
             if residual == "lambda2":
-                den = np.trapezoid(f ** 2, t)
+                den = self._force_norms[i]
                 num = np.trapezoid((f[None, :] - sim_f) ** 2, t, axis=1)
                 out[:, i] = np.sqrt(num / den) if den > 0 else math.nan
             else:
-                area = loop_area(f, self.indentation[i])
+                area = self._loop_areas[i]
                 sim_delta = np.maximum(-batch.gap[:, off[i]:off[i + 1]], 0.0)
                 sim_area = np.sum(0.5 * (sim_f[:, 1:] + sim_f[:, :-1]) * np.diff(sim_delta, axis=1), axis=1)
                 out[:, i] = (area - sim_area) / area if area > 0 else math.nan
