@@ -83,6 +83,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from impactid.covariance import covariance_from_jacobian
 from impactid.errors import ImpactidError
 from impactid.results import FitResult, Parameter
 
@@ -747,8 +748,12 @@ class CamProfileFit:
         (see :class:`CamProfileData`), in ``[0, 2 pi)``, terms sorted by centre.
     stderr_a, stderr_b, stderr_c : standard errors of the coefficients [rad] from the covariance of
         the least-squares fit (scaled by the reduced chi-square, as lmfit does); NaN where it is not
-        available (the centre and width of a zero-amplitude term, or a singular covariance). They
-        treat the residuals as independent: read them as indicative.
+        available: the centre and width of a zero-amplitude term, and every coefficient when the
+        condition number of ``J^T J`` exceeds :data:`impactid.covariance.CONDITION_LIMIT`
+        (``stderr_note`` says which and why). They treat the residuals as independent: read them as
+        indicative.
+    covariance_condition : condition number of the column-scaled ``J^T J`` [-].
+    stderr_note : empty when every standard error is a number, else the reason some are not.
     rms_residual, max_residual : weighted RMS and largest absolute residual ``data - profile`` over
         the fitted points [rad].
     rms_sample_residual, max_sample_residual : the same over all used samples [rad]; for quantised
@@ -793,6 +798,8 @@ class CamProfileFit:
     data: CamProfileData = field(repr=False)
     criterion: str | None = None
     order_table: pd.DataFrame | None = field(default=None, repr=False)
+    covariance_condition: float = math.nan
+    stderr_note: str = ""
 
     @property
     def terms(self) -> int:
@@ -813,11 +820,13 @@ class CamProfileFit:
                                         (value - 1.96 * stderr, value + 1.96 * stderr), unit="rad"))
         statistics = {"terms": self.terms, "ndata": self.ndata, "nvarys": self.nvarys, "nfev": self.nfev,
                       "chisqr": self.chisqr, "redchi": self.redchi, "aic": self.aic, "bic": self.bic,
-                      "rms_residual": self.rms_residual, "max_residual": self.max_residual}
+                      "rms_residual": self.rms_residual, "max_residual": self.max_residual,
+                      "covariance_condition": self.covariance_condition}
         tables = {} if self.order_table is None else {"orders": self.order_table}
         return CamProfileResult(params=params, statistics=statistics, tables=tables,
                                 details={"periodic": self.profile.periodic, "criterion": self.criterion,
-                                         "success": self.success, "message": self.message})
+                                         "success": self.success, "message": self.message},
+                                notes=(self.stderr_note,) if self.stderr_note else ())
 
     def fit_report(self) -> str:
         """An lmfit-style fit report (of :meth:`to_result`); :meth:`report` is the short summary."""
@@ -846,6 +855,7 @@ class CamProfileFit:
             "a": list(self.profile.a), "b": list(self.profile.b), "c": list(self.profile.c),
             "a_stderr": [clean(v) for v in self.stderr_a], "b_stderr": [clean(v) for v in self.stderr_b],
             "c_stderr": [clean(v) for v in self.stderr_c],
+            "covariance_condition": clean(self.covariance_condition), "stderr_note": self.stderr_note,
             "units": {"a": "rad", "b": "rad", "c": "rad", "residuals": "rad", "chisqr": "rad^2",
                       "profile": "rad", "revolutions.t_start": "s", "revolutions.speed_hz": "Hz"},
             "cam_angle_convention": "the recording's cam_angle, mod 2 pi" + (
@@ -891,6 +901,8 @@ class CamProfileFit:
             lines.append("  order selection:")
             lines.extend("    " + line for line in self.order_table.to_string(
                 index=False, float_format=lambda v: f"{v:.6g}").splitlines())
+        if self.stderr_note:
+            lines.append(f"  standard errors: {self.stderr_note}")
         for k, reason in data.rejected_revolutions.items():
             lines.append(f"  revolution {k} rejected: {reason}")
         return "\n".join(lines)
@@ -1024,7 +1036,9 @@ def _fit_order(x, y, w, terms, c_lo, c_hi, nonnegative, starts, extra_seeds=()):
 def _statistics(x, y, w, a, b, c) -> dict[str, Any]:
     """chi-square, AIC, BIC (lmfit's definitions with all ``3 N`` coefficients counted) and the
     standard errors from the full Jacobian, ``sqrt(diag((J^T J)^-1) * redchi)`` as lmfit computes
-    them; NaN for the centre and width of a zero-amplitude term and wherever ``J^T J`` is singular."""
+    them, through :func:`impactid.covariance.covariance_from_jacobian`: NaN for the centre and width
+    of a zero-amplitude term, and all NaN (with the reason) when the condition number of ``J^T J``
+    exceeds :data:`impactid.covariance.CONDITION_LIMIT` (overlapping terms of a high order)."""
     terms = len(a)
     E, Eb, Ec = _basis(x, b, c, jacobian=True)
     r = w * (E @ a - y)
@@ -1039,17 +1053,19 @@ def _statistics(x, y, w, a, b, c) -> dict[str, Any]:
     J *= w[:, None]
     keep = np.ones(nvarys, dtype=bool)
     keep[1::3] = keep[2::3] = a != 0.0
+    names = tuple(f"{kind}{k + 1}" for k in range(terms) for kind in "abc")
+    covariance = covariance_from_jacobian(J[:, keep], redchi, names=tuple(np.array(names)[keep]))
     stderr = np.full(nvarys, np.nan)
-    try:
-        cov = np.linalg.inv(J[:, keep].T @ J[:, keep]) * redchi
-        diag = np.diag(cov)
-        stderr[keep] = np.where(diag > 0.0, np.sqrt(np.abs(diag)), np.nan)
-    except np.linalg.LinAlgError:
-        pass
+    stderr[keep] = covariance.stderr
+    note = covariance.reason
+    if not keep.all():
+        zero = ", ".join(f"term {k + 1}" for k in range(terms) if a[k] == 0.0)
+        note = "; ".join(filter(None, [note, f"centre and width undetermined for the zero-amplitude {zero}"]))
     return {"chisqr": chisqr, "redchi": redchi, "aic": neg2_log_likel + 2.0 * nvarys,
             "bic": neg2_log_likel + math.log(ndata) * nvarys, "ndata": ndata, "nvarys": nvarys,
             "rms": math.sqrt(chisqr / float(np.sum(w * w))), "max": float(np.max(np.abs(r / w))),
-            "stderr": (stderr[0::3], stderr[1::3], stderr[2::3])}
+            "stderr": (stderr[0::3], stderr[1::3], stderr[2::3]), "condition": covariance.condition,
+            "stderr_note": note}
 
 
 def _sorted_profile(a, b, c, errors):
@@ -1152,7 +1168,8 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
         aic=stats["aic"], bic=stats["bic"], ndata=stats["ndata"], nsamples=data.nsamples, nvarys=stats["nvarys"],
         nfev=nfev, nfev_total=int(sum(r[4] for r in results.values())), success=bool(result.success),
         message=str(result.message), starts=runs, seconds=seconds, data=data,
-        criterion=criterion if auto else None, order_table=table)
+        criterion=criterion if auto else None, order_table=table, covariance_condition=stats["condition"],
+        stderr_note=stats["stderr_note"])
 
 
 # --------------------------------------------------------------------------------------------

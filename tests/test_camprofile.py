@@ -35,6 +35,7 @@ from impactid.camprofile import (
     select_cam_profile_data,
 )
 from impactid.cli import main
+from impactid.covariance import CONDITION_LIMIT
 from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.results import FitResult
@@ -158,6 +159,22 @@ def test_seven_term_fit_matches_the_analytic_profile(rec110, fit7):
     assert math.isfinite(fit7.aic) and math.isfinite(fit7.bic) and fit7.chisqr > 0
     assert len(fit7.stderr_a) == 7 and all(0.0 <= bi < 2 * math.pi for bi in fit7.profile.b)
     assert min(fit7.profile.c) >= 0.05 and max(fit7.profile.c) <= C_MAX and min(fit7.profile.a) >= 0.0
+
+
+def test_standard_errors_are_numbers_when_the_covariance_is_well_conditioned(rec110, fit7):
+    """A 3-term fit is determined (condition ~2e11): every standard error is a number. Seven overlapping terms are not (condition ~1e31): every
+    standard error is undetermined, the reason is in the result, and no release of a linear-algebra
+    library can turn part of them into numbers."""
+    fit3 = fit_cam_profile(rec110.recording, 3)
+    assert fit3.covariance_condition < CONDITION_LIMIT
+    errors = np.array(fit3.stderr_a + fit3.stderr_b + fit3.stderr_c)
+    assert np.all(np.isfinite(errors)) and np.all(errors > 0.0) and fit3.stderr_note == ""
+    assert fit7.covariance_condition > CONDITION_LIMIT
+    assert np.all(np.isnan(fit7.stderr_a + fit7.stderr_b + fit7.stderr_c))
+    assert "condition number" in fit7.stderr_note
+    result = fit7.to_result()
+    assert any("condition number" in note for note in result.notes)
+    assert "condition number" in fit7.report()
 
 
 def test_fitted_edges_are_exact_boundaries_at_the_right_cam_angle(rec110, fit7):
