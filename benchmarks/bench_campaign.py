@@ -243,7 +243,7 @@ def report(args, runs: dict, starts: dict, scaling: dict, load_before, load_afte
     same = all(np.array_equal(r["result"].table["beta"].to_numpy(), res1["beta"].to_numpy(), equal_nan=True)
                for rs in runs.values() for r in rs)
     gb = 1e9
-    fits = first["result"].ran
+    fits = first["result"].fits
     limit = 1.5 * mem_target
     node_workers = max(1, int(64 * gb // limit))
     example = 120

@@ -16,24 +16,69 @@ Everything else lives in the submodules (``impactid.rigs.flat``, ``impactid.camp
 
 __version__ = "0.1.0"
 
-from impactid.contact import HuntCrossley, Restitution  # noqa: E402
-from impactid.errors import ImpactidError, RigParameterError, SimulationError, SimulationInputError  # noqa: E402
-from impactid.estimates import Estimate, estimate  # noqa: E402
-from impactid.events import find_events  # noqa: E402
-from impactid.io import Recording, read_recording  # noqa: E402
-from impactid.pipeline import Pipeline  # noqa: E402
-from impactid.reconstruct import reconstruct  # noqa: E402
-from impactid.results import FitResult, Parameter  # noqa: E402
-from impactid.rigs import (  # noqa: E402
-    ALZATE2007,
-    SUNDAR2016,
-    FlatFollowerRig,
-    PivotedFollowerRig,
-    load_rig_toml,
-    save_rig_toml,
-)
-from impactid.rigs.registry import MODELS, register, rig_model  # noqa: E402
-from impactid.simulate import Tolerances, simulate, simulate_event, simulate_events  # noqa: E402
+import importlib
+import importlib.util
+import sys
+import types
+from typing import Any
+
+#: Where each public name lives. ``import impactid`` loads none of them (no numba, SciPy or pandas):
+#: a name is imported from its module on first use (PEP 562), so that ``impactid --help`` and a
+#: notebook's ``import impactid`` start in a fraction of a second, and a Ctrl-C during the heavy
+#: imports of a command reaches the command line's own handler (:mod:`impactid._launcher`).
+_PUBLIC = {
+    "HuntCrossley": "impactid.contact", "Restitution": "impactid.contact",
+    "ImpactidError": "impactid.errors", "RigParameterError": "impactid.errors",
+    "SimulationError": "impactid.errors", "SimulationInputError": "impactid.errors",
+    "Estimate": "impactid.estimates", "estimate": "impactid.estimates",
+    "find_events": "impactid.events",
+    "Recording": "impactid.io", "read_recording": "impactid.io",
+    "Pipeline": "impactid.pipeline",
+    "reconstruct": "impactid.reconstruct",
+    "FitResult": "impactid.results", "Parameter": "impactid.results",
+    "ALZATE2007": "impactid.rigs", "SUNDAR2016": "impactid.rigs", "FlatFollowerRig": "impactid.rigs",
+    "PivotedFollowerRig": "impactid.rigs", "load_rig_toml": "impactid.rigs", "save_rig_toml": "impactid.rigs",
+    "MODELS": "impactid.rigs.registry", "register": "impactid.rigs.registry", "rig_model": "impactid.rigs.registry",
+    "Tolerances": "impactid.simulate", "simulate": "impactid.simulate", "simulate_event": "impactid.simulate",
+    "simulate_events": "impactid.simulate",
+}
+
+
+#: Public functions named like a submodule (``impactid.simulate`` the function, ``impactid.simulate``
+#: the package). Importing the submodule sets the package's attribute to the module; the face below
+#: answers these names with the function whatever was imported before, as the eager imports did.
+_SHADOWED = frozenset(name for name in _PUBLIC if importlib.util.find_spec(f"{__name__}.{name}") is not None)
+
+
+class _Face(types.ModuleType):
+    """The package's module type: public functions win over same-named submodules."""
+
+    def __getattribute__(self, name: str) -> Any:
+        if name in _SHADOWED:
+            return getattr(importlib.import_module(_PUBLIC[name]), name)
+        return super().__getattribute__(name)
+
+
+sys.modules[__name__].__class__ = _Face
+
+
+def __getattr__(name: str) -> Any:
+    module = _PUBLIC.get(name)
+    if module is not None:
+        value = getattr(importlib.import_module(module), name)
+        globals()[name] = value  # the next access is a plain attribute
+        return value
+    try:  # a submodule used as an attribute (impactid.rigs, impactid.io, ...)
+        return importlib.import_module(f"{__name__}.{name}")
+    except ModuleNotFoundError as exc:
+        if exc.name != f"{__name__}.{name}":
+            raise
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_PUBLIC))
+
 
 __all__ = [
     "ALZATE2007", "MODELS", "SUNDAR2016", "Estimate", "FitResult", "FlatFollowerRig", "HuntCrossley", "ImpactidError",

@@ -25,7 +25,12 @@ job on a ``dask.distributed`` cluster (or serially in this process) and keeps ev
   worker that died three times on the same task) is recorded as a failed row with a one-line reason
   and takes no other part with it; a joint fit whose recording could not be prepared fails naming
   it. A worker that dies loses only its running task: dask runs it again on another worker, and the
-  finished results are already on disk.
+  finished results are already on disk. What the files' digests and headers tell before anything
+  is prepared fails at once, without a task: a recording that cannot be read or whose rig impactid
+  cannot fit (:func:`read_rig_header`), a group that names one recording twice (one file, or two
+  files of identical content: its impacts would count twice) or recordings of different rigs.
+* **Folders.** A folder's recordings are grouped by rig (:func:`rig_groups`): the recordings whose
+  headers name the same rig model and parameters (but the eccentricity) are fitted jointly.
 
 The campaign file and the folder form: :data:`FORMAT_HELP` (docs/formats.md).
 """
@@ -51,14 +56,15 @@ from typing import Any
 import pandas as pd
 
 from impactid import __version__
-from impactid._files import StagedFiles, atomic_write
+from impactid._files import StagedFiles, atomic_write, same_file
 from impactid.commandline import json_text
 from impactid.errors import ImpactidError
-from impactid.pipeline import Pipeline, PreparedRecording
+from impactid.pipeline import Pipeline, PreparedRecording, _estimable
 
-__all__ = ["FORMAT_HELP", "CampaignError", "CampaignResult", "CampaignSpec", "FitJob", "FitOutcome", "PrepareJob",
-           "PrepareOutcome", "RecordingSpec", "fit_task", "load_campaign", "plan", "prepare_task", "read_fits",
-           "read_recording_spec", "run_campaign", "summary_table"]
+__all__ = ["FORMAT_HELP", "OPERATING_RIG_PARAMETERS", "CampaignError", "CampaignResult", "CampaignSpec", "FitJob",
+           "FitOutcome", "PrepareJob", "PrepareOutcome", "RecordingSpec", "RigHeader", "fit_task", "load_campaign",
+           "plan", "prepare_task", "read_fits", "read_recording_spec", "read_rig_header", "rig_groups",
+           "run_campaign", "summary_table"]
 
 #: Recording files a campaign folder is scanned for.
 RECORDING_SUFFIXES = (".h5", ".hdf5", ".csv")
@@ -120,8 +126,12 @@ The campaign file (TOML; paths relative to its folder):
     name = "op02-a"          # optional (default: the file name without suffix)
 
 A folder instead of a campaign file: every recording in it (*.h5, *.hdf5, *.csv; not in
-sub-folders) is fitted alone, and all of them jointly (group "all", when there are two or more;
-recordings of different rigs make that joint fit fail with the reason, the others stand).
+sub-folders) is fitted alone, and the recordings of each rig jointly: those whose files name the
+same rig model and parameters (but the eccentricity e), two or more to a group (group "all" when
+that is every recording, else the model's name, e.g. "pivoted-follower"). A group that names one
+recording twice (one file, or two files of identical content), or recordings of different rigs,
+is a failed joint fit with the reason, as is a recording whose rig cannot be fitted; the others
+stand, and these failures cost no preparation.
 """
 
 
@@ -334,9 +344,148 @@ def _from_folder(folder: Path) -> CampaignSpec:
     files = sorted(p for p in folder.iterdir() if p.suffix.lower() in RECORDING_SUFFIXES and p.is_file())
     if not files:
         raise CampaignError(f"{folder}: no recording (*.h5, *.hdf5, *.csv) in this folder")
-    group = "all" if len(files) > 1 else None
-    return CampaignSpec(name=folder.name, recordings=tuple(RecordingSpec(name=p.stem, path=p, group=group)
-                                                           for p in files), source=folder)
+    recordings = [RecordingSpec(name=p.stem, path=p) for p in files]
+    groups = rig_groups(recordings)
+    member_of = {name: group for group, names in groups.items() for name in names}
+    return CampaignSpec(name=folder.name, recordings=tuple(replace(r, group=member_of.get(r.name))
+                                                           for r in recordings), source=folder)
+
+
+def rig_groups(recordings: Sequence[RecordingSpec]) -> dict[str, tuple[str, ...]]:
+    """The joint groups of a folder's recordings: those of one rig, two or more to a group.
+
+    Recordings are of one rig when their files' headers (:func:`read_rig_header`) name the same
+    model and the same parameters but the operating point's (:data:`OPERATING_RIG_PARAMETERS`), the
+    condition of a joint fit. A recording whose header cannot be read, or whose rig impactid cannot
+    fit, is in no group (its own fit says why), nor is the only recording of its rig.
+
+    Returns
+    -------
+    dict
+        recording names by group name, in the order of ``recordings``: ``"all"`` when every
+        recording is in the one group, else the rig model's name (``"pivoted-follower"``, with
+        ``-1``, ``-2``, ... when recordings of one model differ in their parameters).
+    """
+    by_rig: dict[RigHeader, list[str]] = {}
+    for r in recordings:
+        header = read_rig_header(r)
+        if header is not None and header.estimable:
+            by_rig.setdefault(header, []).append(r.name)
+    joint = {header: names for header, names in by_rig.items() if len(names) > 1}
+    if len(joint) == 1 and len(next(iter(joint.values()))) == len(recordings):
+        return {"all": tuple(next(iter(joint.values())))}
+    per_model: dict[str, int] = {}
+    for header in joint:
+        per_model[header.model] = per_model.get(header.model, 0) + 1
+    groups: dict[str, tuple[str, ...]] = {}
+    seen: dict[str, int] = {}
+    for header, names in joint.items():
+        seen[header.model] = seen.get(header.model, 0) + 1
+        name = header.model if per_model[header.model] == 1 else f"{header.model}-{seen[header.model]}"
+        groups[name] = tuple(names)
+    return groups
+
+
+# ---- the rig of a recording, from its header -----------------------------------------------------
+
+#: Rig parameters that may differ between the recordings of one joint fit: the operating point's
+#: eccentricity ``e`` (rig P). Every other parameter (the contact pair, the follower) must be equal,
+#: as :meth:`impactid.pipeline.Pipeline.fit` requires
+#: (:attr:`impactid.reconstruct.Reconstruction.fixed_parameters`).
+OPERATING_RIG_PARAMETERS = ("e",)
+
+
+@dataclass(frozen=True)
+class RigHeader:
+    """The rig of a recording as its file's header states it (no sample is read).
+
+    Attributes
+    ----------
+    model : the rig model's name (docs/formats.md), e.g. ``"pivoted-follower"``.
+    fixed : ``(name, value)`` of every rig parameter but :data:`OPERATING_RIG_PARAMETERS`, sorted by
+        name [SI units]: recordings of one joint fit share them.
+    estimable : whether impactid estimates a contact law from recordings of this rig model.
+    """
+
+    model: str
+    fixed: tuple[tuple[str, float], ...]
+    estimable: bool
+
+    def differences(self, other: RigHeader) -> str:
+        """How ``other`` differs from this rig, in a few words ("" when it does not)."""
+        if self.model != other.model:
+            return f"model {self.model} against {other.model}"
+        mine, theirs = dict(self.fixed), dict(other.fixed)
+        names = [k for k in sorted(set(mine) | set(theirs)) if mine.get(k) != theirs.get(k)]
+        return f"rig parameter(s) {', '.join(names)}" if names else ""
+
+
+def read_rig_header(spec: RecordingSpec) -> RigHeader | None:
+    """The rig of a campaign's recording, from the header of its file (HDF5: the ``/rig`` group's
+    attributes) or from its rig file (``spec.rig``; a CSV's sibling TOML file), reading no sample.
+
+    The rig is the one the recording's reader (:func:`impactid.io.read_recording`) would give it; the
+    overrides of the operating point change only :data:`OPERATING_RIG_PARAMETERS`.
+
+    Returns
+    -------
+    RigHeader or None
+        None when the header cannot be read (a missing or damaged file, no rig): the recording's own
+        tasks then say why.
+    """
+    from impactid.rigs import load_rig_toml, rig_from_mapping
+    from impactid.rigs.registry import rig_model
+
+    try:
+        if spec.rig is not None:
+            rig, _ = load_rig_toml(spec.rig)
+        else:
+            with spec.path.open("rb") as fh:
+                signature = fh.read(len(_HDF5_SIGNATURE))
+            if signature == _HDF5_SIGNATURE or spec.path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
+                rig = rig_from_mapping(_hdf5_rig_attributes(spec.path), source=f"{spec.path} /rig")
+            elif spec.path.suffix.lower() in (".csv", ".txt"):
+                rig, _ = load_rig_toml(spec.path.with_suffix(".toml"))
+            else:
+                return None
+        parameters = rig.to_dict()
+        model = rig_model(rig.model)
+    except Exception:  # noqa: BLE001 - no header, no judgement: the reader names the problem
+        return None
+    fixed = tuple(sorted((k, float(v)) for k, v in parameters.items() if k not in OPERATING_RIG_PARAMETERS))
+    return RigHeader(model=model.name, fixed=fixed, estimable=_estimable(model))
+
+
+_HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+
+
+def _hdf5_rig_attributes(path: Path) -> dict[str, Any]:
+    """The attributes of an HDF5 recording's ``/rig`` group (``model`` a string, the others numbers)."""
+    import h5py
+    import numpy as np
+
+    with h5py.File(path, "r") as fh:
+        group = fh.get("rig")
+        if not isinstance(group, h5py.Group):
+            raise CampaignError(f"{path}: no /rig group")
+        values: dict[str, Any] = {}
+        for key, value in group.attrs.items():
+            if key == "model":
+                text = value[()] if isinstance(value, np.ndarray) else value
+                values[key] = text.decode("utf-8", errors="replace") if isinstance(text, bytes) else str(text)
+            else:
+                values[key] = float(np.asarray(value).reshape(()))
+    return values
+
+
+def _not_estimable(spec: RecordingSpec, header: RigHeader) -> str:
+    """Why a recording of this rig cannot be fitted (the reason :mod:`impactid.pipeline` gives)."""
+    from impactid.pipeline import ESTIMATED_LAW
+    from impactid.rigs.registry import MODELS
+
+    able = " or ".join(repr(m.name) for m in MODELS.values() if _estimable(m))
+    return (f"{spec.path}: needs a {able} rig (per-impact kinematics for a {ESTIMATED_LAW} law), the recording's rig "
+            f"is {header.model!r}")
 
 
 # ---- content hashes ---------------------------------------------------------------------------------
@@ -460,6 +609,8 @@ class FitJob:
     pipeline : the options of the fit.
     campaign : the campaign's name.
     digests : per recording, the SHA-256 of its files (recorded in the result).
+    refused : why the fit cannot be done, known before any task runs (a group that names one
+        recording twice, recordings of different rigs), or "".
     """
 
     key: str
@@ -469,6 +620,7 @@ class FitJob:
     pipeline: Pipeline
     campaign: str = ""
     digests: tuple[tuple[str, ...], ...] = ()
+    refused: str = ""
 
 
 @dataclass(frozen=True)
@@ -563,6 +715,8 @@ def fit_task(job: FitJob, *prepared: PrepareOutcome) -> FitOutcome:
     Never raises for a fit that cannot be done: the outcome's record carries the reason.
     """
     t0 = time.perf_counter()
+    if job.refused:
+        return FitOutcome(job.key, _record(job, "failed", job.refused, 0.0, None))
     bad = [p for p in prepared if p.prepared is None]
     if bad:
         reason = "; ".join(f"recording {p.name} could not be prepared: {p.error}" for p in bad)
@@ -592,9 +746,10 @@ class CampaignResult:
     ----------
     out : the output folder.
     table : the summary (one row per fit; :func:`summary_table`).
-    ran : fits run now.
+    ran : fits run now that ended in an estimate.
     skipped : fits finished in an earlier run (not run again).
-    failed : fits without an estimate (run now or earlier).
+    failed : fits without an estimate: run now and failed, or refused without a task. Each fit is
+        counted once: ``ran + skipped + failed`` is the number of fits (:attr:`fits`).
     prepared : recordings prepared now (read, segmented, reconstructed); ``cached``: loaded from the cache.
     cached : prepared products loaded from the cache.
     seconds : wall time [s].
@@ -618,6 +773,11 @@ class CampaignResult:
         """Whether every fit ended in an estimate."""
         return self.failed == 0
 
+    @property
+    def fits(self) -> int:
+        """The number of fits of the campaign (rows of the table)."""
+        return len(self.table)
+
     def failures(self) -> list[tuple[str, str, str]]:
         """``(kind, name, reason)`` of every failed fit."""
         bad = self.table[self.table["status"] != "ok"]
@@ -628,52 +788,97 @@ def plan(spec: CampaignSpec, out: Path, digests: Callable[[Path], str]) -> tuple
         dict[str, PrepareJob], dict[str, PrepareOutcome], list[tuple[FitJob, list[str]]]]:
     """The campaign's tasks.
 
+    What can be known of a recording without preparing it is decided here, from its files' digests
+    and headers (:func:`read_rig_header`): a recording whose files cannot be read, or whose rig
+    impactid cannot fit, has a failed outcome and no task; a group that names one recording twice
+    (one file, or two files of identical content) or recordings of different rigs is a refused fit
+    (:attr:`FitJob.refused`) that needs no task.
+
     Returns
     -------
     prepares : the prepare jobs by key.
-    unreadable : by key, the failed outcome of each recording whose files cannot be hashed (missing,
-        unreadable: no task is run for it).
-    fits : the fit jobs, each with the keys of the prepare jobs it needs.
+    unpreparable : by key, the failed outcome of each recording that cannot be prepared, known
+        without a task (files missing or unreadable, a rig impactid cannot fit).
+    fits : the fit jobs, each with the keys of the prepare jobs it needs (none for a refused fit).
     """
     prepares: dict[str, PrepareJob] = {}
-    unreadable: dict[str, PrepareOutcome] = {}
+    unpreparable: dict[str, PrepareOutcome] = {}
     file_digests: dict[str, tuple[str, ...]] = {}
     reasons: dict[str, str] = {}
+    headers: dict[str, RigHeader | None] = {}
     for r in spec.recordings:
         try:
             file_digests[r.name] = tuple(digests(p) for p in r.inputs())
         except CampaignError as exc:
             reasons[r.name] = _reason(exc)
+            continue
+        headers[r.name] = header = read_rig_header(r)
+        if header is not None and not header.estimable:
+            reasons[r.name] = _not_estimable(r, header)
 
     def prepare_key(r: RecordingSpec, pipeline: Pipeline) -> str:
         opts = {k: getattr(pipeline, k) for k in _PREPARE_OPTIONS}
-        if r.name in reasons:
+        if r.name not in file_digests:
             key = _key({"task": "prepare", "unreadable": str(r.path), **opts})
-            unreadable[key] = PrepareOutcome(key, r.name, None, error=reasons[r.name])
-            return key
-        key = _key({"task": "prepare", "files": file_digests[r.name], "overrides": r.overrides(), **opts})
-        prepares.setdefault(key, PrepareJob(key, r, pipeline.integration, pipeline.anchor,
-                                            cache=out / "prepared" / f"{key}.pkl"))
+        else:
+            key = _key({"task": "prepare", "files": file_digests[r.name], "overrides": r.overrides(), **opts})
+        if r.name in reasons:
+            unpreparable[key] = PrepareOutcome(key, r.name, None, error=reasons[r.name])
+        else:
+            prepares.setdefault(key, PrepareJob(key, r, pipeline.integration, pipeline.anchor,
+                                                cache=out / "prepared" / f"{key}.pkl"))
         return key
 
     fits: list[tuple[FitJob, list[str]]] = []
 
-    def add(kind: str, name: str, members: Sequence[RecordingSpec], pipeline: Pipeline) -> None:
+    def add(kind: str, name: str, members: Sequence[RecordingSpec], pipeline: Pipeline, refused: str = "") -> None:
         keys = [prepare_key(r, pipeline) for r in members]
         # the names are part of a fit's key (two recordings of equal content are still two rows); the
         # paths are not (a campaign folder that moves keeps its finished fits)
         key = _key({"task": kind, "name": name, "recordings": [r.name for r in members], "prepared": keys,
                     "options": pipeline.to_dict()})
         job = FitJob(key, kind, name, tuple(members), pipeline, spec.name,
-                     tuple(file_digests.get(r.name, ()) for r in members))
-        fits.append((job, keys))
+                     tuple(file_digests.get(r.name, ()) for r in members), refused=refused)
+        fits.append((job, [] if refused else keys))
 
     if spec.single is not None:
         for r in spec.recordings:
             add("single", r.name, [r], spec.single)
     for group, members in spec.groups().items():
-        add("joint", group, members, spec.joint)
-    return prepares, unreadable, fits
+        add("joint", group, members, spec.joint, refused=_refused_group(group, members, file_digests, headers))
+    return prepares, unpreparable, fits
+
+
+def _refused_group(group: str, members: Sequence[RecordingSpec], file_digests: dict[str, tuple[str, ...]],
+                   headers: dict[str, RigHeader | None]) -> str:
+    """Why a group cannot be fitted jointly, known before anything is prepared ("" when it may be).
+
+    * one recording named twice: the same file (resolved path or inode) or two files of identical
+      content (their SHA-256, cached: the rule of :func:`impactid._files.check_distinct_inputs`
+      without reading the files again) would count its impacts twice;
+    * recordings of different rigs (their headers differ in the model or in a parameter other
+      than :data:`OPERATING_RIG_PARAMETERS`).
+    """
+    for k, second in enumerate(members):
+        for first in members[:k]:
+            digest = file_digests.get(first.name, ("",))[0]
+            if same_file(first.path, second.path):
+                how = "one file"
+            elif digest and digest == file_digests.get(second.name, ("",))[0]:
+                how = f"identical contents, SHA-256 {digest[:12]}"
+            else:
+                continue
+            return (f"group {group!r} names one recording twice: {first.name} ({first.path}) and {second.name} "
+                    f"({second.path}) are the same ({how}); each recording may be in a group once, or its "
+                    "impacts would count twice")
+    known = [(r, headers[r.name]) for r in members if headers.get(r.name) is not None]
+    for r, header in known[1:]:
+        first, first_header = known[0]
+        differ = first_header.differences(header)
+        if differ:
+            return (f"group {group!r}: a joint fit needs recordings of one rig (the same model, and the same "
+                    f"parameters but the eccentricity e); {first.name} and {r.name} differ ({differ})")
+    return ""
 
 
 def _finished(path: Path, key: str) -> dict | None:
@@ -697,7 +902,8 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
     client : a :class:`distributed.Client` to run the tasks on; None: ``cluster``, else serially here.
     cluster : without ``client``: a callable returning a context manager that yields a client
         (e.g. ``lambda: impactid.distributed.connect(workers=2)``), entered only when there is work
-        to do (a rerun with every fit finished starts no cluster).
+        to do (a rerun with every fit finished, or failing for a reason known without a task,
+        starts no cluster).
     fresh : ignore the finished fits and cached products (run everything again).
     progress : show a progress bar on stderr (None: when stderr is a terminal).
     log : receives one line per notable step (where the tasks run, failures as they happen).
@@ -724,20 +930,28 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
     if unhashed:
         size = sum(p.stat().st_size for p in unhashed)
         say(f"hashing {len(unhashed)} input file(s), {size / 1e9:.3g} GB (once: the digests are cached in {out})")
-    prepares, unreadable, fits = plan(spec, out, digests)
+    prepares, unpreparable, fits = plan(spec, out, digests)
     digests.save()
-    rows: dict[str, dict] = {}  # the summary row of every finished fit (the results stay on disk)
-    todo: list[tuple[FitJob, list[str]]] = []
+    rows: dict[str, dict] = {}  # the summary row of every fit (the results stay on disk)
+    todo: list[tuple[FitJob, list[str]]] = []  # the fits that need tasks
+    known: list[FitOutcome] = []  # the fits that fail without a task (their reason known now)
     for job, keys in fits:
+        bad = [unpreparable[k] for k in keys if k in unpreparable]
+        if job.refused or bad:
+            known.append(fit_task(job, *bad))  # at once: a refused fit, or one naming its unpreparable recordings
+            continue
         done = None if fresh else _finished(out / "fits" / f"{job.key}.json", job.key)
         if done is not None:
             rows[job.key] = _row(done)
         else:
             todo.append((job, keys))
-    skipped = len(fits) - len(todo)
-    needed = {k for _, keys in todo for k in keys if k in prepares}
+    skipped = len(rows)
+    for outcome in known:
+        atomic_write(out / "fits" / f"{outcome.key}.json", json_text(outcome.record))
+        rows[outcome.key] = _row(outcome.record)
+        say(f"{outcome.record['kind']} fit {outcome.record['name']} failed: {outcome.record['reason']}")
+    needed = {k for _, keys in todo for k in keys}
     jobs = [replace(prepares[k], cache=None) if fresh else prepares[k] for k in prepares if k in needed]
-    missing_outcomes = {k: v for k, v in unreadable.items() if any(k in keys for _, keys in todo)}
     counts = {"prepared": 0, "cached": 0, "ran": 0}
     where = "nothing to run"
     if todo:
@@ -763,7 +977,7 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
         def on_fit(outcome: FitOutcome) -> None:
             atomic_write(out / "fits" / f"{outcome.key}.json", json_text(outcome.record))
             rows[outcome.key] = _row(outcome.record)
-            counts["ran"] += 1
+            counts["ran"] += outcome.ok
             bar.update(1)
             if not outcome.ok:
                 say(f"{outcome.record['kind']} fit {outcome.record['name']} failed: {outcome.record['reason']}")
@@ -775,16 +989,16 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
             if client is not None:
                 where = _describe(client)
                 say(f"running {len(jobs)} prepare and {len(todo)} fit tasks on {where}")
-                _run_on(client, jobs, todo, missing_outcomes, on_prepare, on_fit)
+                _run_on(client, jobs, todo, on_prepare, on_fit)
             elif cluster is not None:
                 with cluster() as started:
                     where = _describe(started)
                     say(f"running {len(jobs)} prepare and {len(todo)} fit tasks on {where}")
-                    _run_on(started, jobs, todo, missing_outcomes, on_prepare, on_fit)
+                    _run_on(started, jobs, todo, on_prepare, on_fit)
             else:
                 where = "serial"
                 say(f"running {len(jobs)} prepare and {len(todo)} fit tasks serially in this process")
-                _run_serial(jobs, todo, missing_outcomes, on_prepare, on_fit)
+                _run_serial(jobs, todo, on_prepare, on_fit)
     table = _frame([rows[job.key] for job, _ in fits if job.key in rows])
     with StagedFiles(protect=spec.inputs()) as staged:
         parquet = staged.write_with(out / f"{TABLE_NAME}.parquet", lambda tmp: table.to_parquet(tmp, index=False))
@@ -806,10 +1020,9 @@ def _describe(client: Any) -> str:
         return "a dask cluster"
 
 
-def _run_serial(jobs: list[PrepareJob], todo: list[tuple[FitJob, list[str]]],
-                missing_outcomes: dict[str, PrepareOutcome], on_prepare, on_fit) -> None:
+def _run_serial(jobs: list[PrepareJob], todo: list[tuple[FitJob, list[str]]], on_prepare, on_fit) -> None:
     """Serially: each recording's preparation, then the fits as soon as their recordings are prepared."""
-    outcomes: dict[str, PrepareOutcome] = dict(missing_outcomes)
+    outcomes: dict[str, PrepareOutcome] = {}
     pending = list(todo)
     for job in jobs:
         outcome = prepare_task(job)
@@ -819,12 +1032,11 @@ def _run_serial(jobs: list[PrepareJob], todo: list[tuple[FitJob, list[str]]],
         for fit, keys in ready:
             on_fit(fit_task(fit, *[outcomes[k] for k in keys]))
         pending = [p for p in pending if p not in ready]
-    for fit, keys in pending:  # every preparation known already (e.g. unreadable files only)
+    for fit, keys in pending:  # a fit that needs no preparation
         on_fit(fit_task(fit, *[outcomes[k] for k in keys]))
 
 
-def _run_on(client: Any, jobs: list[PrepareJob], todo: list[tuple[FitJob, list[str]]],
-            missing_outcomes: dict[str, PrepareOutcome], on_prepare, on_fit) -> None:
+def _run_on(client: Any, jobs: list[PrepareJob], todo: list[tuple[FitJob, list[str]]], on_prepare, on_fit) -> None:
     """On a dask cluster: the prepare futures feed the fit futures; results are handled as they arrive."""
     from distributed import Future, as_completed
 
@@ -834,8 +1046,6 @@ def _run_on(client: Any, jobs: list[PrepareJob], todo: list[tuple[FitJob, list[s
         future = client.submit(prepare_task, job, key=f"prepare-{job.recording.name}-{job.key[:16]}", pure=False)
         futures[job.key] = future
         kinds[future.key] = ("prepare", job)
-    for outcome in missing_outcomes.values():
-        futures[outcome.key] = outcome  # a plain value: the fit task receives it as it is
     fit_futures = []
     for fit, keys in todo:
         future = client.submit(fit_task, fit, *[futures[k] for k in keys],

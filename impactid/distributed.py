@@ -19,6 +19,12 @@ in order, as before.
 naming what to install when it is missing, and nothing here imports dask unless a cluster is asked
 for, so the serial path works without it.
 
+A Ctrl-C reaches every process of the terminal's foreground process group, the local cluster's
+workers included: they start with SIGINT blocked and ignore it (:func:`_cluster_start`), so that only
+this process acts on it, closing the cluster (a Ctrl-C while the cluster starts takes effect once
+it has started); the workers' log lines while they close are not shown. The command then ends in
+its one line ``impactid: error: interrupted ...``.
+
 Worker processes of the local cluster run with ``NUMBA_NUM_THREADS=1``: each worker is one core,
 and numba's parallel kernels inside it would otherwise start one thread per core in every
 worker. An existing cluster is left as it was started (give its workers that variable yourself:
@@ -36,7 +42,10 @@ import contextlib
 import importlib.util
 import logging
 import os
+import signal
 import sys
+import threading
+import weakref
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any
 
@@ -130,29 +139,156 @@ def connect(address: str | None = None, workers: int | None = None, *, what: str
     # (numba refuses to compile once its threads run if NUMBA_NUM_THREADS has changed since)
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ", {}), **WORKER_ENV}
     saved = {key: os.environ.get(key) for key in environ}
+    # each worker runs this module's dask_setup as it starts (after any preloads of the user's config)
+    configured = dask.config.get("distributed.worker.preload", None) or []
+    preload = [*([configured] if isinstance(configured, str) else configured), __name__]
+    started: list[Any] = []  # the cluster, once it exists: closed below whatever happens after
     try:
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-            # no dashboard; the scheduler's small HTTP server (health checks) on a free port, not on 8787
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   scheduler_kwargs={"dashboard_address": ":0"}, memory_limit=memory_limit)
-    finally:
-        _restore_environ(saved)
-    try:
-        client = Client(cluster)
+        with _cluster_start() as deferred:
+            try:
+                with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+                    # no dashboard; the scheduler's small HTTP server (health checks) on a free port, not 8787
+                    started.append(LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                                dashboard_address=None, scheduler_kwargs={"dashboard_address": ":0"},
+                                                memory_limit=memory_limit, preload=preload))
+            finally:
+                _restore_environ(saved)
+        deferred.deliver()  # a Ctrl-C or SIGTERM while the cluster started: raised now, the cluster closed below
+        client = Client(started[0])
         try:
             yield client
         finally:
-            client.close()
+            with _quiet_shutdown():
+                client.close()
     finally:
-        # a worker busy with a cancelled task is killed after a few seconds: not worth a warning
-        nanny = logging.getLogger("distributed.nanny")
-        level = nanny.level
-        nanny.setLevel(logging.ERROR)
         try:
-            cluster.close()
+            if started:
+                with _quiet_shutdown():
+                    started[0].close()
         finally:
-            nanny.setLevel(level)
             _restore_environ(saved)  # a nanny that restarted a dead worker set them again
+
+
+#: Signals the worker processes of a local cluster never act on: a Ctrl-C at the terminal goes to
+#: the whole foreground process group, workers included, and would stop each of them with a
+#: ``KeyboardInterrupt`` traceback of its own while this process closes the cluster. (SIGTERM is
+#: left to them: dask's nanny stops a worker that fails to start with it.)
+WORKER_IGNORED_SIGNALS = (signal.SIGINT,)
+#: Signals whose Python handlers this process runs only once a starting local cluster is in hand.
+DEFERRED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class _DeferredSignals:
+    """The signals received while a local cluster started (:func:`_cluster_start`), and their handlers."""
+
+    def __init__(self) -> None:
+        self.received: list[int] = []
+        self.handlers: dict[int, Callable] = {}
+
+    def record(self, signum: int, frame: Any) -> None:
+        self.received.append(signum)
+
+    def deliver(self) -> None:
+        """Run the handler of each signal received (a Ctrl-C raises :class:`KeyboardInterrupt` here)."""
+        for signum in dict.fromkeys(self.received):
+            self.handlers[signum](signum, None)
+
+
+@contextlib.contextmanager
+def _cluster_start() -> Iterator[_DeferredSignals]:
+    """Start a local cluster inside this block: its worker processes never see Ctrl-C.
+
+    A worker process must not act on the Ctrl-C that the terminal sends to the whole process group:
+    this process shuts the workers down (closing the cluster), and a worker whose parent is gone
+    leaves by itself (dask watches the parent). Two layers keep SIGINT from the workers:
+
+    * **blocked from the start.** The calling thread blocks :data:`WORKER_IGNORED_SIGNALS` for the
+      duration of the block. The cluster's event-loop thread is created here, and from it the
+      threads that spawn (and later respawn) the worker processes; a thread inherits the signal mask
+      of the thread that creates it, and a process that of the thread that forks it, across
+      ``exec``. So a worker starts with SIGINT blocked, before its interpreter has imported anything
+      (the start of a worker takes seconds). Python's multiprocessing unblocks SIGINT in the thread
+      that first starts its resource tracker: it is started here, before blocking.
+    * **ignored once running.** Each worker runs :func:`dask_setup` as it starts (a preload), which
+      sets SIGINT to be ignored, whatever unblocks it later.
+
+    In the main thread, a Ctrl-C or SIGTERM during the block is recorded instead of being raised in
+    the middle of the cluster's start (which would leave a half-started cluster behind, with no
+    handle to close it); the caller calls :meth:`_DeferredSignals.deliver` once it holds the cluster
+    and can close it. The start of a cluster takes seconds: the wait of that Ctrl-C.
+    """
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    deferred = _DeferredSignals()
+    if threading.current_thread() is threading.main_thread():
+        for signum in DEFERRED_SIGNALS:
+            handler = signal.getsignal(signum)
+            if callable(handler):
+                deferred.handlers[signum] = handler
+                signal.signal(signum, deferred.record)
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, WORKER_IGNORED_SIGNALS)
+    try:
+        yield deferred
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a pending Ctrl-C arrives now
+        for signum, handler in deferred.handlers.items():
+            signal.signal(signum, handler)
+
+
+def dask_setup(worker: Any) -> None:
+    """Set up a worker process of a local cluster of :func:`connect` (dask's preload hook).
+
+    The worker ignores SIGINT (:func:`_cluster_start`), and what it logs while it closes is
+    not shown: when a campaign is interrupted, its tasks are cancelled and the cluster closed under
+    busy workers, which report the cancelled tasks and the scheduler gone before them, none of it
+    news to the user. What a running worker logs (memory pressure, a lost connection) still shows.
+
+    Parameters
+    ----------
+    worker : the :class:`distributed.Worker` being started.
+    """
+    if threading.current_thread() is threading.main_thread():
+        for signum in WORKER_IGNORED_SIGNALS:
+            signal.signal(signum, signal.SIG_IGN)
+    quiet = _WhileClosing(worker)
+    for handler in logging.getLogger("distributed").handlers:  # the one printing to stderr
+        handler.addFilter(quiet)
+
+
+class _WhileClosing(logging.Filter):
+    """A logging filter that drops every record while its worker closes (or once it has closed)."""
+
+    CLOSING = frozenset({"closing", "closing_gracefully", "closed"})
+
+    def __init__(self, worker: Any):
+        super().__init__()
+        self._worker = weakref.ref(worker)
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        worker = self._worker()
+        status = getattr(getattr(worker, "status", None), "name", None)
+        return worker is not None and status not in self.CLOSING
+
+
+#: Loggers of this process quietened while a local cluster shuts down: a worker busy with a
+#: cancelled task is killed after a few seconds, and tasks cancelled on a Ctrl-C are reported as
+#: lost or not found; none of it is worth a line on the user's terminal.
+SHUTDOWN_LOGGERS = ("distributed.nanny", "distributed.scheduler", "distributed.core", "distributed.client")
+
+
+@contextlib.contextmanager
+def _quiet_shutdown() -> Iterator[None]:
+    """Raise :data:`SHUTDOWN_LOGGERS` to ERROR for the block (their errors still show)."""
+    loggers = [logging.getLogger(name) for name in SHUTDOWN_LOGGERS]
+    levels = [logger.level for logger in loggers]
+    for logger in loggers:
+        logger.setLevel(max(logger.getEffectiveLevel(), logging.ERROR))
+    try:
+        yield
+    finally:
+        for logger, level in zip(loggers, levels):
+            logger.setLevel(level)
 
 
 def _restore_environ(saved: dict[str, str | None]) -> None:

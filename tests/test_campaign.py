@@ -134,7 +134,8 @@ def test_every_fit_is_a_row_and_the_corrupt_file_a_failure(first_run):
     assert list(zip(table["kind"], table["name"])) == [("single", "a"), ("single", "b"), ("single", "bad"),
                                                        ("joint", "g")]
     assert list(table["status"]) == ["ok", "ok", "failed", "ok"]
-    assert (result.ran, result.skipped, result.failed, result.prepared, result.cached) == (4, 0, 1, 2, 0)
+    assert (result.ran, result.skipped, result.failed, result.prepared, result.cached) == (3, 0, 1, 2, 0)
+    assert result.ran + result.skipped + result.failed == result.fits == 4  # each fit counted once
     assert not result.ok and result.where == "serial"
     reason = table.loc[2, "reason"]
     assert "recording bad could not be prepared" in reason and "bad.h5" in reason and "\n" not in reason
@@ -180,7 +181,7 @@ def test_rerun_skips_finished_fits_and_reruns_failed_ones(first_run):
     before = {p.name: p.stat().st_mtime_ns for p in (spec.out / "fits").glob("*.json")}
     lines: list[str] = []
     again = run_campaign(spec, spec.out, log=lines.append)
-    assert (again.ran, again.skipped, again.failed, again.prepared, again.cached) == (1, 3, 1, 0, 0)
+    assert (again.ran, again.skipped, again.failed, again.prepared, again.cached) == (0, 3, 1, 0, 0)
     assert lines[0].startswith("running 1 prepare and 1 fit tasks")  # the corrupt file's, again
     ok = first.table[first.table["status"] == "ok"]
     for key in ok["key"]:
@@ -205,8 +206,10 @@ def test_a_missing_fit_is_made_from_the_cached_products(tmp_path, recordings):
     assert run_campaign(spec2, spec2.out).skipped == 3
     shutil.copy(recordings["b"], tmp_path / "a.h5")  # now a holds b's content: b's product serves it
     changed = run_campaign(spec2, spec2.out)
-    assert (changed.ran, changed.skipped, changed.prepared, changed.cached) == (2, 1, 0, 1)
+    assert (changed.ran, changed.skipped, changed.failed, changed.prepared, changed.cached) == (1, 1, 1, 0, 1)
     assert changed.table.loc[0, "beta"] == changed.table.loc[1, "beta"] != third.table.loc[0, "beta"]
+    # ... and group g now holds one recording twice: refused, without a task
+    assert "group 'g' names one recording twice" in changed.table.loc[2, "reason"]
 
 
 def test_outputs_are_atomic_and_follow_the_umask(tmp_path, recordings, monkeypatch):
@@ -239,11 +242,11 @@ def test_command_serial_reports_and_exits_1_with_a_failed_fit(tmp_path, recordin
     path = _campaign(tmp_path, recordings, names=("a", "bad"), group=())
     assert main(["campaign", str(path), "--serial", "--no-progress"]) == 1
     out = capsys.readouterr().out
-    assert "2 fits: 2 done, 0 skipped (finished earlier), 1 failed" in out
+    assert "2 fits: 1 done, 0 skipped (finished earlier), 1 failed" in out
     assert "failed: single fit bad: recording bad could not be prepared" in out
     assert main(["campaign", str(path), "--workers", "0", "--json"]) == 1
     data = json.loads(capsys.readouterr().out)
-    assert (data["ran"], data["skipped"], data["failed"]) == (1, 1, 1)
+    assert (data["ran"], data["skipped"], data["failed"]) == (0, 1, 1)
     # the corrupt file removed from the campaign: every fit succeeds, nothing runs again
     path.write_text(path.read_text().split("[[recording]]\npath = \"bad.h5\"")[0])
     assert main(["campaign", str(path), "--serial", "--out", str(tmp_path / "out")]) == 0

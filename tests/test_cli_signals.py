@@ -1,0 +1,38 @@
+"""Ctrl-C and SIGTERM at any moment of a command's life, including while Python is still importing
+its modules: one line ``impactid: error: ...``, exit 130 or 143, no traceback."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+LAUNCH = [sys.executable, "-c", "import sys; from impactid._launcher import main; sys.exit(main())"]
+
+
+def _run_and_signal(args, sig, delay):
+    proc = subprocess.Popen([*LAUNCH, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    time.sleep(delay)
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=120)
+    return proc.returncode, out, err
+
+
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+@pytest.mark.parametrize("delay", [0.15, 0.4, 0.8, 1.5])
+def test_a_signal_while_starting_ends_in_one_line(sig, code, word, delay, tmp_path):
+    # a 5 s synthetic recording takes longer than the latest signal: the signal lands while Python imports
+    # the modules, while the parser is built, or while the command runs, and each ends in the one line
+    returncode, out, err = _run_and_signal(["synth", "--e-over-rc", "0.2", "--cam-speed", "16", "--duration", "5",
+                                            "--out", str(tmp_path / "s.h5")], sig, delay)
+    assert "Traceback" not in err, err
+    assert returncode == code, (returncode, err)
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert lines and lines[-1].startswith(f"impactid: error: {word}"), err
+    assert sum(line.startswith("impactid: error:") for line in lines) == 1, err
+    assert not list(tmp_path.iterdir())  # no partial output

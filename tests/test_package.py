@@ -1,0 +1,38 @@
+"""The package face: ``import impactid`` is light, and every public name resolves to the same object."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import impactid
+
+
+def test_import_loads_no_numerics():
+    code = ("import sys, impactid; heavy = [m for m in ('numba', 'scipy', 'pandas', 'matplotlib', 'h5py') "
+            "if m in sys.modules]; print(','.join(heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == ""
+
+
+def test_public_names_resolve_to_their_modules_objects():
+    import importlib
+
+    for name, module in impactid._PUBLIC.items():
+        assert getattr(impactid, name) is getattr(importlib.import_module(module), name), name
+    assert set(impactid.__all__) - {"__version__"} == set(impactid._PUBLIC)
+
+
+def test_functions_named_like_submodules_stay_functions():
+    import impactid.reconstruct  # noqa: F401 - the submodules, imported before the names are read
+    import impactid.simulate.runs  # noqa: F401
+    from impactid import reconstruct, simulate
+
+    assert callable(impactid.simulate) and impactid.simulate is simulate and simulate.__module__.endswith("runs")
+    assert callable(impactid.reconstruct) and impactid.reconstruct is reconstruct
+
+
+def test_the_command_line_imports_in_a_fresh_process():
+    # module import order is no longer fixed by the package face: the command line must import alone
+    subprocess.run([sys.executable, "-c", "import impactid.cli"], check=True)
+    subprocess.run([sys.executable, "-c", "import impactid.io"], check=True)
