@@ -112,7 +112,7 @@ def check_distinct_inputs(paths: Iterable[str | os.PathLike[str]], *, what: str 
         if raw is None:
             continue
         path = Path(raw)
-        for earlier, digest in seen:
+        for earlier, _ in seen:
             if same_file(earlier, path):
                 raise DuplicateInputError(f"{path}: the same {what} as {earlier} (given twice); each {what} "
                                           "may be given once, or its impacts would count twice")

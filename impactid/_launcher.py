@@ -56,6 +56,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if in_main:
             signal.signal(signal.SIGTERM, previous)
+            if argv is None:
+                # the console script owns this process and the command has ended (its outputs are
+                # complete or rolled back): a Ctrl-C while the interpreter shuts down (about a second
+                # with dask or numba loaded) has nothing left to stop and would only kill it silently
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 if __name__ == "__main__":  # pragma: no cover

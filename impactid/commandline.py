@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from impactid._files import StagedFiles, check_output
+from impactid._files import StagedFiles, check_distinct_inputs, check_output
 from impactid.errors import ImpactidError
 from impactid.rigs.base import Argument
 
@@ -224,7 +224,16 @@ def check_outputs(args, inputs: Sequence, *, out: str = "out", out_is_dir: bool 
 
 
 def recording_paths(args, several: bool = False) -> list:
-    """The recordings of a command: its positional ``recording`` (or ``recordings``) and ``--example``."""
+    """The recordings of a command: its positional ``recording`` (or ``recordings``) and ``--example``.
+
+    Raises
+    ------
+    DuplicateInputError
+        when one recording is given twice (by two names, or as two files with the same bytes): a
+        joint fit would count its impacts twice (:func:`impactid._files.check_distinct_inputs`).
+    UsageError
+        when no recording is given, or a recording and ``--example`` to a command that reads one.
+    """
     given = list(args.recordings) if several else ([args.recording] if args.recording else [])
     if args.example:
         if given and not several:
@@ -232,10 +241,12 @@ def recording_paths(args, several: bool = False) -> list:
         from impactid.examples import example_recording_paths
 
         paths = example_recording_paths()
-        return (paths if several else paths[:1]) + given
-    if not given:
+        given = (paths if several else paths[:1]) + given
+    elif not given:
         what = "give one or more recordings" if several else "no recording given (pass a file"
         raise UsageError(f"{what}, or --example for the built-in example" + ("" if several else ")"))
+    if len(given) > 1:
+        check_distinct_inputs(given, what="recording")
     return given
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -33,9 +34,12 @@ from impactid.rigs.registry import RIG_MODELS
 from impactid.units import UnitError, si_factor
 
 __all__ = ["CAM_SPEED_TOLERANCE", "CHANNEL_QUANTITY", "CHANNEL_UNITS", "CLIP_RUN", "CSV_TIME_TOLERANCE", "FORMAT_NAME",
-           "FORMAT_VERSION", "MAX_MEMORY_FRACTION", "OFFSET_ATTRIBUTES", "SCALE_ATTRIBUTES",
-           "SHORT_REVOLUTIONS", "Recording", "RecordingError", "RecordingWarning", "channel_spec", "read_csv",
-           "read_hdf5", "read_recording", "read_truth", "write_csv", "write_hdf5"]
+           "FORMAT_VERSION", "MAX_CAM_SPEED_HZ", "MAX_SAMPLE_RATE_HZ", "MEMORY_FACTORS", "MEMORY_LIMIT_VARIABLE",
+           "MIN_CAM_SPEED_HZ", "MIN_SAMPLES_PER_REVOLUTION", "MIN_SAMPLE_RATE_HZ", "OFFSET_ATTRIBUTES",
+           "SCALE_ATTRIBUTES", "SHORT_REVOLUTIONS", "TIME_RESOLUTION", "Footprint", "Recording", "RecordingError",
+           "RecordingWarning", "available_memory", "channel_spec", "check_cam_speed", "check_memory",
+           "check_time_base", "read_csv", "read_hdf5", "read_recording", "read_truth", "recording_footprint",
+           "write_csv", "write_hdf5"]
 
 FORMAT_NAME = "recording"
 FORMAT_VERSION = 1
@@ -58,9 +62,38 @@ CHANNEL_QUANTITY: Mapping[str, str] = MappingProxyType({
     "follower_angle": "angle",
 })
 
-#: Largest recording read into memory, as a fraction of the machine's physical memory (a file that
-#: declares more samples is refused before anything is allocated).
-MAX_MEMORY_FRACTION = 0.5
+#: Plausible sample rates [Hz]. Below 1 Hz nothing of an impact (a contact lasts micro- to
+#: milliseconds) or of a cam revolution is resolved; above 100 MHz a recording samples 100 times
+#: faster than the bandwidth of the fastest shock accelerometers and force sensors (about 1 MHz):
+#: decimate such a capture first. Values outside are damaged or mistyped attributes (a rate in kHz
+#: or in samples per revolution, a period written as a rate).
+MIN_SAMPLE_RATE_HZ = 1.0
+MAX_SAMPLE_RATE_HZ = 100e6
+#: Finest spacing of float64 time stamps accepted, as a fraction of the sample interval: near time
+#: ``t`` doubles are ``|t| * 2^-52`` apart, so a start time far from zero (``1e300`` s, or a Unix
+#: epoch at a high sample rate) cannot tell neighbouring samples apart, and every time difference
+#: the methods take (onset to separation, impact to impact) is rounded. The times of every sample
+#: must resolve 1/1024 of the sample interval: ``|t| * fs`` below about ``2^42`` (4.4e12).
+TIME_RESOLUTION = 2.0 ** -10
+#: Plausible cam speeds [Hz]: from one revolution in 1000 s up to 60 000 rpm (six times the
+#: camshaft of a racing engine at 20 000 rpm); and a cam revolution spans at least
+#: :data:`MIN_SAMPLES_PER_REVOLUTION` samples (the encoder angle moves less than 45 degrees from one
+#: sample to the next, and an impact, its flight and its return fit in a revolution).
+MIN_CAM_SPEED_HZ = 1e-3
+MAX_CAM_SPEED_HZ = 1000.0
+MIN_SAMPLES_PER_REVOLUTION = 8
+#: Environment variable: the memory [bytes] a job may use, instead of the machine's available memory
+#: (``MemAvailable`` of ``/proc/meminfo``).
+MEMORY_LIMIT_VARIABLE = "IMPACTID_MEMORY_LIMIT"
+#: Peak memory of a job beyond the interpreter's own, per byte of a recording's channels as float64
+#: (samples x channels x 8 bytes). Measured with ``/usr/bin/time -v`` (maximum resident set size)
+#: on synthetic rig P recordings of 0.3, 1, 3, 10 and 20 s at 204.8 kHz (4 channels, 2 to 131 MB as
+#: float64), as the slope of the peak against the size: reading (``impactid info``) 1.05,
+#: ``events`` 2.0, ``estimate`` (one recording, calibrated least squares, ``--fix-n``) 5.5 up to
+#: 10 s and 8.0 from 10 to 20 s (the 3.4 GB peak of a 60 s recording is 8.7 times its 393 MB).
+#: The factors below round these up. A joint fit holds every recording read and processes one at a
+#: time (:func:`check_memory`).
+MEMORY_FACTORS: Mapping[str, float] = MappingProxyType({"read": 1.5, "events": 2.5, "estimate": 9.0})
 #: Dataset attributes of a linear calibration ``value = raw * scale + offset`` (an integer channel
 #: of ADC codes, say), in the spellings of common conventions.
 SCALE_ATTRIBUTES = ("scale", "scale_factor")
@@ -157,6 +190,7 @@ class Recording:
                     f"{int(np.argmax(bad))}")
             channels[name] = array
             ranges[name] = (float(lo), float(hi))
+        check_time_base(where, float(rate), self.start_time_s, length)
         missing_units = [n for n in channels if n not in self.units]
         if missing_units:
             raise RecordingError(f"{where}: no units given for channel(s) {', '.join(missing_units)}")
@@ -170,8 +204,8 @@ class Recording:
             if not math.isfinite(float(value)):
                 raise RecordingError(f"{where}: operating parameter {key!r} is not finite ({value!r})")
             operating[key] = float(value)
-        if "cam_speed_hz" in operating and operating["cam_speed_hz"] <= 0.0:
-            raise RecordingError(f"{where}: operating cam_speed_hz must be positive, got {operating['cam_speed_hz']!r}")
+        if "cam_speed_hz" in operating:
+            check_cam_speed(where, operating["cam_speed_hz"], float(rate))
         object.__setattr__(self, "operating", MappingProxyType(operating))
         object.__setattr__(self, "provenance", tuple(self.provenance))
         if self.rig is not None and not isinstance(self.rig, tuple(RIG_MODELS.values())):
@@ -326,6 +360,71 @@ class Recording:
         return messages
 
 
+def check_time_base(where: str, sample_rate_hz: float, start_time_s: float, n_samples: int, *,
+                    rate_name: str = "sample_rate_hz", start_name: str = "start_time_s") -> None:
+    """Refuse an implausible time base (docs/formats.md): a sample rate outside
+    [:data:`MIN_SAMPLE_RATE_HZ`, :data:`MAX_SAMPLE_RATE_HZ`], or sample times so far from zero that
+    float64 does not resolve :data:`TIME_RESOLUTION` of a sample interval.
+
+    Parameters
+    ----------
+    where : the file (for the message).
+    sample_rate_hz : sample rate [Hz] (positive and finite).
+    start_time_s : time of the first sample [s] (finite).
+    n_samples : samples per channel.
+    rate_name, start_name : how the file names the two (``/signals sample_rate_hz``, ...).
+
+    Raises
+    ------
+    RecordingError
+        naming the file, the attribute and the limit.
+    """
+    if not MIN_SAMPLE_RATE_HZ <= sample_rate_hz <= MAX_SAMPLE_RATE_HZ:
+        raise RecordingError(
+            f"{where}: {rate_name} = {sample_rate_hz:.6g} Hz is not a plausible sample rate (impactid reads "
+            f"{MIN_SAMPLE_RATE_HZ:g} Hz to {MAX_SAMPLE_RATE_HZ / 1e6:g} MHz; a damaged or mistyped attribute?)")
+    interval = 1.0 / sample_rate_hz
+    last = max(abs(start_time_s), abs(start_time_s + max(n_samples - 1, 0) * interval))
+    spacing = float(np.spacing(last))
+    if not spacing <= TIME_RESOLUTION * interval:
+        raise RecordingError(
+            f"{where}: {start_name} = {start_time_s:.6g} s is too far from 0 for {sample_rate_hz:.6g} Hz: float64 "
+            f"times near {last:.6g} s are {spacing:.3g} s apart, more than 1/{1 / TIME_RESOLUTION:.0f} of the sample "
+            f"interval {interval:.3g} s, so samples cannot be told apart; give times from the start of the run "
+            "(e.g. start_time_s = 0)")
+
+
+def check_cam_speed(where: str, cam_speed_hz: float, sample_rate_hz: float, *,
+                    name: str = "operating cam_speed_hz") -> None:
+    """Refuse an implausible cam speed (docs/formats.md): outside [:data:`MIN_CAM_SPEED_HZ`,
+    :data:`MAX_CAM_SPEED_HZ`], or fewer than :data:`MIN_SAMPLES_PER_REVOLUTION` samples per revolution.
+
+    Parameters
+    ----------
+    where : the file (for the message).
+    cam_speed_hz : the operating point's cam speed [Hz].
+    sample_rate_hz : the recording's sample rate [Hz].
+    name : where the cam speed was given (``/operating cam_speed_hz``, a rig file's ``[operating]``).
+
+    Raises
+    ------
+    RecordingError
+        naming the file, where the cam speed came from and the limit.
+    """
+    if not cam_speed_hz > 0.0:
+        raise RecordingError(f"{where}: {name} must be positive, got {cam_speed_hz!r}")
+    if not MIN_CAM_SPEED_HZ <= cam_speed_hz <= MAX_CAM_SPEED_HZ:
+        raise RecordingError(
+            f"{where}: {name} = {cam_speed_hz:.6g} Hz is not a plausible cam speed (impactid reads "
+            f"{MIN_CAM_SPEED_HZ:g} Hz to {MAX_CAM_SPEED_HZ:g} Hz, i.e. up to {60 * MAX_CAM_SPEED_HZ:.0f} rpm; "
+            "a speed in rpm or rad/s written as Hz?)")
+    per_revolution = sample_rate_hz / cam_speed_hz
+    if per_revolution < MIN_SAMPLES_PER_REVOLUTION:
+        raise RecordingError(
+            f"{where}: {name} = {cam_speed_hz:.6g} Hz gives {per_revolution:.3g} samples per cam revolution at "
+            f"{sample_rate_hz:.6g} Hz; at least {MIN_SAMPLES_PER_REVOLUTION} are needed to resolve a revolution")
+
+
 def channel_spec(channel: str) -> tuple[str, str] | None:
     """``(SI unit, quantity)`` of a channel impactid interprets: the channels above, and those the
     registered rig models declare (:attr:`impactid.rigs.base.RigModel.channels`); None otherwise."""
@@ -359,23 +458,148 @@ def _to_si(where: str, channel: str, unit: str, data: np.ndarray) -> tuple[np.nd
     return data * factor, si, f"channel {channel!r} converted from {unit} to {si} (x {factor!r})"
 
 
-def _memory_limit() -> float:
-    """Bytes a recording may take in memory (:data:`MAX_MEMORY_FRACTION` of physical memory)."""
+def available_memory() -> tuple[float | None, str]:
+    """Bytes a job may use and where that number comes from.
+
+    :data:`MEMORY_LIMIT_VARIABLE` (``IMPACTID_MEMORY_LIMIT``, in bytes) when set; else
+    ``MemAvailable`` of ``/proc/meminfo`` (memory the kernel can give without swapping, other
+    users' jobs deducted); else the free physical pages (``os.sysconf``); ``None`` when the
+    platform tells neither (no check).
+
+    Raises
+    ------
+    RecordingError
+        when the environment variable is set but is not a positive number of bytes.
+    """
+    text = os.environ.get(MEMORY_LIMIT_VARIABLE, "").strip()
+    if text:
+        try:
+            limit = float(text)
+        except ValueError:
+            limit = math.nan
+        if not (math.isfinite(limit) and limit > 0.0):
+            raise RecordingError(f"environment variable {MEMORY_LIMIT_VARIABLE}={text!r}: expected a positive number "
+                                 "of bytes (e.g. 8e9)")
+        return limit, f"{MEMORY_LIMIT_VARIABLE}"
     try:
-        return MAX_MEMORY_FRACTION * os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024.0, "MemAvailable"
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_AVPHYS_PAGES")), "free physical memory"
     except (ValueError, OSError, AttributeError):  # pragma: no cover - platforms without sysconf
-        return 8e9
+        return None, "unknown"
 
 
-def _check_size(where: str, name: str, n_samples: int, n_channels: int) -> None:
-    """Refuse a recording whose channels would not fit in memory as float64."""
-    need = 8.0 * n_samples * max(n_channels, 1)
-    if need > _memory_limit():
+@dataclass(frozen=True)
+class Footprint:
+    """The size of a recording's channels, from the file's metadata (nothing is read).
+
+    n_samples : samples of the longest channel.
+    n_channels : channels (for a CSV, its columns, the time column included).
+    longest : the name of the longest channel.
+    """
+
+    n_samples: int
+    n_channels: int
+    longest: str
+
+    @property
+    def nbytes(self) -> float:
+        """Bytes of the channels as float64 [B]."""
+        return 8.0 * self.n_samples * max(self.n_channels, 1)
+
+
+def recording_footprint(path: str | os.PathLike[str]) -> Footprint | None:
+    """The size of a recording from its metadata (HDF5: dataset shapes; CSV: file size over the
+    length of its first rows), or None when the file cannot be sized (the reader then reports
+    what is wrong with it)."""
+    path = Path(path)
+    try:
+        if not path.is_file():
+            return None
+        with path.open("rb") as fh:
+            head = fh.read(8)
+        if head == _HDF5_SIGNATURE or path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
+            import h5py
+
+            with h5py.File(path, "r") as fh:
+                signals = fh.get("signals")
+                shapes = {name: item.shape for name, item in signals.items()
+                          if isinstance(item, h5py.Dataset) and len(item.shape) == 1} if signals is not None else {}
+            if not shapes:
+                return None
+            longest = max(shapes, key=lambda name: shapes[name][0])
+            return Footprint(int(shapes[longest][0]), len(shapes), longest)
+        if path.suffix.lower() in (".csv", ".txt"):
+            with path.open("rb") as fh:
+                sample = fh.read(1 << 16)
+            lines = [line for line in sample.splitlines()[1:-1] if line.strip() and not line.lstrip().startswith(b"#")]
+            if not lines:
+                return None
+            per_row = sum(len(line) + 1 for line in lines) / len(lines)
+            columns = lines[0].count(b",") + 1
+            return Footprint(int(path.stat().st_size / per_row) + 1, columns, "time_s")
+    except Exception:  # noqa: BLE001 - sizing is advisory: a damaged file is reported by its reader
+        return None
+    return None
+
+
+def check_memory(paths, job: str) -> None:
+    """Refuse a job whose recordings would not fit in memory, before anything is allocated.
+
+    The job needs about ``MEMORY_FACTORS["read"]`` times the float64 size of every recording (they
+    are read first and kept) plus ``MEMORY_FACTORS[job] - MEMORY_FACTORS["read"]`` times the
+    largest one (processed one at a time); it is refused when that exceeds
+    :func:`available_memory`.
+
+    Parameters
+    ----------
+    paths : the recordings (paths; anything else is skipped).
+    job : a key of :data:`MEMORY_FACTORS` (``"read"``, ``"events"``, ``"estimate"``).
+
+    Raises
+    ------
+    RecordingError
+        naming the (largest) file, its size, the estimate and the memory available.
+    """
+    sized = [(str(p), f) for p in paths if isinstance(p, (str, os.PathLike))
+             for f in [recording_footprint(p)] if f is not None]
+    if sized:
+        _refuse_if_too_large(sized, job)
+
+
+def _refuse_if_too_large(sized: list[tuple[str, Footprint]], job: str) -> None:
+    """The test of :func:`check_memory` on ``(file, footprint)`` pairs."""
+    factor, read = MEMORY_FACTORS[job], MEMORY_FACTORS["read"]
+    limit, source = available_memory()
+    if limit is None:
+        return
+    total = sum(f.nbytes for _, f in sized)
+    where, largest = max(sized, key=lambda pair: pair[1].nbytes)
+    need = read * total + (factor - read) * largest.nbytes
+    if need > limit:
+        others = (f"; with the {len(sized) - 1} other recording(s), {_size_text(total)} as float64"
+                  if len(sized) > 1 else "")
         raise RecordingError(
-            f"{where}: channel {name!r} declares {n_samples:,} samples; with {n_channels} channel(s) that is "
-            f"{need / 2**30:.3g} GiB as "
-            f"float64), more than this machine can hold ({_memory_limit() / 2**30:.3g} GiB allowed); "
-            "split the recording")
+            f"{where}: {_JOB_TEXT.get(job, job)} needs about {_size_text(need)} of memory ({largest.n_samples:,} "
+            f"samples of channel {largest.longest!r} x {largest.n_channels} channel(s) x 8 bytes = "
+            f"{_size_text(largest.nbytes)}, x {factor:g}{others}), more than the {_size_text(limit)} available "
+            f"({source}); split the recording, or set {MEMORY_LIMIT_VARIABLE} (bytes) if more memory can be used")
+
+
+_JOB_TEXT = {"read": "reading it", "events": "finding and reconstructing its events", "estimate": "the estimate"}
+
+
+def _size_text(nbytes: float) -> str:
+    """A number of bytes for a message (``"3.4 GB"``, ``"17.7 MB"``)."""
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if nbytes >= scale:
+            return f"{nbytes / scale:.3g} {unit}"
+    return f"{nbytes:.0f} bytes"
 
 
 def _calibrate(where: str, name: str, attrs, data: np.ndarray) -> tuple[np.ndarray, str | None]:
@@ -419,10 +643,26 @@ def _attr_float(where: str, what: str, value: Any) -> float:
     return number
 
 
+def _units_text(where: str, name: str, value: Any) -> str:
+    """A channel's ``units`` attribute as text; bytes that are not UTF-8 are an error naming them."""
+    if isinstance(value, np.ndarray) and value.shape == ():
+        value = value[()]
+    if isinstance(value, (bytes, np.bytes_)):
+        try:
+            return bytes(value).decode("utf-8")
+        except UnicodeDecodeError:
+            raise RecordingError(f"{where}: channel {name!r} has units {bytes(value)[:40]!r}: not UTF-8 text, "
+                                 "not a unit") from None
+    return _attr_str(value)
+
+
 def _check_path(path: Path) -> None:
-    """A clear error for a path that does not exist, is a directory or a special file (opening a
-    named pipe would wait for a writer forever)."""
+    """A clear error for a path that does not exist (or is a dangling symbolic link), is a directory
+    or a special file (opening a named pipe would wait for a writer forever)."""
     if not path.exists():
+        if path.is_symlink():
+            raise RecordingError(f"{path}: is a symbolic link to {os.readlink(path)}, which does not exist "
+                                 "(a dangling link)")
         raise RecordingError(f"{path}: file not found")
     if path.is_dir():
         raise RecordingError(f"{path}: is a directory, not a recording")
@@ -442,6 +682,77 @@ def _open_hdf5(path: Path):
         raise RecordingError(f"{path}: not an HDF5 file or damaged ({exc})") from None
 
 
+def _member(where: str, group, name: str, label: str):
+    """``group[name]``, None when there is no such link, or a :class:`RecordingError` that says why a
+    link cannot be followed (an external link to a missing file, a dangling soft link)."""
+    import h5py
+
+    link = group.get(name, getlink=True)
+    if link is None:
+        return None
+    try:
+        return group[name]
+    except (KeyError, OSError, ValueError, RuntimeError) as exc:
+        if isinstance(link, h5py.ExternalLink):
+            raise RecordingError(f"{where}: {label} is an external link to {link.filename}:{link.path}, which cannot "
+                                 "be opened (the file or the object it names is missing)") from None
+        if isinstance(link, h5py.SoftLink):
+            raise RecordingError(f"{where}: {label} is a soft link to {link.path}, which does not exist") from None
+        raise RecordingError(f"{where}: {label} cannot be opened ({type(exc).__name__}: {exc})") from None
+
+
+def _check_virtual_sources(where: str, path: Path, name: str, item) -> None:
+    """A virtual dataset reads as fill values where a source is missing: refuse it instead."""
+    import h5py
+
+    for source in item.virtual_sources():
+        if source.file_name == ".":  # a dataset of the same file
+            if not isinstance(item.file.get(source.dset_name), h5py.Dataset):
+                raise RecordingError(f"{where}: channel {name!r} is a virtual dataset whose source {source.dset_name} "
+                                     "does not exist in the file (it would read as fill values)")
+            continue
+        given = Path(source.file_name)
+        candidates = [given] if given.is_absolute() else [path.parent / given, given]
+        found = next((c for c in candidates if c.is_file()), None)
+        if found is None:
+            raise RecordingError(f"{where}: channel {name!r} is a virtual dataset whose source file "
+                                 f"{source.file_name} does not exist (it would read as fill values)")
+        try:
+            with h5py.File(found, "r") as other:
+                present = isinstance(other.get(source.dset_name), h5py.Dataset)
+        except OSError:
+            present = False
+        if not present:
+            raise RecordingError(f"{where}: channel {name!r} is a virtual dataset whose source "
+                                 f"{source.file_name}:{source.dset_name} cannot be read (it would read as fill "
+                                 "values)")
+
+
+def _check_storage(where: str, path: Path, name: str, item) -> None:
+    """Refuse a dataset whose samples are not all there (virtual sources, contiguous storage)."""
+    if item.is_virtual:
+        _check_virtual_sources(where, path, name, item)
+        return
+    if item.external:
+        return  # raw data in external files: a missing one is reported when it is read
+    stored = item.id.get_storage_size()
+    if item.compression is None and item.chunks is None and item.shape[0] and stored < item.nbytes:
+        raise RecordingError(f"{where}: channel {name!r} declares {item.shape[0]:,} samples but stores "
+                             f"only {stored:,} of its {item.nbytes:,} bytes (damaged or never written)")
+
+
+def _read_dataset(where: str, name: str, item) -> np.ndarray:
+    try:
+        return item[()]
+    except (OSError, RuntimeError, ValueError) as exc:
+        if item.external:
+            files = ", ".join(str(entry[0]) for entry in item.external)
+            raise RecordingError(f"{where}: channel {name!r} keeps its samples in external raw file(s) {files}, "
+                                 f"which cannot be read ({exc})") from None
+        raise RecordingError(f"{where}: channel {name!r} cannot be read (damaged; {type(exc).__name__}: "
+                             f"{exc})") from None
+
+
 def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     """Read an HDF5 recording (docs/formats.md, format version 1).
 
@@ -451,7 +762,9 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     rig : optional rig that supplies or overrides the file's ``/rig``: a rig dataclass or the path
         of a TOML rig file (whose ``[operating]`` values also override ``/operating``).
 
-    The ``/truth`` group is never read (see :func:`read_truth`).
+    The ``/truth`` group is never read (see :func:`read_truth`). The time base and the size are
+    checked from the metadata, before any sample is read (:func:`check_time_base`,
+    :func:`check_memory`).
     """
     path = Path(path)
     where = str(path)
@@ -468,7 +781,7 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
             if version is not None and _attr_float(where, "format_version", version) > FORMAT_VERSION:
                 raise RecordingError(f"{where}: format_version {_attr_str(version)} is newer than this "
                                      f"impactid understands ({FORMAT_VERSION})")
-            signals = fh.get("signals")
+            signals = _member(where, fh, "signals", "/signals")
             if signals is None or not isinstance(signals, h5py.Group):
                 raise RecordingError(f"{where}: no /signals group")
             if "sample_rate_hz" not in signals.attrs:
@@ -477,10 +790,12 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
             if not math.isfinite(rate) or rate <= 0.0:
                 raise RecordingError(f"{where}: sample_rate_hz must be positive and finite, got {rate!r}")
             start = _attr_float(where, "start_time_s", signals.attrs.get("start_time_s", 0.0))
+            if not math.isfinite(start):
+                raise RecordingError(f"{where}: /signals start_time_s must be finite, got {start!r}")
             channels: dict[str, np.ndarray] = {}
             units: dict[str, str] = {}
             notes: list[str] = []
-            items = list(signals.items())
+            items = [(name, _member(where, signals, name, f"/signals/{name}")) for name in signals.keys()]
             for name, item in items:
                 if not isinstance(item, h5py.Dataset):
                     raise RecordingError(f"{where}: /signals/{name} is not a dataset")
@@ -490,29 +805,31 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
                     raise RecordingError(f"{where}: channel {name!r} must be 1-D, got shape {item.shape}")
                 if item.dtype.kind not in "fiu":
                     raise RecordingError(f"{where}: channel {name!r} is not numeric (dtype {item.dtype})")
-                _check_size(where, name, int(item.shape[0]), len(items))
-                stored = item.id.get_storage_size()
-                if item.compression is None and item.chunks is None and item.shape[0] and stored < item.nbytes:
-                    raise RecordingError(f"{where}: channel {name!r} declares {item.shape[0]:,} samples but stores "
-                                         f"only {stored:,} of its {item.nbytes:,} bytes (damaged or never written)")
+            if not items:
+                raise RecordingError(f"{where}: /signals has no channels")
+            longest = max(items, key=lambda entry: entry[1].shape[0])
+            _refuse_if_too_large([(where, Footprint(int(longest[1].shape[0]), len(items), longest[0]))], "read")
+            check_time_base(where, rate, start, int(longest[1].shape[0]), rate_name="/signals sample_rate_hz",
+                            start_name="/signals start_time_s")
             for name, item in items:
-                data = item[()]
+                _check_storage(where, path, name, item)
+            for name, item in items:
+                data = _read_dataset(where, name, item)
                 data, cal_note = _calibrate(where, name, item.attrs, data)
                 if cal_note:
                     notes.append(cal_note)
-                data, unit, note = _to_si(where, name, _attr_str(item.attrs["units"]), data)
+                data, unit, note = _to_si(where, name, _units_text(where, name, item.attrs["units"]), data)
                 channels[name] = _frozen(data) if data.dtype == np.float64 else data
                 units[name] = unit
                 if note:
                     notes.append(note)
-            if not channels:
-                raise RecordingError(f"{where}: /signals has no channels")
             file_rig = None
-            rig_group = fh.get("rig")
-            if rig_group is not None and rig is None:
-                file_rig = _rig_from_attrs(where, rig_group)
+            if rig is None:  # an overriding rig makes the file's /rig irrelevant (even a broken link to it)
+                rig_group = _member(where, fh, "rig", "/rig")
+                if rig_group is not None:
+                    file_rig = _rig_from_attrs(where, rig_group)
             operating = {}
-            op_group = fh.get("operating")
+            op_group = _member(where, fh, "operating", "/operating")
             if op_group is not None:
                 for key, value in op_group.attrs.items():
                     operating[key] = _attr_float(where, f"operating {key}", value)
@@ -526,15 +843,20 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
         raise RecordingError(f"{where}: damaged or malformed HDF5 recording ({type(exc).__name__}: {exc})") from None
     provenance = earlier + (f"read_hdf5({where})",) + tuple(notes)
     recording_rig = file_rig
+    speed_from = "/operating cam_speed_hz"
     if rig is not None:
         recording_rig, toml_operating, rig_note = _resolve_rig(rig)
         operating.update(toml_operating)
         if getattr(recording_rig, "e", None) is not None and "eccentricity_m" in operating \
                 and "eccentricity_m" not in toml_operating:
             operating["eccentricity_m"] = recording_rig.e
+        if "cam_speed_hz" in toml_operating:
+            speed_from = f"rig file {rig} [operating] cam_speed_hz"
         provenance += (rig_note,)
     if recording_rig is None:
         raise RecordingError(f"{where}: no /rig group and no rig file given (use --rig RIG.toml)")
+    if math.isfinite(operating.get("cam_speed_hz", math.nan)):
+        check_cam_speed(where, operating["cam_speed_hz"], rate, name=speed_from)
     return Recording(channels=channels, sample_rate_hz=rate, units=units, rig=recording_rig, operating=operating,
                      start_time_s=start, source=where, provenance=provenance)
 
@@ -669,26 +991,44 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     ----------
     rig : a rig dataclass or a TOML rig file (``[rig]``, ``[operating]``). If omitted, a TOML file
         next to the CSV with the same stem (``run1.csv`` -> ``run1.toml``) is used.
+
+    The file is UTF-8 text; a byte-order mark is skipped, and a trailing comma on every line (an
+    empty last column without a name) is ignored (docs/formats.md).
     """
     import pandas as pd
 
     path = Path(path)
     where = str(path)
     _check_path(path)
-    _check_csv_header(path)
+    footprint = recording_footprint(path)
+    if footprint is not None:
+        _refuse_if_too_large([(where, footprint)], "read")
+    header = _check_csv_header(path)
     try:
         with warnings.catch_warnings():
             # pandas only warns when a row has more fields than the header: make it an error
             warnings.simplefilter("error", pd.errors.ParserWarning)
+            # (a UTF-8 byte-order mark is skipped; a trailing comma on every data row is dropped by
+            # index_col=False, and pandas warns when the extra field holds a value)
             frame = pd.read_csv(path, comment="#", skipinitialspace=True, index_col=False, on_bad_lines="error")
-    except pd.errors.ParserWarning as exc:
-        raise RecordingError(f"{where}: malformed CSV (rows longer than the header: {exc})") from None
+    except pd.errors.ParserWarning:
+        raise RecordingError(f"{where}: malformed CSV: rows have a value after the last of the header's "
+                             f"{len(header)} columns") from None
     except UnicodeDecodeError:
-        raise RecordingError(f"{where}: not a text CSV file") from None
+        raise RecordingError(_not_utf8(path)) from None
     except PermissionError:
         raise RecordingError(f"{where}: cannot read file (permission denied)") from None
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, OSError) as exc:
+    except pd.errors.ParserError as exc:
+        fields = re.search(r"Expected (\d+) fields in line (\d+), saw (\d+)", str(exc))
+        if fields:
+            expected, line, saw = fields.groups()
+            raise RecordingError(f"{where}: malformed CSV: line {line} has {saw} fields, the lines before it "
+                                 f"{expected} (a trailing comma or a value after the last column on some rows "
+                                 "only?)") from None
+        raise RecordingError(f"{where}: malformed CSV ({type(exc).__name__}: {' '.join(str(exc).split())})") from None
+    except (pd.errors.EmptyDataError, ValueError, OSError) as exc:
         raise RecordingError(f"{where}: malformed CSV ({type(exc).__name__}: {exc})") from None
+    frame = _drop_unnamed_trailing_column(where, frame, header)
     frame.columns = [str(c).strip() for c in frame.columns]
     if "time_s" not in frame.columns:
         raise RecordingError(f"{where}: malformed CSV: no 'time_s' column (columns: {', '.join(frame.columns)})")
@@ -729,9 +1069,11 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
             f"{where}: time column 'time_s' is not uniform: sample {worst} at {time[worst]!r} s is "
             f"{deviation[worst] / dt:.3g} sample intervals off the grid of {dt!r} s")
     rate = 1.0 / dt
+    check_time_base(where, rate, float(time[0]), n, rate_name="the sample rate of column 'time_s' (1 / interval)",
+                    start_name="column 'time_s' (first time)")
     if rig is None:
         sibling = path.with_suffix(".toml")
-        if not sibling.exists():
+        if not sibling.exists() and not sibling.is_symlink():  # a dangling link is reported by the reader
             raise RecordingError(f"{where}: a CSV recording needs a rig file (--rig RIG.toml, or {sibling.name} "
                                  "next to it)")
         rig = sibling
@@ -744,31 +1086,71 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
             notes.append(note)
     if recording_rig is not None and getattr(recording_rig, "e", None) is not None:
         operating.setdefault("eccentricity_m", recording_rig.e)
+    if "cam_speed_hz" in operating and isinstance(rig, (str, os.PathLike)):
+        check_cam_speed(where, operating["cam_speed_hz"], rate, name=f"rig file {rig} [operating] cam_speed_hz")
     return Recording(channels=channels, sample_rate_hz=rate, units=units, rig=recording_rig, operating=operating,
                      start_time_s=float(time[0]), source=where,
                      provenance=(f"read_csv({where})", rig_note, *notes))
 
 
-def _check_csv_header(path: Path) -> None:
-    """Refuse duplicated column names (pandas would rename the second ``a`` to ``a.1`` silently)."""
+def _check_csv_header(path: Path) -> list[str]:
+    """The header's column names, stripped (empty when the file has no header line).
+
+    Refuses duplicated column names (pandas would rename the second ``a`` to ``a.1`` silently) and
+    text that is not UTF-8 (naming the line and the byte). A UTF-8 byte-order mark is skipped.
+    """
     import csv
 
     try:
-        with path.open("r", encoding="utf-8", newline="") as fh:
+        with path.open("r", encoding="utf-8-sig", newline="") as fh:
             for line in fh:
                 if line.strip() and not line.lstrip().startswith("#"):
                     header = [c.strip() for c in next(csv.reader([line]))]
                     break
             else:
-                return
+                return []
     except UnicodeDecodeError:
-        raise RecordingError(f"{path}: not a text CSV file") from None
-    except OSError:
-        return  # reported by the reader itself
+        raise RecordingError(_not_utf8(path)) from None
+    except (OSError, csv.Error):
+        return []  # reported by the reader itself
     seen: set[str] = set()
-    twice = sorted({c for c in header if c in seen or seen.add(c)})
+    twice = sorted({c for c in header if c and (c in seen or seen.add(c))})
     if twice:
         raise RecordingError(f"{path}: malformed CSV: duplicate column name(s) {', '.join(map(repr, twice))}")
+    return header
+
+
+def _not_utf8(path: Path) -> str:
+    """The message for a CSV file that is not UTF-8 text: the first line and byte that are not."""
+    try:
+        with path.open("rb") as fh:
+            for number, line in enumerate(fh, 1):
+                try:
+                    line.decode("utf-8")
+                except UnicodeDecodeError as exc:
+                    header = number == 1 and not line.lstrip().startswith(b"#")
+                    return (f"{path}: not UTF-8 text: byte 0x{line[exc.start]:02x} at line {number}, column "
+                            f"{exc.start + 1}{' (the header)' if header else ''}; a CSV recording must be "
+                            "saved as UTF-8 (plain ASCII is UTF-8)")
+    except OSError:
+        pass
+    return f"{path}: not UTF-8 text; a CSV recording must be saved as UTF-8"
+
+
+def _drop_unnamed_trailing_column(where: str, frame, header: list[str]):
+    """Drop the empty column a trailing comma on the header line makes (no name, no value); refuse
+    any other column without a name."""
+    if len(header) != len(frame.columns):
+        return frame
+    for position, name in enumerate(header):
+        if name:
+            continue
+        empty = bool(frame.iloc[:, position].isna().all())
+        if position == len(header) - 1 and empty:
+            return frame.iloc[:, :position]
+        raise RecordingError(f"{where}: malformed CSV: column {position + 1} has no name in the header"
+                             f"{'' if empty else ' but holds values'}")
+    return frame
 
 
 def write_csv(recording: Recording, path: str | os.PathLike[str], rig_path: str | os.PathLike[str] | None = None,

@@ -144,3 +144,34 @@ def test_estimate_refuses_to_overwrite_its_input(s2_file, capsys):
     assert main(["estimate", str(s2_file), "--fix-n", "1.5", "--out", str(s2_file)]) == 2
     assert "refusing to overwrite" in capsys.readouterr().err
     assert s2_file.read_bytes() == before
+
+
+def test_info_reads_a_rig_file_with_a_byte_order_mark_and_a_csv_with_trailing_commas(tmp_path, capsys):
+    """Harmless variants editors and spreadsheets write are read (docs/formats.md), not refused."""
+    import numpy as np
+
+    from impactid.io import Recording, write_csv
+
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
+    n, rate = 3000, 204_800.0
+    rec = Recording(channels={"force_x": np.linspace(0.0, 1.0, n), "cam_angle": np.arange(n) * 2 * np.pi * 16 / rate},
+                    sample_rate_hz=rate, units={"force_x": "N", "cam_angle": "rad"}, rig=rig,
+                    operating={"cam_speed_hz": 16.0, "eccentricity_m": rig.e})
+    csv, toml = write_csv(rec, tmp_path / "r.csv")
+    toml.write_bytes(b"\xef\xbb\xbf" + toml.read_bytes())
+    csv.write_bytes(b"".join(line + b",\n" for line in csv.read_bytes().splitlines()))
+    assert main(["info", str(csv), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert set(data["channels"]) == {"force_x", "cam_angle"} and data["n_samples"] == n
+    assert data["operating"]["cam_speed_hz"] == 16.0
+
+
+def test_estimate_refuses_one_recording_given_twice_before_reading_it(tmp_path, capsys):
+    twin = tmp_path / "twin.h5"
+    twin.write_bytes(b"not even a recording")
+    (tmp_path / "copy").mkdir()
+    copy = tmp_path / "copy" / "twin.h5"
+    copy.write_bytes(twin.read_bytes())
+    assert main(["estimate", str(twin), str(copy), "--fix-n", "1.5"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("impactid: error:") and "identical contents" in err and "impacts would count twice" in err

@@ -295,3 +295,291 @@ def test_compiled_scans_agree_with_numpy():
     assert neighbour == np.count_nonzero(x == x[x < x.max()].max())
     count, run, neighbour = extreme_stats(x, x.min(), False)
     assert neighbour == np.count_nonzero(x == x[x > x.min()].min())
+
+
+# ---- plausibility of the time base and the cam speed ----------------------------------------------
+
+
+@pytest.mark.parametrize("attribute, value, message", [
+    ("sample_rate_hz", 1e300, "/signals sample_rate_hz = 1e+300 Hz is not a plausible sample rate"),
+    ("sample_rate_hz", 1e-300, "/signals sample_rate_hz = 1e-300 Hz is not a plausible sample rate"),
+    ("sample_rate_hz", 0.5, "not a plausible sample rate"),
+    ("sample_rate_hz", 2e8, "not a plausible sample rate"),
+    ("start_time_s", 1e300, "/signals start_time_s = 1e+300 s is too far from 0"),
+    ("start_time_s", -1.7e9, "/signals start_time_s = -1.7e+09 s is too far from 0"),  # Unix time at 204.8 kHz
+    ("start_time_s", np.inf, "/signals start_time_s must be finite"),
+])
+def test_implausible_time_base_is_refused_naming_the_attribute(tmp_path, capsys, attribute, value, message):
+    path = _h5(tmp_path / "t.h5", lambda fh: fh["signals"].attrs.__setitem__(attribute, value))
+    with pytest.raises(RecordingError, match=message.replace("+", "\\+")) as info:
+        read_recording(path)
+    assert str(path) in str(info.value)
+    assert main(["info", str(path)]) == 2  # info refuses too
+    assert message in capsys.readouterr().err
+
+
+def test_time_base_limits_are_the_documented_ones():
+    """1 Hz and 100 MHz are accepted; start times are accepted while float64 resolves 1/1024 sample."""
+    for rate in (1.0, 100e6):
+        small_recording(n=20, rate=rate, operating={}, start_time_s=0.0)
+    rate = 204_800.0
+    ok = 2.0 ** 25 * 0.999  # float64 spacing 2^-28 s = 1/1311 of 1/rate
+    small_recording(n=20, rate=rate, start_time_s=ok)
+    with pytest.raises(RecordingError, match="start_time_s = .* is too far from 0 for 204800 Hz"):
+        small_recording(n=20, rate=rate, start_time_s=2.0 ** 25 * 1.001)
+    # the last sample counts, not only the first
+    with pytest.raises(RecordingError, match="too far from 0"):
+        small_recording(n=20, rate=rate, start_time_s=-(2.0 ** 25) * 1.001 + 1e-3)
+
+
+@pytest.mark.parametrize("speed, message", [
+    (1e12, "cam_speed_hz = 1e\\+12 Hz is not a plausible cam speed"),
+    (2000.0, "cam_speed_hz = 2000 Hz is not a plausible cam speed"),
+    (1e-4, "cam_speed_hz = 0.0001 Hz is not a plausible cam speed"),
+])
+def test_implausible_cam_speed_is_refused(tmp_path, speed, message):
+    path = _h5(tmp_path / "c.h5", lambda fh: fh["operating"].attrs.__setitem__("cam_speed_hz", speed))
+    with pytest.raises(RecordingError, match="/operating " + message):
+        read_recording(path)
+    # from a rig file, the rig file is named
+    toml = save_rig_toml(RIG, tmp_path / "fast.toml", operating={"cam_speed_hz": speed})
+    good = write_hdf5(small_recording(), tmp_path / "good.h5")
+    with pytest.raises(RecordingError, match=f"rig file {toml} \\[operating\\] " + message):
+        read_recording(good, rig=toml)
+
+
+def test_cam_speed_needs_samples_per_revolution():
+    small_recording(n=200, rate=1000.0, operating={"cam_speed_hz": 125.0}, channels={"force_x": np.zeros(200)},
+                    units={"force_x": "N"})  # 8 samples per revolution
+    with pytest.raises(RecordingError, match="cam_speed_hz = 128 Hz gives 7.81 samples per cam revolution at 1000 Hz; "
+                                             "at least 8"):
+        small_recording(n=200, rate=1000.0, operating={"cam_speed_hz": 128.0}, channels={"force_x": np.zeros(200)},
+                        units={"force_x": "N"})
+
+
+# ---- unit strings -------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("unit, reason", [
+    ("m/s^", "exponent"),
+    ("((", "unbalanced parentheses"),
+    ("m/s/0", "division by zero"),
+    ("m s-2 )", "unbalanced parentheses"),
+    ("2^2^2^2^30 m/s^2", "raised to a power again"),  # would compute for ever
+    ("2^99999999 m/s^2", "exponent 99999999 is out of range"),
+    ("m/s^(1+1)", "exponent"),
+    ("m/s^2" * 20, "too long"),
+    ("m/s\x002", "control characters"),
+    ("__import__('os')", "not a known unit"),
+])
+def test_malformed_unit_strings_name_file_channel_and_unit(tmp_path, unit, reason):
+    path = _h5(tmp_path / "u.h5", lambda fh: fh["signals/accel_tangential"].attrs.__setitem__(
+        "units", np.bytes_(unit.encode())))
+    with pytest.raises(RecordingError) as info:
+        read_recording(path)
+    text = str(info.value)
+    assert text.startswith(f"{path}: channel 'accel_tangential' has units {unit!r}") and reason in text, text
+
+
+def test_units_that_are_not_utf8_are_named_as_bytes(tmp_path):
+    opaque = np.bytes_(b"\xff\xfe\x80")
+    path = _h5(tmp_path / "u.h5", lambda fh: fh["signals/force_x"].attrs.__setitem__("units", opaque))
+    with pytest.raises(RecordingError, match=r"channel 'force_x' has units b'\\xff\\xfe\\x80': not UTF-8 text"):
+        read_recording(path)
+
+
+def test_well_formed_units_still_convert():
+    from impactid.units import si_factor
+
+    assert si_factor("m/s^(2)", "acceleration") == 1.0
+    assert si_factor("m*s^-2", "acceleration") == 1.0
+    assert si_factor("m/s²", "acceleration") == 1.0
+    assert si_factor("km/h/s", "acceleration") == pytest.approx(1 / 3.6)
+    assert si_factor("kN", "force") == 1000.0
+
+
+# ---- links, virtual datasets, external storage ---------------------------------------------------------
+
+
+def test_dangling_symbolic_links_are_named(tmp_path):
+    link = tmp_path / "r.h5"
+    link.symlink_to(tmp_path / "gone.h5")
+    with pytest.raises(RecordingError, match="is a symbolic link to .*gone.h5, which does not exist"):
+        read_recording(link)
+    good = write_hdf5(small_recording(), tmp_path / "good.h5")
+    rig_link = tmp_path / "rig.toml"
+    rig_link.symlink_to(tmp_path / "gone.toml")
+    with pytest.raises(RecordingError, match="rig.toml: is a symbolic link to .*gone.toml, which does not exist"):
+        read_recording(good, rig=rig_link)
+
+
+@pytest.mark.parametrize("kind, message", [
+    ("external channel", "/signals/force_x is an external link to missing.h5:/force_x, which cannot be opened"),
+    ("external group", "/signals is an external link to missing.h5:/signals, which cannot be opened"),
+    ("soft channel", "/signals/force_x is a soft link to /nowhere, which does not exist"),
+])
+def test_broken_hdf5_links_are_named(tmp_path, kind, message):
+    def mutate(fh):
+        if kind == "external group":
+            del fh["signals"]
+            fh["signals"] = h5py.ExternalLink("missing.h5", "/signals")
+            return
+        del fh["signals/force_x"]
+        fh["signals/force_x"] = (h5py.ExternalLink("missing.h5", "/force_x") if kind == "external channel"
+                                 else h5py.SoftLink("/nowhere"))
+
+    path = _h5(tmp_path / "l.h5", mutate)
+    with pytest.raises(RecordingError, match=message):
+        read_recording(path)
+
+
+def test_working_links_and_virtual_datasets_are_read(tmp_path):
+    rec = small_recording()
+    with h5py.File(tmp_path / "data.h5", "w") as source:
+        source.create_dataset("force_x", data=rec["force_x"])
+
+    def mutate(fh):
+        del fh["signals/force_x"]
+        layout = h5py.VirtualLayout(shape=(rec.n_samples,), dtype="f8")
+        layout[:] = h5py.VirtualSource("data.h5", "/force_x", shape=(rec.n_samples,))
+        fh["signals"].create_virtual_dataset("force_x", layout, fillvalue=np.nan).attrs["units"] = "N"
+        fh["signals/force_y_link"] = h5py.SoftLink("/signals/force_y")
+
+    path = _h5(tmp_path / "v.h5", mutate)
+    back = read_recording(path, check=False)
+    assert np.array_equal(back["force_x"], rec["force_x"])
+    assert np.array_equal(back["force_y_link"], rec["force_y"])
+
+
+def test_virtual_dataset_with_a_missing_source_is_refused(tmp_path):
+    n = small_recording().n_samples
+
+    def mutate(fh):
+        del fh["signals/force_x"]
+        layout = h5py.VirtualLayout(shape=(n,), dtype="f8")
+        layout[:] = h5py.VirtualSource("missing_source.h5", "/force_x", shape=(n,))
+        fh["signals"].create_virtual_dataset("force_x", layout, fillvalue=0.0).attrs["units"] = "N"
+
+    path = _h5(tmp_path / "v.h5", mutate)
+    with pytest.raises(RecordingError, match="channel 'force_x' is a virtual dataset whose source file "
+                                             "missing_source.h5 does not exist"):
+        read_recording(path)
+
+
+def test_external_raw_storage_that_is_missing_is_named(tmp_path):
+    n = small_recording().n_samples
+
+    def mutate(fh):
+        del fh["signals/force_x"]
+        ds = fh["signals"].create_dataset("force_x", shape=(n,), dtype="f8",
+                                          external=[(str(tmp_path / "raw.bin"), 0, 8 * n)])
+        ds.attrs["units"] = "N"
+
+    path = _h5(tmp_path / "x.h5", mutate)
+    with pytest.raises(RecordingError, match="channel 'force_x' keeps its samples in external raw file"):
+        read_recording(path)
+
+
+# ---- rig files ------------------------------------------------------------------------------------
+
+
+def test_rig_file_with_a_byte_order_mark_is_read(tmp_path):
+    toml = save_rig_toml(RIG, tmp_path / "rig.toml", operating={"cam_speed_hz": 16.0})
+    toml.write_bytes(b"\xef\xbb\xbf" + toml.read_bytes())
+    rec = read_recording(write_hdf5(small_recording(), tmp_path / "r.h5"), rig=toml, check=False)
+    assert rec.rig == RIG
+
+
+@pytest.mark.parametrize("content, message", [
+    (bytes(range(256)), "not a TOML rig file: not UTF-8 text \\(byte 0x80 at line 2\\)"),
+    (b"\x89HDF\r\n\x1a\n" + bytes(100), "is an HDF5 file, not a TOML rig file"),
+])
+def test_binary_rig_files_are_named(tmp_path, content, message):
+    toml = tmp_path / "rig.toml"
+    toml.write_bytes(content)
+    with pytest.raises(RecordingError, match=f"{toml}: {message}"):
+        read_recording(write_hdf5(small_recording(), tmp_path / "r.h5"), rig=toml)
+
+
+# ---- CSV text -----------------------------------------------------------------------------------------
+
+
+def test_csv_byte_order_mark_and_trailing_commas_everywhere_are_accepted(tmp_path):
+    rec = small_recording(n=300)
+    csv, _ = write_csv(rec, tmp_path / "r.csv")
+    text = csv.read_bytes()
+    variants = {
+        "bom": b"\xef\xbb\xbf" + text,
+        "rows": b"\n".join(line + b"," if i else line for i, line in enumerate(text.splitlines())) + b"\n",
+        "all": b"\n".join(line + b"," for line in text.splitlines()) + b"\n",
+    }
+    for name, content in variants.items():
+        csv.write_bytes(content)
+        back = read_recording(csv, check=False)
+        assert list(back.channels) == list(rec.channels), name
+        assert np.array_equal(back["force_x"], rec["force_x"]), name
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda lines: [lines[0]] + [line + (b"," if i == 10 else b"") for i, line in enumerate(lines[1:])],
+     "line 12 has 6 fields, the lines before it 5"),
+    (lambda lines: [lines[0] + b","] + [line + (b",7" if i == 3 else b",") for i, line in enumerate(lines[1:])],
+     "column 6 has no name in the header but holds values"),
+    (lambda lines: [lines[0]] + [line + (b",7" if i == 3 else b",") for i, line in enumerate(lines[1:])],
+     "rows have a value after the last of the header's 5 columns"),
+    (lambda lines: [lines[0].replace(b"force_x", b"force_\xe9x")] + lines[1:],
+     "not UTF-8 text: byte 0xe9 at line 1, column 31 \\(the header\\)"),
+    (lambda lines: lines[:5] + [lines[5] + b"\xff"] + lines[6:], "not UTF-8 text: byte 0xff at line 6"),
+])
+def test_ambiguous_csv_text_is_refused_saying_what_is_wrong(tmp_path, edit, message):
+    csv, _ = write_csv(small_recording(n=300), tmp_path / "r.csv")
+    csv.write_bytes(b"\n".join(edit(csv.read_bytes().splitlines())) + b"\n")
+    with pytest.raises(RecordingError, match=message):
+        read_recording(csv)
+
+
+# ---- memory -----------------------------------------------------------------------------------------------
+
+
+def test_memory_limit_from_the_environment(tmp_path, monkeypatch, capsys):
+    from impactid.io import available_memory, check_memory, recording_footprint
+
+    path = write_hdf5(small_recording(n=2000), tmp_path / "r.h5")
+    footprint = recording_footprint(path)
+    assert (footprint.n_samples, footprint.n_channels, footprint.nbytes) == (2000, 4, 64_000)
+    csv, _ = write_csv(small_recording(n=2000), tmp_path / "r.csv")
+    sized = recording_footprint(csv)
+    assert sized.n_channels == 5 and 1900 <= sized.n_samples <= 2100  # from the length of the first rows
+    monkeypatch.setenv("IMPACTID_MEMORY_LIMIT", "5e5")
+    assert available_memory() == (5e5, "IMPACTID_MEMORY_LIMIT")
+    check_memory([path], "events")  # 2.5 x 64 kB
+    with pytest.raises(RecordingError, match=f"{path}: the estimate needs about 576 kB of memory \\(2,000 samples of "
+                                             "channel 'accel_tangential' x 4 channel\\(s\\) x 8 bytes = 64 kB, x 9\\), "
+                                             "more than the 500 kB available \\(IMPACTID_MEMORY_LIMIT\\)"):
+        check_memory([path], "estimate")
+    monkeypatch.setenv("IMPACTID_MEMORY_LIMIT", "6e4")
+    with pytest.raises(RecordingError, match="reading it needs about 96 kB"):
+        read_recording(path)
+    with pytest.raises(RecordingError, match="r.csv: reading it needs about"):
+        read_recording(csv)
+    assert main(["info", str(path)]) == 2
+    assert "more than the 60 kB available" in capsys.readouterr().err
+    monkeypatch.setenv("IMPACTID_MEMORY_LIMIT", "lots")
+    with pytest.raises(RecordingError, match="IMPACTID_MEMORY_LIMIT='lots': expected a positive number of bytes"):
+        available_memory()
+    monkeypatch.delenv("IMPACTID_MEMORY_LIMIT")
+    limit, source = available_memory()
+    assert source in ("MemAvailable", "free physical memory", "unknown") and (limit is None or limit > 0)
+
+
+def test_joint_memory_counts_every_recording_read(tmp_path, monkeypatch):
+    from impactid.io import MEMORY_FACTORS, check_memory
+
+    a = write_hdf5(small_recording(n=2000), tmp_path / "a.h5")
+    b = write_hdf5(small_recording(n=4000), tmp_path / "b.h5")
+    need = MEMORY_FACTORS["read"] * (64_000 + 128_000) + (MEMORY_FACTORS["estimate"] - MEMORY_FACTORS["read"]) * 128_000
+    monkeypatch.setenv("IMPACTID_MEMORY_LIMIT", str(need * 1.01))
+    check_memory([a, b], "estimate")
+    monkeypatch.setenv("IMPACTID_MEMORY_LIMIT", str(need * 0.99))
+    with pytest.raises(RecordingError, match=f"{b}: the estimate needs .* with the 1 other recording"):
+        check_memory([a, b], "estimate")

@@ -122,3 +122,26 @@ def test_random_structure(folder, rate, start, units, rig_value, rig_key, op_val
         rig.attrs[rig_key] = rig_value
         fh.create_group("operating").attrs["cam_speed_hz"] = op_value
     _read(path)
+
+
+# unit strings: pint evaluates them as arithmetic, so its parser raises whatever Python's tokenizer and
+# arithmetic raise (or computes for ever: 2^2^2^2^30); every string must end in a factor or a UnitError
+UNIT_PIECES = st.sampled_from(["m", "s", "N", "g", "k", "mm", "kN", "deg", "rad", "turn", "rev", "/", "*", "^", "**",
+                               "(", ")", " ", "-", "+", ".", "0", "1", "2", "9", "e", "1e308", "99999999", "²", "³",
+                               "⁻", "·", "per", "squared", "°", ",", "_", "[", "]", "'", '"', "\\", "%", "\t", "pi",
+                               "nan", "inf", "degC", "delta_degC", "lambda", "import", "__", "#", ":", ";", "=",
+                               "m/s^2", "standard_gravity", "ms^-2", "1/0"])
+UNIT_TEXT = st.one_of(st.lists(UNIT_PIECES, max_size=16).map("".join), st.text(max_size=24))
+
+
+@settings(max_examples=400, deadline=None, derandomize=True)
+@given(unit=UNIT_TEXT, quantity=st.sampled_from(["acceleration", "force", "angle"]))
+def test_unit_strings_parse_or_raise_unit_error(unit, quantity):
+    from impactid.units import UnitError, si_factor
+
+    try:
+        factor = si_factor(unit, quantity)
+    except UnitError as exc:
+        assert exc.reason and "\n" not in str(exc)
+        return
+    assert np.isfinite(factor) and factor > 0.0

@@ -244,12 +244,13 @@ def run_synth(args, model) -> int:
 def run_events(args, model) -> int:
     from impactid._files import StagedFiles
     from impactid.events import find_events
-    from impactid.io import read_recording
+    from impactid.io import check_memory, read_recording
     from impactid.reconstruct import reconstruct
 
     path = recording_paths(args)[0]
     inputs = command_inputs(args, [path])
     check_outputs(args, inputs)
+    check_memory([path], "events")  # before anything is allocated
     rec = read_recording(path, rig=recording_rig(args))
     events = find_events(rec, threshold=args.threshold, onset_threshold=args.onset_threshold)
     result = reconstruct(rec, events, integration=args.integration, anchor=args.anchor)
@@ -282,6 +283,7 @@ def _estimate_figures(args, result):
 
 def run_estimate(args, model) -> int:
     from impactid.estimates import C_BOUNDS, EstimationWarning, estimate
+    from impactid.io import check_memory
 
     paths = recording_paths(args, several=True)
     lo, hi = args.n_range
@@ -289,6 +291,7 @@ def run_estimate(args, model) -> int:
         raise UsageError(f"argument --n-range: need LO < HI, got {lo:g} {hi:g}")
     inputs = command_inputs(args, paths)
     check_outputs(args, inputs)
+    check_memory(paths, "estimate")  # before anything is allocated
     progress = progress_bar(args.progress if args.progress is not None else sys.stderr.isatty())
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", EstimationWarning)  # the result's notes, printed below
