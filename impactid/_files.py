@@ -115,12 +115,12 @@ def check_distinct_inputs(paths: Iterable[str | os.PathLike[str]], *, what: str 
         for earlier, _ in seen:
             if same_file(earlier, path):
                 raise DuplicateInputError(f"{path}: the same {what} as {earlier} (given twice); each {what} "
-                                          "may be given once, or its impacts would count twice")
+                                          "may be given once, or its data would count twice")
         digest = _content_digest(path)
         for earlier, earlier_digest in seen:
             if digest is not None and digest == earlier_digest:
                 raise DuplicateInputError(f"{path}: identical contents to {earlier} (SHA-256 {digest[:12]}); "
-                                          f"each {what} may be given once, or its impacts would count twice")
+                                          f"each {what} may be given once, or its data would count twice")
         seen.append((path, digest))
 
 

@@ -170,10 +170,11 @@ class Pipeline:
             of every step are collected in the result's ``warnings`` and issued here, each once, as
             :class:`~impactid.estimates.EstimationWarning` (the steps themselves do not warn).
         """
-        from impactid.io import Recording, read_recording
+        from impactid.io import Recording, check_memory, read_recording
 
         if isinstance(recordings, (Recording, str)) or hasattr(recordings, "__fspath__"):
             recordings = [recordings]
+        check_memory(recordings, "estimate")  # the paths among them: refused before anything is read
         recs = [(r.with_rig(rig) if rig is not None else r) if isinstance(r, Recording) else read_recording(r, rig=rig)
                 for r in recordings]
         if not recs:

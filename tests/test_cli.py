@@ -174,4 +174,4 @@ def test_estimate_refuses_one_recording_given_twice_before_reading_it(tmp_path, 
     copy.write_bytes(twin.read_bytes())
     assert main(["estimate", str(twin), str(copy), "--fix-n", "1.5"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("impactid: error:") and "identical contents" in err and "impacts would count twice" in err
+    assert err.startswith("impactid: error:") and "identical contents" in err and "would count twice" in err

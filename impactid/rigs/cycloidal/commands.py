@@ -6,25 +6,48 @@ the project's meanings, and this rig's own choices (``--level``, ``--preset``, .
 here rather than by argparse ``choices`` so that another rig's definition of the same flag cannot
 reject them. Units on the command line are SI except camshaft speeds (rpm); reports print um, deg
 and rpm.
+
+Every camshaft speed a command takes (``--rpm``, ``--speeds``, ``--rpm-range``, a rig file's
+``[operating] cam_speed_hz``, a recording's operating point) must lie in the range the model
+describes, :attr:`CycloidalEHLRig.speed_range <impactid.rigs.cycloidal.parameters.CycloidalEHLRig.speed_range>`
+(1/300 to 3 times the rig's rigid-follower jump speed; the decision is documented in
+:class:`impactid.rigs.valvespring.CamSpeedRange`). An option of the other valve train given to
+one of this rig's commands is refused, not ignored.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import warnings
 from pathlib import Path
 
-from impactid.commandline import UsageError
+from impactid.commandline import MAX_SYNTH_SAMPLES, UsageError
 from impactid.commandline import integer_in as _count
 from impactid.commandline import nonnegative as _nonnegative
 from impactid.commandline import number as _number
 from impactid.commandline import positive as _positive
+from impactid.errors import SimulationError
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["COMMANDS"]
 
 
 _UsageError = UsageError
+
+#: Finest jump-speed tolerance ``--xtol`` [rpm]: far below any physical meaning, and a bisection
+#: stops after about 20 halvings instead of looping at the floating-point resolution.
+MIN_XTOL_RPM = 1e-4
+#: Most scan speeds of ``jump-speed`` (each one a steady cycle).
+MAX_SCAN_SPEEDS = 400
+#: Most film steps per revolution a command computes (each sampled 20 times for the load): a rig
+#: file may hold up to 1e7, which would need gigabytes.
+MAX_STEPS_PER_REV = 100_000
+#: Fewest samples per camshaft revolution of a synthetic recording (10 deg: the cam event of
+#: 180 deg must be resolved).
+MIN_SAMPLES_PER_REV = 36
+#: Most revolutions of a synthetic recording.
+MAX_SYNTH_REVOLUTIONS = 10_000
 
 
 def _fraction(text: str) -> float:
@@ -74,15 +97,42 @@ def _rig(args):
     return PRESETS[name], {}
 
 
-def _rpm(args, operating) -> float:
+def _rpm(args, rig, operating) -> float:
+    """``--rpm``, else the rig file's ``[operating] cam_speed_hz``, inside the rig's speed range."""
     if getattr(args, "rpm", None) is not None:
-        rpm = float(args.rpm)
-        if not (math.isfinite(rpm) and rpm > 0.0):
-            raise _UsageError(f"argument --rpm: must be a positive camshaft speed, got {args.rpm!r}")
-        return rpm
+        return rig.speed_range.check(args.rpm, "argument --rpm", _UsageError)
     if "cam_speed_hz" in operating:
-        return 60.0 * float(operating["cam_speed_hz"])
+        hz = operating["cam_speed_hz"]
+        return rig.speed_range.check(60.0 * float(hz), f"{args.rig_file}: [operating] cam_speed_hz = {hz!r} Hz",
+                                     _UsageError)
     raise _UsageError("no camshaft speed: give --rpm N (or a rig file with [operating] cam_speed_hz)")
+
+
+def _steps_per_rev(args, rig) -> int | None:
+    """``--steps-per-rev``, or None for the rig's ``steps_per_rev`` (refused above :data:`MAX_STEPS_PER_REV`)."""
+    steps = getattr(args, "steps_per_rev", None)
+    if steps is None and rig.film_steps > MAX_STEPS_PER_REV:
+        raise _UsageError(f"{args.rig_file}: rig parameter 'steps_per_rev' = {rig.film_steps} is more film steps "
+                          f"per revolution than a command computes (at most {MAX_STEPS_PER_REV}); give "
+                          "--steps-per-rev N")
+    return steps
+
+
+def _own_options(args, model) -> None:
+    """Refuse an option of the other valve train's version of this command (argparse accepts the union
+    of both rigs' options; this rig would silently ignore the other's)."""
+    name = getattr(args, "valvetrain_command", None)
+    spec = next((c for c in model.commands if c.name == name), None)
+    if spec is None:
+        return
+    own = {"command", "valvetrain_command", "func", "rig", "resolved_rig"}
+    for argument in spec.arguments:
+        flag = argument.flags[0]
+        own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
+    for dest, value in sorted(vars(args).items()):
+        if dest not in own and value not in (None, False, [], ()):
+            raise _UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'valvetrain {name}' for the "
+                              f"{model.name!r} rig (it belongs to another valve train)")
 
 
 def _level(args, allowed, default="A") -> str:
@@ -134,62 +184,84 @@ def _write(args, data: dict, inputs, figures=None, printed: dict | None = None) 
 
 
 def run_simulate(args, model) -> int:
-    from impactid.rigs.cycloidal.cam import rigid_jump_speed
+    """``impactid valvetrain simulate --rig cycloidal-flat-follower-ehl``: the steady cycle at ``--rpm``
+    (and at ``--speeds`` for the figures; one of those that cannot be simulated is left out with a
+    warning and exit status 1, the main result is kept)."""
     from impactid.rigs.cycloidal.contact import WS_MODES
     from impactid.rigs.cycloidal.figures import write_cycle_figures
     from impactid.rigs.cycloidal.simulate import LEVELS, cycle
 
+    _own_options(args, model)
     rig, operating = _rig(args)
-    rpm = _rpm(args, operating)
+    rpm = _rpm(args, rig, operating)
     level = _level(args, LEVELS)
     ws_mode = getattr(args, "ws_mode", None)
     if ws_mode is not None and ws_mode not in WS_MODES:
         raise _UsageError(f"argument --ws-mode: {ws_mode!r} is not one of {', '.join(WS_MODES)}")
+    speeds = [rig.speed_range.check(r, "argument --speeds", _UsageError) for r in getattr(args, "speeds", None) or []]
+    steps = _steps_per_rev(args, rig)
     inputs = _inputs(args)
     _check(args, inputs)
-    result = cycle(rig, rpm, level, steps_per_rev=getattr(args, "steps_per_rev", None), ws_mode=ws_mode,
+    result = cycle(rig, rpm, level, steps_per_rev=steps, ws_mode=ws_mode,
                    h_floor=getattr(args, "film_floor", None) or 0.0)
-    extra = []
-    for r in getattr(args, "speeds", None) or []:
+    extra, failed = [], []
+    for r in speeds:
         if r != rpm:
-            extra.append(cycle(rig, r, level, steps_per_rev=getattr(args, "steps_per_rev", None), ws_mode=ws_mode,
-                               h_floor=getattr(args, "film_floor", None) or 0.0))
+            try:
+                extra.append(cycle(rig, r, level, steps_per_rev=steps, ws_mode=ws_mode,
+                                   h_floor=getattr(args, "film_floor", None) or 0.0))
+            except SimulationError as exc:  # a further speed does not take the main result with it
+                failed.append({"rpm": r, "reason": str(exc)})
     data = result.summary()
     data["rig_parameters"] = rig.to_dict()
-    data["rigid_jump_speed_rpm"] = rigid_jump_speed(rig.m3, rig.k0, rig.f_p, rig.S, rig.beta)[0] * 60 / (2 * math.pi)
+    data["rigid_jump_speed_rpm"] = rig.rigid_jump_rpm
     if extra:
         data["other_speeds"] = [{k: r.summary()[k] for k in ("rpm", "nose_film_thickness_m", "max_film_thickness_m",
                                                               "min_film_thickness_m", "min_contact_load_N",
                                                               "max_contact_load_N")} for r in extra]
+    if failed:
+        data["failed_speeds"] = failed
     if getattr(args, "out", None):
         data["per_step"] = {k: v.tolist() for k, v in result.to_pandas().items()}
     figures = (lambda staged: write_cycle_figures(result, args.plots, staged, extra)) if getattr(args, "plots",
                                                                                                None) else None
     printed = {k: v for k, v in data.items() if k != "per_step"}
     _write(args, data, inputs, figures, printed)
+    for f in failed:
+        warnings.warn(f"argument --speeds: {f['rpm']:g} rpm left out (the other speeds were computed): "
+                      f"{f['reason']}", stacklevel=2)
     if not getattr(args, "json", False):
         print(result.report())
         if getattr(args, "out", None):
             print(f"  result written to {args.out}")
         if getattr(args, "plots", None):
             print(f"  figures written to {args.plots}")
-    return 0
+    return 1 if failed else 0
 
 
 def run_jump_speed(args, model) -> int:
-    from impactid.rigs.cycloidal.cam import rigid_jump_speed
     from impactid.rigs.cycloidal.figures import jump_figure
     from impactid.rigs.cycloidal.simulate import jump_speed, level_a_min_load
 
+    _own_options(args, model)
     rig, _ = _rig(args)
     level = _level(args, ("A", "B", "rigid"))
+    rpm_range = getattr(args, "rpm_range", None) or (2000.0, 4500.0)
+    for end in rpm_range:
+        rig.speed_range.check(end, "argument --rpm-range", _UsageError)
+    scan_step = getattr(args, "scan_step", None) or 50.0
+    width = rpm_range[1] - rpm_range[0]
+    if scan_step > width or width / scan_step > MAX_SCAN_SPEEDS:
+        raise _UsageError(f"argument --scan-step: {scan_step:g} rpm gives {width / scan_step:.3g} steps over the "
+                          f"{width:g} rpm of --rpm-range; give 1 to {MAX_SCAN_SPEEDS}")
+    xtol = getattr(args, "xtol", None)
+    if xtol is not None and xtol < MIN_XTOL_RPM:
+        raise _UsageError(f"argument --xtol: at least {MIN_XTOL_RPM:g} rpm, got {xtol:g}")
     inputs = _inputs(args)
     _check(args, inputs)
-    rpm_range = getattr(args, "rpm_range", None) or (2000.0, 4500.0)
-    result = jump_speed(rig, level, rpm_range=rpm_range, scan_step=getattr(args, "scan_step", None) or 50.0,
-                        xtol=getattr(args, "xtol", None))
+    result = jump_speed(rig, level, rpm_range=rpm_range, scan_step=scan_step, xtol=xtol)
     data = result.to_dict()
-    data["rigid_jump_speed_rpm"] = rigid_jump_speed(rig.m3, rig.k0, rig.f_p, rig.S, rig.beta)[0] * 60 / (2 * math.pi)
+    data["rigid_jump_speed_rpm"] = rig.rigid_jump_rpm
     data["rig_parameters"] = rig.to_dict()
     figures = None
     if getattr(args, "plots", None):
@@ -221,19 +293,22 @@ def run_jump_speed(args, model) -> int:
 
 
 def run_fit_surge(args, model) -> int:
+    from impactid._files import check_distinct_inputs
     from impactid.io import read_recording
     from impactid.rigs.cycloidal.identify import fit_surge
 
+    _own_options(args, model)
     recordings = list(getattr(args, "recordings", None) or [])
     if not recordings:
         raise _UsageError("give one or more recordings (HDF5, or CSV with its rig file)")
+    channel = getattr(args, "channel", None)
+    if channel is not None and channel not in ("contact_load", "valve_displacement"):
+        raise _UsageError(f"argument --channel: {channel!r} is not one of contact_load, valve_displacement")
+    check_distinct_inputs(recordings)
     inputs = _inputs(args, recordings)
     _check(args, inputs)
     rig_file = getattr(args, "rig_file", None)
     recs = [read_recording(path, rig=rig_file) for path in recordings]
-    channel = getattr(args, "channel", None)
-    if channel is not None and channel not in ("contact_load", "valve_displacement"):
-        raise _UsageError(f"argument --channel: {channel!r} is not one of contact_load, valve_displacement")
     fit = fit_surge(recs, channel=channel, free_k0=bool(getattr(args, "free_k0", False)),
                     confidence=getattr(args, "confidence", None) or 0.95)
     data = fit.to_dict()
@@ -255,11 +330,26 @@ def run_fit_surge(args, model) -> int:
 def run_synth(args, model) -> int:
     from impactid.rigs.cycloidal.synth import synth_recording
 
+    _own_options(args, model)
     rig, operating = _rig(args)
-    rpm = _rpm(args, operating)
+    rpm = _rpm(args, rig, operating)
     level = _level(args, ("A", "B"))
     if not getattr(args, "out", None):
         raise _UsageError("argument --out: give the HDF5 file to write")
+    revolutions = getattr(args, "revolutions", None) or 4.0
+    if not revolutions <= MAX_SYNTH_REVOLUTIONS:
+        raise _UsageError(f"argument --revolutions: at most {MAX_SYNTH_REVOLUTIONS}, got {revolutions:g}")
+    sample_rate = getattr(args, "sample_rate", None) or 50_000.0
+    per_rev = sample_rate * 60.0 / rpm
+    if per_rev < MIN_SAMPLES_PER_REV:
+        raise _UsageError(f"argument --sample-rate: {sample_rate:g} Hz gives {per_rev:.3g} samples per camshaft "
+                          f"revolution at {rpm:g} rpm; at least {MIN_SAMPLES_PER_REV} are needed to resolve the cam")
+    if revolutions * per_rev > MAX_SYNTH_SAMPLES:
+        raise _UsageError(f"arguments --revolutions/--sample-rate: {revolutions * per_rev:.3g} samples to generate; "
+                          f"at most {MAX_SYNTH_SAMPLES:.3g}")
+    if revolutions * per_rev < 2:
+        raise _UsageError(f"argument --revolutions: {revolutions:g} revolutions at {sample_rate:g} Hz is fewer than "
+                          "2 samples")
     inputs = _inputs(args)
     _check(args, inputs)
     noise = {}
@@ -267,9 +357,8 @@ def run_synth(args, model) -> int:
         noise["contact_load"] = args.noise_load
     if getattr(args, "noise_displacement", None):
         noise["valve_displacement"] = args.noise_displacement
-    synthetic = synth_recording(rig, rpm, level=level, revolutions=getattr(args, "revolutions", None) or 4.0,
-                                sample_rate_hz=getattr(args, "sample_rate", None) or 50_000.0, noise=noise,
-                                seed=getattr(args, "seed", None) or 0)
+    synthetic = synth_recording(rig, rpm, level=level, revolutions=revolutions, sample_rate_hz=sample_rate,
+                                noise=noise, seed=getattr(args, "seed", None) or 0)
     synthetic.write(args.out)
     rec = synthetic.recording
     data = {"out": str(args.out), "level": level, "rpm": rpm, "samples": rec.n_samples,
@@ -297,6 +386,11 @@ _JSON = Argument(("--json",), {"action": "store_true", "help": "print the result
 _OUT_JSON = Argument(("--out",), {"metavar": "RESULT.json", "default": None,
                                   "help": "write the result as JSON (atomically)"})
 _PLOTS = Argument(("--plots",), {"metavar": "DIR", "default": None, "help": "write figures (PNG) into DIR"})
+#: shared with the finger follower's synth, declared exactly alike (each rig checks its own limits)
+REVOLUTIONS = Argument(("--revolutions",), {"type": _positive, "default": None,
+                                            "help": "revolutions recorded (cycloidal: default 4, need not be whole; "
+                                                    "finger-follower: whole, default 16)"})
+SEED = Argument(("--seed",), {"type": _count(0, 2**31 - 1), "default": None, "help": "random seed (default 0)"})
 _LEVEL = Argument(("--level",), {"default": None, "metavar": "LEVEL",
                                  "help": "cycloidal: A (adherent, the paper's; default), B (valve released, seat), "
                                          "kinematic or rigid (simulate), rigid (jump-speed)"})
@@ -304,7 +398,7 @@ _LEVEL = Argument(("--level",), {"default": None, "metavar": "LEVEL",
 COMMANDS = (
     CommandSpec("valvetrain", "simulate", "steady cycle: film, velocities, load, Hertz pressure", (
         _RIG_FILE, _PRESET, _RPM, _LEVEL,
-        Argument(("--steps-per-rev",), {"type": _count(8, 1_000_000), "default": None,
+        Argument(("--steps-per-rev",), {"type": _count(8, MAX_STEPS_PER_REV), "default": None,
                                         "help": "cycloidal: film time steps per revolution (default: rig's, 500)"}),
         Argument(("--ws-mode",), {"default": None, "metavar": "MODE",
                                   "help": "cycloidal: squeeze ratio clip (default), none or symmetric"}),
@@ -334,13 +428,13 @@ COMMANDS = (
         _OUT_JSON, _PLOTS, _JSON), run_fit_surge),
     CommandSpec("valvetrain", "synth", "write a synthetic recording with known parameters", (
         _RIG_FILE, _PRESET, _RPM, _LEVEL,
-        Argument(("--revolutions",), {"type": _positive, "default": None, "help": "revolutions (default 4)"}),
+        REVOLUTIONS,
         Argument(("--sample-rate",), {"type": _positive, "default": None,
                                       "help": "sampling rate [Hz] (default 50 kHz)"}),
         Argument(("--noise-load",), {"type": _nonnegative, "default": None, "help": "contact-load noise SD [N]"}),
         Argument(("--noise-displacement",), {"type": _nonnegative, "default": None,
                                              "help": "valve-displacement noise SD [m]"}),
-        Argument(("--seed",), {"type": _count(0, 2**31 - 1), "default": None, "help": "random seed"}),
+        SEED,
         Argument(("--out",), {"metavar": "FILE.h5", "default": None, "help": "output HDF5 recording"}),
         _JSON), run_synth),
 )

@@ -5,7 +5,9 @@ measurements. Given one or more recordings of the cycloidal-cam valve train at k
 (each with a ``cam_angle`` channel for the phase), :func:`fit_surge` fits
 
 * ``f0`` [Hz], the first surge frequency of the valve spring (both ends clamped), and ``c_spring``
-  [N s/m], the damper of the two-mass surge model (reported also as the first-mode damping ratio);
+  [N s/m], the damper of the two-mass surge model (reported also as the first-mode damping ratio
+  ``zeta1``, computed by :func:`impactid.rigs.valvespring.damper_damping_ratio`, the one function that
+  computes it: ``3 pi c f0 / (8 k0)``);
 * ``f_p`` [N], the preload, and ``m3`` [kg], the moving mass (valve, follower, retainer);
 * optionally ``k0`` [N/m], the spring rate (fixed at the rig file's value by default: a static
   measurement of the spring gives it far better than a dynamic fit).
@@ -27,6 +29,12 @@ Two measurement models, chosen by the channel:
     biases it). Above the jump speed the separation and the seat bounce add information. All
     parameters enter nonlinearly; each evaluation is a level-B steady cycle. The fit is refused when
     the displacement's noise hides the whole load-dependent part of the motion.
+
+Refusals: a recording whose cam speed lies outside the rig's
+:attr:`~impactid.rigs.cycloidal.parameters.CycloidalEHLRig.speed_range`, a channel that is
+non-finite, constant or zero, shorter than a revolution, or (after the fit) explained no better by
+the model than by noise alone (:func:`impactid.rigs.valvespring.check_model_explains`) is refused
+with an :class:`IdentificationError` naming the file and the channel or attribute.
 
 Uncertainty: the covariance ``s^2 (J^T J)^-1`` of the full parameter vector at the optimum (``J`` by
 central differences, ``s^2`` the residual variance), and Student-t intervals at ``confidence``. It
@@ -60,6 +68,7 @@ from impactid.rigs.cycloidal.simulate import (
     level_b_steady_cycle,
     omega_of,
 )
+from impactid.rigs.valvespring import check_fit_channel, check_model_explains, damper_damping_ratio
 
 __all__ = ["CHANNEL_MODELS", "IdentificationError", "SurgeFit", "fit_surge"]
 
@@ -128,15 +137,27 @@ def _prepare(recordings, channel: str | None, rig: CycloidalEHLRig | None) -> tu
         hz = rec.cam_speed_hz
         if hz is None:
             hz = rec.encoder_speed_hz("cam_angle")
-            notes.append(f"{where}: no operating cam_speed_hz; the cam speed {hz * 60:.6g} rpm is the encoder's")
-        rpm = 60.0 * float(hz)
+            rpm = the_rig.speed_range.check(60.0 * hz, f"{where}: the cam speed of the encoder (channel 'cam_angle'; "
+                                                       "no operating cam_speed_hz)", IdentificationError)
+            notes.append(f"{where}: no operating cam_speed_hz; the cam speed {rpm:.6g} rpm is the encoder's")
+        else:
+            rpm = the_rig.speed_range.check(60.0 * hz, f"{where}: operating cam_speed_hz = {hz:.6g} Hz",
+                                            IdentificationError)
         y = np.asarray(rec.channel(chosen), dtype=float)
+        unit = "N" if chosen == "contact_load" else "m"
+        check_fit_channel(y, psi, where=where, channel=chosen, unit=unit, error=IdentificationError)
         keep = np.ones(y.size, dtype=bool)
         if chosen == "contact_load":
             keep = y > 0.0
+            if not keep.any():
+                raise IdentificationError(f"{where}: channel 'contact_load' has no positive sample (the largest is "
+                                          f"{float(y.max()):.6g} N): the follower never presses on the cam, and the "
+                                          "adherent model (level A) describes nothing of it")
             if not keep.all():
                 notes.append(f"{where}: {int((~keep).sum())} samples with a load <= 0 (the valve left the cam) are "
                              "excluded: the adherent model (level A) does not describe them")
+                check_fit_channel(y[keep], psi[keep], where=where, channel=chosen, unit=unit,
+                                  error=IdentificationError, min_revolutions=0.0)
         psi, y = psi[keep], y[keep]
         data.append(_Data(where, the_rig, rpm, psi, y, *_phase(psi, rpm)))
     return data, chosen, notes
@@ -221,6 +242,31 @@ def _fit_level_a(data, nonlinear, base, tol, scan_f0, full=False):
     values = dict(zip(nonlinear, (float(v) for v in sol.x)))
     values.update(f_p=float(beta[0]), m3=float(beta[1]))
     return (values, r, sol) if full else values
+
+
+def _zeta_parameter(values: dict, k0_fixed: float, cov: np.ndarray, names: list, q: float,
+                    confidence: float) -> Parameter:
+    """The first surge mode's damping ratio ``zeta1`` of the fitted damper, by
+    :func:`~impactid.rigs.valvespring.damper_damping_ratio` (the one function that computes it), with
+    its standard error by the delta method (the gradient by central differences of that function)."""
+    point = {"c_spring": values["c_spring"], "f0": values["f0"], "k0": values.get("k0", k0_fixed)}
+
+    def zeta_of(p: dict) -> float:
+        return damper_damping_ratio(p["k0"], p["f0"], p["c_spring"])
+
+    zeta = zeta_of(point)
+    grad = np.zeros(len(names))
+    for name in ("c_spring", "f0", "k0"):
+        if name not in names:
+            continue
+        step = 1e-6 * max(abs(point[name]), 1e-9)
+        up, down = dict(point), dict(point)
+        up[name] += step
+        down[name] = max(point[name] - step, 0.0)  # the damper may sit at its bound 0
+        grad[names.index(name)] = (zeta_of(up) - zeta_of(down)) / (up[name] - down[name])
+    se = float(math.sqrt(max(grad @ cov @ grad, 0.0))) if np.all(np.isfinite(cov)) else math.nan
+    return Parameter("zeta1", zeta, se, _interval(zeta, se, q, 0.0), confidence, False, "",
+                     "first surge mode's damping ratio, derived from c_spring, f0 and k0")
 
 
 def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | None = None, free_k0: bool = False,
@@ -323,6 +369,11 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
             return np.concatenate([_level_b_model(d, vals, tol, conv_tol) for d in data])
 
         nfev = sol.nfev
+    # ---- does the model explain more of the channel than noise would? (a constant is the null model) ----
+    y_fitted = np.concatenate([d.y for d in data])
+    check_model_explains(float(np.sum((y_fitted - y_fitted.mean()) ** 2)), float(np.sum(r**2)), n_total,
+                         len(names) - 1, where=", ".join(dict.fromkeys(d.source for d in data)), channel=chosen,
+                         error=IdentificationError)
     # ---- covariance of the full parameter vector (central differences) ----
     p = len(names)
     dof = n_total - p
@@ -353,17 +404,7 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
     if not free_k0:
         params.append(Parameter("k0", float(base.k0), 0.0, (base.k0, base.k0), confidence, True, "N/m",
                                 "fixed at the rig file's spring rate"))
-    # first-mode damping ratio zeta1 = c / (2 sqrt(k_s1 m5)) = c pi f0 / (4 k0) (delta method)
-    k0 = values.get("k0", base.k0)
-    zeta = values["c_spring"] * math.pi * values["f0"] / (4.0 * k0)
-    grad = np.zeros(p)
-    grad[names.index("c_spring")] = math.pi * values["f0"] / (4.0 * k0)
-    grad[names.index("f0")] = values["c_spring"] * math.pi / (4.0 * k0)
-    if "k0" in names:
-        grad[names.index("k0")] = -zeta / k0
-    se_z = float(math.sqrt(grad @ cov @ grad)) if np.all(np.isfinite(cov)) else math.nan
-    params.append(Parameter("zeta1", zeta, se_z, _interval(zeta, se_z, q, 0.0), confidence, False, "",
-                            "first surge mode's damping ratio, derived from c_spring, f0 and k0"))
+    params.append(_zeta_parameter(values, base.k0, cov, names, q, confidence))
     notes.append("the EHL regression constants are not identified: the film does not enter the dynamics")
     if level == "B":
         notes.append("level-B fit of the valve displacement: it assumes the nominal lift exactly; a cam profile error "

@@ -21,7 +21,7 @@ from typing import ClassVar
 
 from impactid.errors import RigParameterError
 from impactid.rigs._params import RigParameters
-from impactid.rigs.valvespring import SurgeModel, surge_model
+from impactid.rigs.valvespring import CamSpeedRange, SurgeModel, surge_model
 
 __all__ = ["KUSHWAHA2000", "KUSHWAHA2000_THICK_OIL", "KUSHWAHA2000_ZEROS_EXACT", "MODEL_NAME", "PRESETS",
            "TABLE1_RANGES", "UNITS", "CycloidalEHLRig"]
@@ -159,6 +159,20 @@ class CycloidalEHLRig(RigParameters):
         """Modal damping ratios of the two surge modes (single damper: ``zeta2 = 1.5 zeta1``)."""
         z = self.surge.damping_ratios()
         return float(z[0]), float(z[1])
+
+    @property
+    def rigid_jump_rpm(self) -> float:
+        """Camshaft speed [rpm] at which a rigid follower on a massless spring first loses the cam
+        (:func:`~impactid.rigs.cycloidal.cam.rigid_jump_speed`)."""
+        from impactid.rigs.cycloidal.cam import rigid_jump_speed
+
+        return rigid_jump_speed(self.m3, self.k0, self.f_p, self.S, self.beta)[0] * 60.0 / (2.0 * math.pi)
+
+    @property
+    def speed_range(self) -> CamSpeedRange:
+        """The camshaft speeds the model is used at: 1/300 to 3 times :attr:`rigid_jump_rpm`
+        (the decision is :class:`~impactid.rigs.valvespring.CamSpeedRange`'s)."""
+        return CamSpeedRange(self.rigid_jump_rpm)
 
     @property
     def rise_start(self) -> float:

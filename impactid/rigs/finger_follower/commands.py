@@ -5,6 +5,15 @@ on an error, Ctrl-C or SIGTERM), prints a short report or, with ``--json``, the 
 raises :class:`~impactid.errors.ImpactidError` for what the user can fix (the command line prints
 it as one ``impactid: error: ...`` line). Units at the edge: rpm, mm, um and deg in text; JSON keys
 carry their SI unit in their names.
+
+Every camshaft speed a command takes (``--rpm``, ``--rpms``, ``--rpm-from``/``--rpm-to``, a
+recording's operating point) must lie in the range the model describes,
+:func:`~impactid.rigs.finger_follower.simulate.speed_range` (1/300 to 3 times the rigid train's
+jump speed; the decision is documented in :class:`impactid.rigs.valvespring.CamSpeedRange`). The
+commands are shared with the other valve train, so argparse accepts the union of both rigs' options:
+the flags both declare are declared alike, with no choices or defaults that would reject or hide the
+other's values; this rig checks its own and refuses an option of the other rig instead of ignoring
+it.
 """
 
 from __future__ import annotations
@@ -16,12 +25,23 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from impactid.errors import RigParameterError, SimulationInputError
+from impactid.commandline import integer_in, positive
+from impactid.errors import RigParameterError, SimulationError, SimulationInputError
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["COMMANDS"]
 
 MODEL_NAME = "finger-follower-hla"
+#: The paper presets ``--preset`` names (validated here: the other valve train has its own).
+PRESETS = ("kim1990", "kim1990-table2")
+#: Finest ``--resolution-rpm`` of ``jump-speed``: far below any physical meaning, and the bisection
+#: stops after about 20 halvings instead of looping at the floating-point resolution.
+MIN_RESOLUTION_RPM = 1e-4
+#: Most sweep speeds of ``jump-speed`` and of ``leakdown`` (each one a periodic steady state).
+MAX_SWEEP_SPEEDS = 400
+MAX_LEAKDOWN_SPEEDS = 200
+#: Whole revolutions ``synth`` records.
+MAX_SYNTH_REVOLUTIONS = 1000
 
 # ---- shared flags, declared exactly as the other valve-train rig declares them -------------------
 RPM = Argument(("--rpm",), {"type": float, "help": "camshaft speed [rpm]"})
@@ -30,10 +50,16 @@ OUT = Argument(("--out",), {"help": "write the JSON result to this file"})
 PLOTS = Argument(("--plots",), {"help": "write figures into this folder"})
 RIG_FILE = Argument(("--rig-file",), {"help": "TOML rig file (default: the rig's paper preset)"})
 # ---- this rig's own flags ----------------------------------------------------------------------
-LIFT = Argument(("--lift",), {"help": "cam lift file (CSV gamma_rad,lift_m or TOML [lift]); default the rig's "
-                                      "cycloidal law or the rig file's [lift] table"})
-PRESET = Argument(("--preset",), {"choices": ["kim1990", "kim1990-table2"], "default": None,
-                                  "help": "paper preset when no rig file is given (default kim1990)"})
+LIFT = Argument(("--lift",), {"help": "finger-follower: cam lift file (CSV gamma_rad,lift_m or TOML [lift]); "
+                                      "default the rig's cycloidal law or the rig file's [lift] table"})
+PRESET = Argument(("--preset",), {"default": None, "metavar": "NAME",
+                                  "help": "named parameter set when no rig file is given (finger-follower: kim1990 "
+                                          "(default), kim1990-table2)"})
+#: shared with the cycloidal rig's synth, declared exactly alike (each rig checks its own limits)
+REVOLUTIONS = Argument(("--revolutions",), {"type": positive, "default": None,
+                                            "help": "revolutions recorded (cycloidal: default 4, need not be whole; "
+                                                    "finger-follower: whole, default 16)"})
+SEED = Argument(("--seed",), {"type": integer_in(0, 2**31 - 1), "default": None, "help": "random seed (default 0)"})
 
 
 def _positive(name: str, value) -> float:
@@ -45,6 +71,30 @@ def _positive(name: str, value) -> float:
     return value
 
 
+def _own_options(args, model) -> None:
+    """Refuse an option of the other valve train's version of this command (argparse accepts the
+    union of both rigs' options; this rig would silently ignore the other's)."""
+    name = getattr(args, "valvetrain_command", None)
+    spec = next((c for c in model.commands if c.name == name), None)
+    if spec is None:
+        return
+    own = {"command", "valvetrain_command", "func", "rig", "resolved_rig"}
+    for argument in spec.arguments:
+        flag = argument.flags[0]
+        own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
+    for dest, value in sorted(vars(args).items()):
+        if dest not in own and value not in (None, False, [], ()):
+            raise SimulationInputError(f"argument --{dest.replace('_', '-')}: not an option of 'valvetrain {name}' "
+                                       f"for the {MODEL_NAME!r} rig (it belongs to another valve train)")
+
+
+def _speed_check(train, value, what: str) -> float:
+    """A camshaft speed [rpm] inside the rig's :func:`~impactid.rigs.finger_follower.simulate.speed_range`."""
+    from impactid.rigs.finger_follower.simulate import speed_range
+
+    return speed_range(train).check(value, what)
+
+
 def _rig_and_lift(args, default_rig=None):
     """The rig (``--rig-file``, ``--preset`` or ``default_rig``, else the paper preset) and the lift law."""
     from impactid.rigs.finger_follower.cam import read_lift
@@ -52,6 +102,12 @@ def _rig_and_lift(args, default_rig=None):
 
     lift = None
     rig_file = getattr(args, "rig_file", None)
+    preset = getattr(args, "preset", None)
+    if preset is not None and preset not in PRESETS:
+        raise SimulationInputError(f"argument --preset: unknown preset {preset!r} for the {MODEL_NAME!r} rig "
+                                   f"(choose from {', '.join(PRESETS)})")
+    if rig_file and preset:
+        raise SimulationInputError("give either --rig-file or --preset, not both")
     if rig_file:
         from impactid.rigs._toml import read_toml
         from impactid.rigs.registry import load_rig_toml
@@ -61,7 +117,7 @@ def _rig_and_lift(args, default_rig=None):
             raise RigParameterError(f"{rig_file}: a {rig.model!r} rig, expected {MODEL_NAME!r}")
         if isinstance(read_toml(rig_file).get("lift"), dict):
             lift = read_lift(rig_file)
-    elif getattr(args, "preset", None) == "kim1990-table2":
+    elif preset == "kim1990-table2":
         rig = KIM1990_TABLE2
     else:
         rig = default_rig if default_rig is not None else KIM1990
@@ -122,12 +178,14 @@ def run_simulate(args, model) -> int:
     from impactid.rigs.finger_follower import figures as F
     from impactid.rigs.finger_follower.simulate import prepare, steady_state, summarize
 
-    rpm = _positive("--rpm", args.rpm)
+    _own_options(args, model)
+    _positive("--rpm", args.rpm)
     inputs = _inputs(args)
     _check(args, inputs)
     rig, lift = _rig_and_lift(args)
     train = prepare(rig, lift, clip_tension=bool(getattr(args, "clip_tension", False)),
                     moment_cos=bool(getattr(args, "moment_cos", False)))
+    rpm = _speed_check(train, args.rpm, "argument --rpm")
     state = steady_state(train, rpm)
     s = summarize(state)
     seps = [{"contact": e["contact"], "criterion": e["criterion"], "start_cam_angle_deg": e["start_deg"],
@@ -175,11 +233,12 @@ def run_modes(args, model) -> int:
     """``impactid valvetrain modes --rig finger-follower-hla``: linearised natural frequencies."""
     from impactid.rigs.finger_follower.simulate import natural_frequencies, prepare
 
+    _own_options(args, model)
     inputs = _inputs(args)
     _check(args, inputs)
     rig, lift = _rig_and_lift(args)
-    speed_hz = _positive("--rpm", args.rpm) / 60.0 if args.rpm is not None else None
     train = prepare(rig, lift)
+    speed_hz = _speed_check(train, args.rpm, "argument --rpm") / 60.0 if args.rpm is not None else None
     seated = natural_frequencies(train, "seated", speed_hz=speed_hz)
     opened = natural_frequencies(train, "open", speed_hz=speed_hz)
     data = {"rig": MODEL_NAME, "beta": seated.beta,
@@ -202,18 +261,25 @@ def run_jump_speed(args, model) -> int:
     """``impactid valvetrain jump-speed --rig finger-follower-hla``: jump and bounce speeds."""
     from impactid.rigs.finger_follower.simulate import critical_speeds, prepare
 
+    _own_options(args, model)
     inputs = _inputs(args)
     _check(args, inputs)
-    lo = _positive("--rpm-from", args.rpm_from)
-    hi = _positive("--rpm-to", args.rpm_to)
-    step = _positive("--rpm-step", args.rpm_step)
-    res = _positive("--resolution-rpm", args.resolution_rpm)
+    lo = _positive("--rpm-from", 1000.0 if args.rpm_from is None else args.rpm_from)
+    hi = _positive("--rpm-to", 6000.0 if args.rpm_to is None else args.rpm_to)
+    step = _positive("--rpm-step", 250.0 if args.rpm_step is None else args.rpm_step)
+    res = _positive("--resolution-rpm", 1.0 if args.resolution_rpm is None else args.resolution_rpm)
     if not lo < hi:
         raise SimulationInputError(f"argument --rpm-to: must exceed --rpm-from ({lo:g} rpm), got {hi:g}")
-    if (hi - lo) / step > 400:
-        raise SimulationInputError(f"argument --rpm-step: {step:g} rpm gives more than 400 sweep speeds")
     rig, lift = _rig_and_lift(args)
-    speeds = critical_speeds(prepare(rig, lift), rpm_from=lo, rpm_to=hi, step_rpm=step, resolution_rpm=res)
+    train = prepare(rig, lift)
+    _speed_check(train, lo, "argument --rpm-from")
+    _speed_check(train, hi, "argument --rpm-to")
+    if step > hi - lo or (hi - lo) / step > MAX_SWEEP_SPEEDS:
+        raise SimulationInputError(f"argument --rpm-step: {step:g} rpm gives {(hi - lo) / step:.3g} steps from "
+                                   f"{lo:g} to {hi:g} rpm; give 1 to {MAX_SWEEP_SPEEDS}")
+    if res < MIN_RESOLUTION_RPM:
+        raise SimulationInputError(f"argument --resolution-rpm: at least {MIN_RESOLUTION_RPM:g} rpm, got {res:g}")
+    speeds = critical_speeds(train, rpm_from=lo, rpm_to=hi, step_rpm=step, resolution_rpm=res)
     data = {"rig": MODEL_NAME, "jump_speed_rpm": speeds.jump_speed_rpm, "bounce_speed_rpm": speeds.bounce_speed_rpm,
             "resolution_rpm": res, "notes": list(speeds.notes),
             "sweep": speeds.sweep.to_dict(orient="records")}
@@ -234,28 +300,42 @@ def run_jump_speed(args, model) -> int:
 
 
 def run_leakdown(args, model) -> int:
-    """``impactid valvetrain leakdown``: maximum tappet leak-down against camshaft speed (Fig. 8)."""
+    """``impactid valvetrain leakdown``: maximum tappet leak-down against camshaft speed (Fig. 8).
+
+    A speed that cannot be simulated is reported (``failure`` in the JSON, an ``impactid: warning:``
+    line) without taking the others with it; the command then exits with 1 (2 when none ran)."""
     from impactid.rigs.finger_follower import figures as F
     from impactid.rigs.finger_follower.simulate import leakdown_curve, prepare
 
+    _own_options(args, model)
     inputs = _inputs(args)
     _check(args, inputs)
+    text = DEFAULT_LEAKDOWN_RPMS if args.rpms is None else str(args.rpms)
     try:
-        rpms = [float(x) for x in str(args.rpms).split(",") if x.strip()]
+        rpms = [float(x) for x in text.split(",") if x.strip()]
     except ValueError:
         raise SimulationInputError(f"argument --rpms: a comma-separated list of speeds, got {args.rpms!r}") from None
-    if not rpms or len(rpms) > 200:
-        raise SimulationInputError("argument --rpms: give 1 to 200 speeds")
+    if not rpms or len(rpms) > MAX_LEAKDOWN_SPEEDS:
+        raise SimulationInputError(f"argument --rpms: give 1 to {MAX_LEAKDOWN_SPEEDS} speeds")
     for r in rpms:
         _positive("--rpms", r)
     rig, lift = _rig_and_lift(args)
-    frame = leakdown_curve(prepare(rig, lift), rpms)
+    train = prepare(rig, lift)
+    for r in rpms:
+        _speed_check(train, r, "argument --rpms")
+    frame = leakdown_curve(train, rpms)
+    failed = frame[frame["failure"] != ""]
+    if len(failed) == len(frame):
+        raise SimulationError("no speed could be simulated: " + "; ".join(failed["failure"]))
     data = {"rig": MODEL_NAME, "leakdown": frame.to_dict(orient="records")}
     _deliver(args, data, inputs, [("leakdown.png", lambda: F.plot_leakdown(frame))])
+    for row in failed.itertuples():
+        warnings.warn(f"{row.rpm:g} rpm left out (the other speeds were computed): {row.failure}", stacklevel=2)
     if not args.json:
         for row in frame.itertuples():
-            print(f"{row.rpm:8.6g} rpm: max leak-down {1e6 * row.max_tappet_leakdown_m:7.3f} um")
-    return 0
+            value = "could not be simulated" if row.failure else f"{1e6 * row.max_tappet_leakdown_m:7.3f} um"
+            print(f"{row.rpm:8.6g} rpm: max leak-down {value}")
+    return 1 if len(failed) else 0
 
 
 # ============================================================================================
@@ -266,20 +346,28 @@ def run_leakdown(args, model) -> int:
 def run_synth(args, model) -> int:
     """``impactid valvetrain synth --rig finger-follower-hla --rpm N --out REC.h5``."""
     from impactid._files import check_output
+    from impactid.rigs.finger_follower.simulate import prepare
     from impactid.rigs.finger_follower.synth import Sensors, synth_recording
 
-    rpm = _positive("--rpm", args.rpm)
+    _own_options(args, model)
+    _positive("--rpm", args.rpm)
     if not args.out:
         raise SimulationInputError("argument --out: the recording file to write (.h5, or .csv with its .toml)")
     inputs = _inputs(args)
     check_output(args.out, option="--out", inputs=inputs)
-    revolutions = int(args.revolutions)
-    if not 1 <= revolutions <= 1000:
-        raise SimulationInputError(f"argument --revolutions: 1 to 1000, got {revolutions}")
+    if str(args.out).lower().endswith(".csv"):  # the CSV's rig file is written next to it
+        check_output(Path(args.out).with_suffix(".toml"), option="--out (its .toml rig file)", inputs=inputs)
+    revolutions = 16.0 if args.revolutions is None else float(args.revolutions)
+    if not (revolutions.is_integer() and 1 <= revolutions <= MAX_SYNTH_REVOLUTIONS):
+        raise SimulationInputError(f"argument --revolutions: a whole number from 1 to {MAX_SYNTH_REVOLUTIONS} for "
+                                   f"the {MODEL_NAME!r} rig, got {args.revolutions:g}")
+    revolutions = int(revolutions)
+    sampling = args.sampling or "angle"
     rig, lift = _rig_and_lift(args)
+    rpm = _speed_check(prepare(rig, lift), args.rpm, "argument --rpm")
     sensors = Sensors.ideal() if args.noise_free else Sensors()
-    synth = synth_recording(rig, rpm, revolutions=revolutions, sampling=args.sampling, lift=lift, sensors=sensors,
-                            seed=int(args.seed))
+    synth = synth_recording(rig, rpm, revolutions=revolutions, sampling=sampling, lift=lift, sensors=sensors,
+                            seed=0 if args.seed is None else int(args.seed))
     if str(args.out).lower().endswith(".csv"):
         from impactid.io import write_csv
 
@@ -288,9 +376,9 @@ def run_synth(args, model) -> int:
         synth.write(args.out)
     if args.json:
         sys.stdout.write(_json_text({"recording": str(args.out), "rpm": rpm, "revolutions": revolutions,
-                                     "sampling": args.sampling, "samples": synth.recording.n_samples}))
+                                     "sampling": sampling, "samples": synth.recording.n_samples}))
     else:
-        print(f"wrote {args.out}: {revolutions} revolutions at {rpm:.6g} rpm, {args.sampling}-domain sampling, "
+        print(f"wrote {args.out}: {revolutions} revolutions at {rpm:.6g} rpm, {sampling}-domain sampling, "
               f"{synth.recording.n_samples} samples")
     return 0
 
@@ -311,20 +399,39 @@ def _read(paths, args):
 
 
 def run_fit_tappet(args, model) -> int:
-    """``impactid valvetrain fit-tappet REC [REC ...]``: the tappet drag (alpha, beta; c_t, k_t)."""
-    from impactid.rigs.finger_follower.cam import read_lift
-    from impactid.rigs.finger_follower.identify import fit_tappet_drag
+    """``impactid valvetrain fit-tappet REC [REC ...]``: the tappet drag (alpha, beta; c_t, k_t).
 
+    One fit per recording (default) or one joint fit (``--joint``). Without ``--joint`` a recording
+    that cannot be fitted does not take the others with it: it is listed under ``failed`` (and in
+    an ``impactid: warning:`` line) and the command exits with 1; 2 when none could be fitted.
+    """
+    from impactid._files import check_distinct_inputs
+    from impactid.errors import ImpactidError
+    from impactid.rigs.finger_follower.cam import read_lift
+    from impactid.rigs.finger_follower.identify import IdentificationError, fit_tappet_drag
+
+    _own_options(args, model)
     paths = list(args.recordings)
+    check_distinct_inputs(paths)
     inputs = _inputs(args, paths)
     _check(args, inputs)
-    recs = _read(paths, args)
     lift = read_lift(args.lift) if getattr(args, "lift", None) else None
-    fits = fit_tappet_drag(recs, lift=lift, joint=bool(args.joint))
-    fits = fits if isinstance(fits, list) else [fits]
+    failed: list[dict] = []
+    if args.joint or len(paths) == 1:
+        fits = [fit_tappet_drag(_read(paths, args), lift=lift, joint=True)]
+    else:
+        fits = []
+        for path in paths:
+            try:
+                fits.append(fit_tappet_drag(_read([path], args)[0], lift=lift))
+            except ImpactidError as exc:
+                failed.append({"recording": str(path), "reason": str(exc)})
+        if not fits:
+            raise IdentificationError("no recording could be fitted: " + "; ".join(f["reason"] for f in failed))
     data = {"rig": MODEL_NAME, "joint": bool(args.joint),
             "fits": [{"recordings": [c["source"] for c in f.details["cycles"]],
-                      "rpm": [c["rpm"] for c in f.details["cycles"]], **f.to_dict()} for f in fits]}
+                      "rpm": [c["rpm"] for c in f.details["cycles"]], **f.to_dict()} for f in fits],
+            "failed": failed}
     for entry in data["fits"]:
         entry.pop("tables", None)
     figures = [(f"tappet_fit_{k}.png", (lambda f=f: f.plot())) for k, f in enumerate(fits)]
@@ -332,16 +439,19 @@ def run_fit_tappet(args, model) -> int:
     for f in fits:
         for note in f.notes:
             warnings.warn(note, stacklevel=2)
+    for f in failed:
+        warnings.warn(f"not fitted (the other recordings were): {f['reason']}", stacklevel=2)
     if not args.json:
         for f in fits:
             print(f.report())
-    return 0
+    return 1 if failed else 0
 
 
 def run_fit_lift(args, model) -> int:
     """``impactid valvetrain fit-lift REC``: cam lift law and nose phase from low-speed valve motion."""
     from impactid.rigs.finger_follower.identify import fit_cam_lift
 
+    _own_options(args, model)
     inputs = _inputs(args, [args.recording])
     _check(args, inputs)
     rec = _read([args.recording], args)[0]
@@ -356,9 +466,13 @@ def run_fit_lift(args, model) -> int:
     return 0
 
 
+#: Speeds of ``leakdown`` when ``--rpms`` is not given [rpm].
+DEFAULT_LEAKDOWN_RPMS = "600,800,900,1200,1600,2000,2450,3000"
 _CLIP = Argument(("--clip-tension",), {"action": "store_true",
-                                       "help": "also drop a contact while its force would be tensile"})
-_MCOS = Argument(("--moment-cos",), {"action": "store_true", "help": "moments with cos(theta_f) (virtual work)"})
+                                       "help": "finger-follower: also drop a contact while its force would be "
+                                               "tensile"})
+_MCOS = Argument(("--moment-cos",), {"action": "store_true", "help": "finger-follower: moments with cos(theta_f) "
+                                                                                  "(virtual work)"})
 
 COMMANDS = (
     CommandSpec("valvetrain", "simulate", "simulate a valve train in its periodic steady state",
@@ -367,24 +481,28 @@ COMMANDS = (
                 (RPM, JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET), run_modes),
     CommandSpec("valvetrain", "jump-speed", "jump and bounce speeds by a speed sweep and bisection",
                 (JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET,
-                 Argument(("--rpm-from",), {"type": float, "default": 1000.0, "help": "sweep start [rpm]"}),
-                 Argument(("--rpm-to",), {"type": float, "default": 6000.0, "help": "sweep end [rpm]"}),
-                 Argument(("--rpm-step",), {"type": float, "default": 250.0, "help": "sweep step [rpm]"}),
-                 Argument(("--resolution-rpm",), {"type": float, "default": 1.0,
-                                                  "help": "bisection resolution [rpm]"})),
+                 Argument(("--rpm-from",), {"type": float, "default": None,
+                                            "help": "finger-follower: sweep start [rpm] (default 1000)"}),
+                 Argument(("--rpm-to",), {"type": float, "default": None,
+                                          "help": "finger-follower: sweep end [rpm] (default 6000)"}),
+                 Argument(("--rpm-step",), {"type": float, "default": None,
+                                            "help": "finger-follower: sweep step [rpm] (default 250)"}),
+                 Argument(("--resolution-rpm",), {"type": float, "default": None,
+                                                  "help": "finger-follower: bisection resolution [rpm] (default 1)"})),
                 run_jump_speed),
     CommandSpec("valvetrain", "leakdown", "maximum tappet leak-down against camshaft speed",
                 (JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET,
-                 Argument(("--rpms",), {"default": "600,800,900,1200,1600,2000,2450,3000",
-                                        "help": "camshaft speeds [rpm], comma-separated"})),
+                 Argument(("--rpms",), {"default": None,
+                                        "help": f"camshaft speeds [rpm], comma-separated (default "
+                                                f"{DEFAULT_LEAKDOWN_RPMS})"})),
                 run_leakdown),
     CommandSpec("valvetrain", "synth", "write a synthetic recording of a valve-train test",
-                (RPM, JSON, OUT, RIG_FILE, LIFT, PRESET,
-                 Argument(("--revolutions",), {"type": int, "default": 16, "help": "revolutions recorded"}),
-                 Argument(("--sampling",), {"choices": ["angle", "time"], "default": "angle",
-                                            "help": "angle-domain (encoder-clocked) or time-domain sampling"}),
-                 Argument(("--noise-free",), {"action": "store_true", "help": "ideal sensors"}),
-                 Argument(("--seed",), {"type": int, "default": 0, "help": "noise seed"})),
+                (RPM, JSON, OUT, RIG_FILE, LIFT, PRESET, REVOLUTIONS,
+                 Argument(("--sampling",), {"choices": ["angle", "time"], "default": None,
+                                            "help": "finger-follower: angle-domain (encoder-clocked, default) or "
+                                                    "time-domain sampling"}),
+                 Argument(("--noise-free",), {"action": "store_true", "help": "finger-follower: ideal sensors"}),
+                 SEED),
                 run_synth),
     CommandSpec("valvetrain", "fit-tappet", "fit the hydraulic tappet's drag (alpha, beta) to tappet motion",
                 (Argument(("recordings",), {"nargs": "+", "help": "recordings (HDF5, or CSV with a TOML rig file)"}),

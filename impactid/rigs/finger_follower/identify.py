@@ -16,6 +16,15 @@
   and return of unknown height and angles) and the encoder's phase against the nose, from the
   valve displacement at a low speed, where the train is nearly quasi-static.
 
+Refusals
+--------
+Every fit refuses, with an :class:`IdentificationError` naming the file and the channel or
+attribute, a recording whose cam speed (operating point, else encoder) lies outside the model's
+:func:`~impactid.rigs.finger_follower.simulate.speed_range`, absurd operating attributes
+(``samples_per_revolution``, ``encoder_ppr``, ``nose_angle_rad``), a channel that is non-finite,
+constant or zero or shorter than a revolution, and, after the fit, a channel the fitted model
+explains no better than noise alone (:func:`impactid.rigs.valvespring.check_model_explains`).
+
 Intervals
 ---------
 Linearised (Gauss-Newton) intervals at the optimum: covariance ``s^2 (J^T J)^-1`` with the
@@ -41,7 +50,8 @@ from scipy import optimize, stats
 from impactid.errors import ImpactidError, SimulationError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.finger_follower.cam import CycloidalLift
-from impactid.rigs.finger_follower.simulate import DEFAULT_TOLERANCES, prepare, steady_state
+from impactid.rigs.finger_follower.simulate import DEFAULT_TOLERANCES, prepare, speed_range, steady_state
+from impactid.rigs.valvespring import check_fit_channel, check_model_explains
 
 __all__ = ["AveragedCycle", "DampingFit", "IdentificationError", "LiftFit", "TappetFit", "fit_cam_lift", "fit_damping",
            "fit_tappet_drag",
@@ -62,6 +72,13 @@ MODEL_GRID_POINTS = 18_000
 #: Step tolerance of the lift fit (relative, on log S_K, log beta and the phase in rad): 1e-9 of
 #: the angles is 1e-7 deg, far inside the intervals noisy data give (1e-5 relative).
 LIFT_XTOL = 1e-9
+#: Largest operating ``nose_angle_rad`` [rad] in magnitude (a million revolutions): float64 still
+#: resolves it to about 1e-9 rad; beyond it the value cannot locate the nose at all.
+MAX_NOSE_ANGLE = 2.0 * math.pi * 1e6
+#: Fewest bins per revolution of a synchronous average (10 deg).
+MIN_BINS = 36
+#: SI units of the channels the fits read (for messages).
+_UNITS = {"tappet_displacement": "m", "valve_displacement": "m", "valve_velocity": "m/s", "contact_load": "N"}
 
 
 class IdentificationError(ImpactidError, ValueError):
@@ -145,17 +162,40 @@ class AveragedCycle:
 def _model_angles(recording) -> tuple[np.ndarray, str, list[str]]:
     """Cam angle of every sample in the model convention (0 at the nose), unwrapped [rad]."""
     notes: list[str] = []
+    where = recording.source or "recording"
     if "cam_angle" not in recording:
-        raise IdentificationError(f"{recording.source or 'recording'}: no 'cam_angle' channel (the encoder)")
+        raise IdentificationError(f"{where}: no 'cam_angle' channel (the encoder)")
     nose = float(recording.operating.get("nose_angle_rad", 0.0))
+    if not abs(nose) <= MAX_NOSE_ANGLE:
+        raise IdentificationError(f"{where}: operating nose_angle_rad = {nose!r} is not an angle of the encoder's "
+                                  f"reading (at most {MAX_NOSE_ANGLE:.3g} rad, a million revolutions, in magnitude)")
+    # the nose's angle modulo a revolution (exact), so that a large value costs the angles no precision
+    nose = math.remainder(nose, TWO_PI)
     if "nose_angle_rad" not in recording.operating:
         notes.append("no operating nose_angle_rad: the encoder zero is taken as the cam nose")
     angle = np.unwrap(np.asarray(recording["cam_angle"], dtype=float))
-    if angle[-1] < angle[0]:
-        raise IdentificationError(f"{recording.source or 'recording'}: the cam angle decreases (the encoder counts "
-                                  "backwards); reverse its sign")
+    if angle.size < 2 or not angle[-1] > angle[0]:
+        raise IdentificationError(f"{where}: the cam angle (channel 'cam_angle') does not increase (the encoder "
+                                  "stands still or counts backwards; reverse its sign)")
     if "samples_per_revolution" in recording.operating:
+        per_rev = recording.operating["samples_per_revolution"]
+        if not (per_rev == round(per_rev) and MIN_BINS <= per_rev <= 1e8):
+            raise IdentificationError(
+                f"{where}: operating samples_per_revolution = {per_rev!r} must be a whole number of samples per "
+                f"camshaft revolution, from {MIN_BINS} to 1e8")
+        if per_rev > angle.size:
+            raise IdentificationError(f"{where}: too short: {angle.size} samples, less than one camshaft revolution "
+                                      f"(operating samples_per_revolution = {per_rev:g})")
+        step = float(np.median(np.diff(angle)))
+        if not math.isclose(step, TWO_PI / per_rev, rel_tol=0.01):
+            raise IdentificationError(
+                f"{where}: operating samples_per_revolution = {per_rev:g} disagrees with channel 'cam_angle', whose "
+                f"step is {math.degrees(step):.6g} deg ({TWO_PI / step:.6g} samples per revolution)")
         return angle - nose, "angle", notes
+    ppr = recording.operating.get("encoder_ppr")
+    if ppr is not None and not (ppr == round(ppr) and ppr >= 1):
+        raise IdentificationError(f"{where}: operating encoder_ppr = {ppr!r} must be a whole number of encoder "
+                                  "steps per revolution (at least 1)")
     # time-domain sampling: the camshaft turns at a constant speed (the paper's DC drive), so a
     # straight line through the encoder readings removes their quantisation; a counter reads the
     # step below the true angle, so half a step is added back
@@ -210,8 +250,8 @@ def synchronous_average(recording, *, channels: Sequence[str] = ("tappet_displac
         n = int(bins or 720)
         step = TWO_PI / n
         index = np.floor(((theta + math.pi) % TWO_PI) / step).astype(np.int64) % n
-    if n < 36:
-        raise IdentificationError(f"{where}: {n} bins per revolution are too few (at least 36)")
+    if n < MIN_BINS:
+        raise IdentificationError(f"{where}: {n} bins per revolution are too few (at least {MIN_BINS})")
     counts = np.bincount(index, minlength=n)
     keep = counts > 0
     wrapped = (theta + math.pi) % TWO_PI - math.pi
@@ -245,6 +285,29 @@ def synchronous_average(recording, *, channels: Sequence[str] = ("tappet_displac
                          stderr={c: v[order] for c, v in err.items()}, counts=counts[order], rpm=60.0 * float(speed),
                          revolutions=float(revolutions), sampling=sampling, source=recording.source, notes=tuple(notes),
                          sample_theta=sample_theta, sample_bin=sample_bin)
+
+
+def _fit_cycle(recording, channels: Sequence[str], train, bins: int | None) -> AveragedCycle:
+    """The synchronous average a fit reads, after the checks that the recording can inform it.
+
+    Each channel must be able to inform a fit (:func:`~impactid.rigs.valvespring.check_fit_channel`:
+    finite, at least one revolution, not constant or zero; whether it holds more than noise is
+    tested after the fit, :func:`~impactid.rigs.valvespring.check_model_explains`), and the cam
+    speed (the operating point's, else the encoder's) must lie in the model's
+    :func:`~impactid.rigs.finger_follower.simulate.speed_range`. Raises :class:`IdentificationError`
+    naming the file and the channel or attribute.
+    """
+    where = recording.source or "recording"
+    theta, _, _ = _model_angles(recording)
+    for channel in channels:
+        check_fit_channel(recording[channel], theta, where=where, channel=channel, unit=_UNITS.get(channel, ""),
+                          error=IdentificationError)
+    cycle = synchronous_average(recording, channels=channels, bins=bins)
+    hz = recording.operating.get("cam_speed_hz")
+    what = (f"{where}: operating cam_speed_hz = {hz:.6g} Hz" if hz is not None
+            else f"{where}: the cam speed of the encoder (channel 'cam_angle'; no operating cam_speed_hz)")
+    speed_range(train).check(cycle.rpm, what, IdentificationError)
+    return cycle
 
 
 # --------------------------------------------------------------------------------------------
@@ -360,12 +423,12 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
                                 tolerances=tolerances, clip_tension=clip_tension, moment_cos=moment_cos)
                 for r in recordings]
     rig = rig if rig is not None else recordings[0].require_rig("finger-follower-hla")
+    train = prepare(rig, lift, clip_tension=clip_tension, moment_cos=moment_cos)
     cycles = []
     for rec in recordings:
         if "tappet_displacement" not in rec:
             raise IdentificationError(f"{rec.source or 'recording'}: no 'tappet_displacement' channel")
-        cycles.append(synchronous_average(rec, channels=("tappet_displacement",), bins=bins))
-    train = prepare(rig, lift, clip_tension=clip_tension, moment_cos=moment_cos)
+        cycles.append(_fit_cycle(rec, ("tappet_displacement",), train, bins))
     model = _tappet_residual_factory(train, cycles, tolerances)
     data = np.concatenate([c.mean["tappet_displacement"] for c in cycles])
     sizes = np.cumsum([0] + [c.theta.size for c in cycles])
@@ -393,6 +456,10 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
     sol = optimize.least_squares(residual, x0, method="trf", x_scale=1.0, diff_step=1e-5, xtol=1e-12, ftol=1e-12,
                                  gtol=1e-12, max_nfev=200)
     r = sol.fun * scale
+    sources = ", ".join(dict.fromkeys(c.source or "recording" for c in cycles))
+    check_model_explains(float(np.sum(_project(data, groups) ** 2)), float(r @ r), r.size, 2,
+                         null_params=len(groups), where=sources, channel="tappet_displacement",
+                         error=IdentificationError)
     jac = sol.jac * scale
     cov, se, q, dof = _intervals(jac, r, len(cycles), confidence)
     rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
@@ -512,7 +579,7 @@ def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, con
     where = recording.source or "recording"
     if "valve_displacement" not in recording:
         raise IdentificationError(f"{where}: no 'valve_displacement' channel")
-    cycle = synchronous_average(recording, channels=("valve_displacement",), bins=bins)
+    cycle = _fit_cycle(recording, ("valve_displacement",), prepare(rig), bins)
     if cycle.rpm > max_rpm:
         raise IdentificationError(f"{where}: the lift is fitted at low speed (at most {max_rpm:g} rpm); this "
                                   f"recording is at {cycle.rpm:.6g} rpm")
@@ -562,6 +629,8 @@ def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, con
     sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-6, xtol=LIFT_XTOL,
                                  ftol=1e-10, gtol=1e-10, max_nfev=300)
     r = sol.fun * scale
+    check_model_explains(float(np.sum((y - y.mean()) ** 2)), float(r @ r), r.size, 4, where=where,
+                         channel="valve_displacement", error=IdentificationError)
     jac = sol.jac * scale
     cov, se, q, dof = _intervals(jac, r, 1, confidence)
     params = [_log_parameter("S_K", sol.x[0], se[0], q, "m", confidence),
@@ -636,7 +705,8 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
     if "valve_displacement" not in recording:
         raise IdentificationError(f"{where}: no 'valve_displacement' channel")
     names = [c for c in ("valve_displacement", "valve_velocity") if c in recording]
-    cycle = synchronous_average(recording, channels=names, bins=bins)
+    base_train = prepare(rig, lift)
+    cycle = _fit_cycle(recording, names, base_train, bins)
     closing = _closing_angle(cycle.theta, cycle.mean["valve_displacement"])
     if not math.isfinite(closing):
         raise IdentificationError(f"{where}: the valve does not open in this recording")
@@ -651,7 +721,6 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
         weights[c] = 1.0 / float(np.median(se)) if se.size else 1.0 / max(float(np.ptp(cycle.mean[c])) * 1e-3, 1e-12)
     data = np.concatenate([cycle.mean[c][mask] * weights[c] for c in names])
     groups = [np.arange(k * int(mask.sum()), (k + 1) * int(mask.sum())) for k in range(len(names))]
-    base_train = prepare(rig, lift)
     state = {"start": None, "n": 0, "failed": 0}
     channel_of = {"valve_displacement": "Y_v", "valve_velocity": "Y_v_dot"}
 
@@ -678,6 +747,8 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
     x0 = np.log([0.03, 0.08])
     sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-5, xtol=1e-10,
                                  ftol=1e-12, gtol=1e-12, max_nfev=100)
+    check_model_explains(float(np.sum(_project(data, [groups[0]]) ** 2)), float(sol.fun @ sol.fun), sol.fun.size, 2,
+                         where=where, channel=", ".join(names), error=IdentificationError)
     cov, se, q, dof = _intervals(sol.jac, sol.fun, 1, confidence)
     notes = list(cycle.notes)
     params = []

@@ -13,6 +13,9 @@
 * :func:`natural_frequencies` linearises the train with the cam held (valve seated or open).
 * :func:`critical_speeds` sweeps the camshaft speed and bisects the jump and bounce speeds.
 * :func:`leakdown_curve` gives the maximum tappet leak-down against speed (the paper's Fig. 8).
+* :func:`rigid_jump_rpm` is the closed-form jump speed of the rigid train, and :func:`speed_range`
+  the camshaft speeds the model is used at (1/300 to 3 times it, the decision of
+  :class:`~impactid.rigs.valvespring.CamSpeedRange`).
 
 Speeds are camshaft speeds; functions take them in Hz (``speed_hz``) or rpm (``rpm``) as named.
 Cam angles are in rad in the model's convention: 0 at the nose, negative while opening.
@@ -31,10 +34,11 @@ import pandas as pd
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.finger_follower import kernel as KN
 from impactid.rigs.finger_follower.cam import TABLE_STEP_DEG, Kinematics, build_kinematics
+from impactid.rigs.valvespring import CamSpeedRange
 
 __all__ = ["DEFAULT_TOLERANCES", "STATE_NAMES", "CriticalSpeeds", "Modes", "Run", "SteadyState", "Tolerances",
-           "ValveTrain", "critical_speeds", "leakdown_curve", "natural_frequencies", "pack", "prepare", "simulate",
-           "static_equilibrium", "steady_state", "summarize"]
+           "ValveTrain", "critical_speeds", "leakdown_curve", "natural_frequencies", "pack", "prepare",
+           "rigid_jump_rpm", "simulate", "speed_range", "static_equilibrium", "steady_state", "summarize"]
 
 TWO_PI = 2.0 * math.pi
 DEG = math.pi / 180.0
@@ -193,6 +197,36 @@ def _train(model) -> ValveTrain:
     if hasattr(model, "model") and getattr(model, "model", "") == "finger-follower-hla":
         return prepare(model)
     raise SimulationInputError(f"expected a FingerFollowerRig or a ValveTrain, got {type(model).__name__}")
+
+
+def rigid_jump_rpm(model) -> float:
+    """Camshaft speed [rpm] at which the rigid train on a massless valve spring first loses the cam.
+
+    The rigid follower turns about the tappet contact, so the moving parts reduced to the valve are
+    ``m = M_v + (I_f + M_f L_tf^2) / (L_tf + L_vf)^2``. The cam force vanishes where their inertia on
+    the closing flank, ``m omega^2 (-Y_v'')``, reaches the valve spring's force ``F_o + K0 Y_v``
+    (``Y_v`` the kinematic valve lift (K-7f), a prime ``d/dtheta``), so ``omega_jump^2`` is the
+    minimum of ``(F_o + K0 Y_v) / (m (-Y_v''))`` where ``Y_v'' < 0`` (the analogue of the cycloidal
+    rig's :func:`~impactid.rigs.cycloidal.cam.rigid_jump_speed`; the small HLA preload, the spring
+    masses and the contact compliances are left out). For :data:`KIM1990` it is 3303 rpm, 6 % above
+    the simulated jump speed (3130 rpm). Infinite for a lift without deceleration.
+    """
+    train = _train(model)
+    rig, kin = train.rig, train.kinematics
+    lift = np.asarray(kin.values["Y_v_kin"])
+    curvature = np.asarray(kin("Y_v_kin", kin.theta, 2))
+    mass = rig.M_v + (rig.I_f + rig.M_f * rig.L_tf**2) / rig.L_sum**2
+    closing = curvature < -1e-9 * float(np.max(np.abs(curvature)))  # not the spline's round-off on the base circle
+    if not closing.any():
+        return math.inf
+    omega2 = float(np.min((rig.F_o + rig.K0 * lift[closing]) / (mass * -curvature[closing])))
+    return math.sqrt(omega2) * 60.0 / TWO_PI
+
+
+def speed_range(model) -> CamSpeedRange:
+    """The camshaft speeds the model is used at: 1/300 to 3 times :func:`rigid_jump_rpm` (the decision
+    is documented in :class:`~impactid.rigs.valvespring.CamSpeedRange`)."""
+    return CamSpeedRange(rigid_jump_rpm(model))
 
 
 def _speed(rpm: float) -> float:
@@ -813,19 +847,27 @@ def leakdown_curve(model, rpms: Sequence[float], **options) -> pd.DataFrame:
     """Maximum tappet leak-down in the steady state against camshaft speed (the paper's Fig. 8).
 
     Returns a table ``rpm, alpha, beta, max_tappet_leakdown_m, cam_angle_max_leakdown_deg,
-    max_valve_lift_m, converged``.
+    max_valve_lift_m, converged, failure``. A speed the integrator cannot follow (chatter, step
+    budget) does not take the others with it: its row holds NaN and ``failure`` says why (empty for
+    the speeds that ran).
     """
     train = _train(model)
     rows = []
     start = None
     for rpm in rpms:
-        st = steady_state(train, rpm, start=start, **options)
+        try:
+            st = steady_state(train, rpm, start=start, **options)
+        except SimulationError as exc:
+            rows.append({"rpm": float(rpm), "alpha": math.nan, "beta": math.nan, "max_tappet_leakdown_m": math.nan,
+                         "cam_angle_max_leakdown_deg": math.nan, "max_valve_lift_m": math.nan, "converged": False,
+                         "failure": str(exc)})
+            continue
         start = st.start
         s = summarize(st)
         rows.append({"rpm": float(rpm), "alpha": st.alpha, "beta": st.beta,
                      "max_tappet_leakdown_m": s["max_tappet_leakdown_m"],
                      "cam_angle_max_leakdown_deg": s["cam_angle_max_leakdown_deg"],
-                     "max_valve_lift_m": s["max_valve_lift_m"], "converged": st.converged})
+                     "max_valve_lift_m": s["max_valve_lift_m"], "converged": st.converged, "failure": ""})
     return pd.DataFrame(rows)
 
 
@@ -841,7 +883,8 @@ class CriticalSpeeds:
     resolution_rpm : bisection resolution (the speeds are within this of the transition).
     sweep : table of the sweep and bisection runs: ``rpm, jump, bounce, tappet_separation,
         converged, period, max_valve_lift_m, seating_speed_m_s, peak_cam_force_closing_N,
-        min_F_fc_N, stage`` (``sweep`` or ``bisection``).
+        min_F_fc_N, failure, stage`` (``sweep`` or ``bisection``; ``failure`` says why a speed could not
+        be simulated, empty otherwise).
     notes : what qualifies the result (a transition that is not monotone in speed, runs that did
         not settle, no transition in the range).
     """
@@ -859,12 +902,19 @@ class CriticalSpeeds:
 
 
 def _flags(train: ValveTrain, rpm: float, start, options) -> tuple[dict, Any]:
-    st = steady_state(train, rpm, start=start, **options)
+    """The flags of one speed; a speed the integrator cannot follow gives a row with ``failure`` set
+    (and no flags) and the warm start it was given."""
+    try:
+        st = steady_state(train, rpm, start=start, **options)
+    except SimulationError as exc:
+        return {"rpm": float(rpm), "jump": None, "bounce": None, "tappet_separation": None, "converged": False,
+                "period": 0, "max_valve_lift_m": math.nan, "seating_speed_m_s": math.nan,
+                "peak_cam_force_closing_N": math.nan, "min_F_fc_N": math.nan, "failure": str(exc)}, start
     s = summarize(st)
     row = {"rpm": float(rpm), "jump": s["jump"], "bounce": s["bounce"], "tappet_separation": s["tappet_separation"],
            "converged": st.converged, "period": st.period, "max_valve_lift_m": s["max_valve_lift_m"],
            "seating_speed_m_s": s["seating_speed_m_s"], "peak_cam_force_closing_N": s["peak_cam_force_closing_N"],
-           "min_F_fc_N": s["min_F_fc_N"]}
+           "min_F_fc_N": s["min_F_fc_N"], "failure": ""}
     return row, st.start
 
 
@@ -878,6 +928,10 @@ def critical_speeds(model, *, rpm_from: float = 1000.0, rpm_to: float = 6000.0, 
     valve opens more than once per revolution. The reported speed is the upper end of the final
     bracket (the lowest speed found with the flag on). A flag that turns off again at a higher
     sweep speed is noted: bisection then finds the first transition only.
+
+    A speed the integrator cannot follow (chatter, step budget) is listed in the table with its
+    ``failure`` and left out of the decision, with a note; a bisection step that fails stops the
+    bisection, and the note gives the bracket reached.
     """
     train = _train(model)
     if not (0.0 < rpm_from < rpm_to and step_rpm > 0.0 and resolution_rpm > 0.0):
@@ -891,7 +945,13 @@ def critical_speeds(model, *, rpm_from: float = 1000.0, rpm_to: float = 6000.0, 
         rows.append(row)
     notes = []
     result = {}
-    swept = list(rows)  # the sweep alone (bisection runs of one flag must not count for the other)
+    # the sweep alone (bisection runs of one flag must not count for the other), without failed speeds
+    swept = [r for r in rows if not r["failure"]]
+    failures = [r for r in rows if r["failure"]]
+    if failures:
+        listed = ", ".join(f"{r['rpm']:g}" for r in failures)
+        notes.append(f"{len(failures)} sweep speed(s) could not be simulated and are left out ({listed} rpm; "
+                     f"the first: {failures[0]['failure']})")
     for flag in ("jump", "bounce"):
         on = [r for r in swept if r[flag]]
         if not on:
@@ -901,7 +961,7 @@ def critical_speeds(model, *, rpm_from: float = 1000.0, rpm_to: float = 6000.0, 
         first = next(i for i, r in enumerate(swept) if r[flag])
         if first == 0:
             result[flag] = math.nan
-            notes.append(f"{flag} already at the lowest speed of the sweep ({rpm_from:g} rpm): lower rpm_from")
+            notes.append(f"{flag} already at the lowest speed of the sweep ({swept[0]['rpm']:g} rpm): lower rpm_from")
             continue
         if any(not r[flag] for r in swept[first:]):
             back = [r["rpm"] for r in swept[first:] if not r[flag]]
@@ -913,12 +973,16 @@ def critical_speeds(model, *, rpm_from: float = 1000.0, rpm_to: float = 6000.0, 
             row, _ = _flags(train, mid, None, options)
             row["stage"] = "bisection"
             rows.append(row)
+            if row["failure"]:
+                notes.append(f"the {flag} bisection stopped at {mid:g} rpm, which could not be simulated "
+                             f"({row['failure']}): the {flag} speed lies in ({lo:g}, {hi:g}] rpm")
+                break
             if row[flag]:
                 hi = mid
             else:
                 lo = mid
         result[flag] = hi
-    unsettled = [r["rpm"] for r in rows if not r["converged"]]
+    unsettled = [r["rpm"] for r in rows if not r["converged"] and not r["failure"]]
     if unsettled:
         notes.append(f"{len(unsettled)} run(s) did not reach a periodic steady state (from {min(unsettled):g} rpm); "
                      "their flags come from the last revolutions run")

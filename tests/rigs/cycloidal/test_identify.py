@@ -11,6 +11,7 @@ import pytest
 from impactid.io import read_recording, read_truth
 from impactid.rigs.cycloidal import SurgeFit, fit_surge, synth_recording
 from impactid.rigs.cycloidal.identify import IdentificationError
+from impactid.rigs.valvespring import damper_damping_ratio
 
 #: the "true" rig of the synthetic recordings: every identified value moved away from the preset, so that
 #: a fit that stays at its starting values fails
@@ -31,7 +32,10 @@ def test_contact_load_noise_free_recovery(rig, truth_rig):
     assert isinstance(fit, SurgeFit) and fit.statistics["model"] == "level A"
     for k in NAMES:
         assert fit.value(k) == pytest.approx(TRUE[k], rel=1e-6), k
-    assert fit["k0"].fixed and fit.value("zeta1") == pytest.approx(3.0 * math.pi * 480 / (4 * 35e3), rel=1e-6)
+    # zeta1 is valvespring's damping ratio of the two-mass model with the fitted damper: 3 pi c f0 / (8 k0)
+    assert fit["k0"].fixed and fit.value("zeta1") == pytest.approx(3.0 * math.pi * 3.0 * 480 / (8 * 35e3), rel=1e-6)
+    assert fit.value("zeta1") == pytest.approx(damper_damping_ratio(35e3, fit.value("f0"), fit.value("c_spring")),
+                                               rel=1e-12)
     # JSON round trip of the result
     back = SurgeFit.from_json(fit.to_json())
     assert back.value("f0") == fit.value("f0") and back.kind == "valvetrain-surge-fit"
