@@ -107,21 +107,30 @@ def check_distinct_inputs(paths: Iterable[str | os.PathLike[str]], *, what: str 
     DuplicateInputError
         naming both paths and how they were found to be the same.
     """
-    seen: list[tuple[Path, str | None]] = []
-    for raw in paths:
-        if raw is None:
-            continue
-        path = Path(raw)
-        for earlier, _ in seen:
+    given = [Path(raw) for raw in paths if raw is not None]
+    for k, path in enumerate(given):
+        for earlier in given[:k]:
             if same_file(earlier, path):
                 raise DuplicateInputError(f"{path}: the same {what} as {earlier} (given twice); each {what} "
                                           "may be given once, or its data would count twice")
-        digest = _content_digest(path)
-        for earlier, earlier_digest in seen:
-            if digest is not None and digest == earlier_digest:
-                raise DuplicateInputError(f"{path}: identical contents to {earlier} (SHA-256 {digest[:12]}); "
+    # identical bytes: only files whose size another input shares are read and hashed
+    sizes: dict[int, list[Path]] = {}
+    for path in given:
+        try:
+            if path.is_file():
+                sizes.setdefault(path.stat().st_size, []).append(path)
+        except OSError:
+            continue
+    for group in (g for g in sizes.values() if len(g) > 1):
+        digests: dict[str, Path] = {}
+        for path in group:
+            digest = _content_digest(path)
+            if digest is None:
+                continue
+            if digest in digests:
+                raise DuplicateInputError(f"{path}: identical contents to {digests[digest]} (SHA-256 {digest[:12]}); "
                                           f"each {what} may be given once, or its data would count twice")
-        seen.append((path, digest))
+            digests[digest] = path
 
 
 def _first_existing_ancestor(path: Path) -> Path:

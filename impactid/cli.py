@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import os
 import signal
 import sys
 import threading
@@ -50,6 +51,8 @@ __all__ = ["UsageError", "build_parser", "main"]
 EXIT_INPUT_ERROR = 2
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
+#: Exit status when stdout's reader closed the pipe (128 + SIGPIPE, as for the shell's own tools).
+EXIT_BROKEN_PIPE = 141
 
 
 class _Parser(argparse.ArgumentParser):
@@ -304,6 +307,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except MemoryError:
         _error("out of memory: the input or the requested computation is too large for this machine")
         return EXIT_INPUT_ERROR
+    except BrokenPipeError:  # the reader of stdout went away (`impactid ... | head`): not an error of the job
+        with contextlib.suppress(OSError, ValueError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # the exit's flush fails quietly
+        return EXIT_BROKEN_PIPE
     except OSError as exc:  # a file system problem not caught where it happened (disk full, ...)
         where = f"{exc.filename}: " if exc.filename else ""
         _error(f"{where}{exc.strerror or exc}")

@@ -36,3 +36,18 @@ def test_a_signal_while_starting_ends_in_one_line(sig, code, word, delay, tmp_pa
     assert lines and lines[-1].startswith(f"impactid: error: {word}"), err
     assert sum(line.startswith("impactid: error:") for line in lines) == 1, err
     assert not list(tmp_path.iterdir())  # no partial output
+
+
+def test_a_closed_stdout_ends_quietly(monkeypatch, capsys):
+    """`impactid ... | head`: the reader went away; no error line, the shell's status for SIGPIPE."""
+    from impactid import cli
+
+    def closed(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    parser = cli.build_parser()
+    args = parser.parse_args(["regime", "--e-over-rc", "0.2", "--cam-speed", "16"])
+    monkeypatch.setattr(args, "func", closed)
+    monkeypatch.setattr(cli.build_parser().__class__, "parse_args", lambda self, argv=None: args)
+    assert cli.main(["regime"]) == cli.EXIT_BROKEN_PIPE
+    assert capsys.readouterr().err == ""

@@ -34,6 +34,7 @@ from impactid.rigs.ball.laws import (
     LAWS,
     ChainedFit,
     LawFit,
+    TimingNoise,
     fit_chained,
     fit_law,
     get_law,
@@ -42,7 +43,7 @@ from impactid.rigs.ball.laws import (
     variance_model,
 )
 from impactid.rigs.ball.parameters import Ball
-from impactid.rigs.ball.readers import BounceRecording, read_bounces
+from impactid.rigs.ball.readers import BounceFileError, BounceRecording, read_bounces
 from impactid.rigs.ball.sequence import CleanedSequence, clean_sequence
 
 __all__ = ["BounceAnalysis", "BounceAnalysisError", "analyse_bounces", "impacts_from_sequence"]
@@ -151,7 +152,9 @@ class BounceAnalysis(FitResult):
 def impacts_from_sequence(seq: CleanedSequence, constants: FlightConstants, *, file: str = "",
                           drop: int = 0) -> tuple[pd.DataFrame, np.ndarray]:
     """Per-interval rows of one cleaned drop with the speeds and coefficients of its impacts, and
-    the Jacobian ``de/dt`` of the used coefficients with respect to the event times.
+    the Jacobian ``de/dt`` [1/s] of the used coefficients with respect to the event times (a sparse
+    matrix, one row per used coefficient and three entries a row: its memory grows with the
+    impacts, not with their square).
 
     The coefficient at an accepted impact needs a single flight before and a single flight after
     it: ``e = u(T_after) / w(T_before)``, the impact speed is ``w(T_before)``. It is used in the fits
@@ -174,10 +177,10 @@ def impacts_from_sequence(seq: CleanedSequence, constants: FlightConstants, *, f
             table[c] = values
         table["used"] = used
         table["e_note"] = "drop refused"
-        return table[BOUNCE_COLUMNS], np.zeros((0, t.size))
+        return table[BOUNCE_COLUMNS], _sparse_rows([], t.size)
     starting = {int(r.start_event): r for r in flights.itertuples(index=False)}
     ending = {int(r.end_event): r for r in flights.itertuples(index=False)}
-    jac_rows = []
+    jac_rows: list[tuple[tuple[int, int, int], tuple[float, float, float]]] = []
     row_of_event = {int(i): k for k, i in enumerate(table["index"])}
     for event, after in starting.items():
         k = row_of_event.get(event)
@@ -212,16 +215,54 @@ def impacts_from_sequence(seq: CleanedSequence, constants: FlightConstants, *, f
         dw_dT = float(landing_speed_derivative(u_b, constants)) / float(flight_time_derivative(u_b, constants))
         A = du_dT / w_b
         B = e * dw_dT / w_b
-        row = np.zeros(t.size)
-        row[m] += A
-        row[j] += -A - B
-        row[i] += B
-        jac_rows.append(row)
+        jac_rows.append(((m, j, i), (A, -A - B, B)))
     for c, values in cols.items():
         table[c] = values
     table["used"] = used
     table["e_note"] = note
-    return table[BOUNCE_COLUMNS], np.array(jac_rows).reshape(-1, t.size)
+    return table[BOUNCE_COLUMNS], _sparse_rows(jac_rows, t.size)
+
+
+def _sparse_rows(rows, width: int):
+    """A CSR matrix of ``len(rows)`` rows of ``width`` columns from (columns, values) per row
+    (repeated columns add up)."""
+    from scipy.sparse import csr_matrix
+
+    cols = np.array([c for columns, _ in rows for c in columns], dtype=np.int64)
+    vals = np.array([v for _, values in rows for v in values], dtype=float)
+    indptr = np.arange(len(rows) + 1, dtype=np.int64) * 3
+    matrix = csr_matrix((vals, cols, indptr), shape=(len(rows), width))
+    matrix.sum_duplicates()
+    return matrix
+
+
+#: Two drops whose event times all agree within this [s] are one drop given twice (read from two
+#: files, or from two formats that round differently: phyphox's CSV keeps 10 digits, its workbook
+#: 17). Triggers of two real drops differ by milliseconds; 1 us is below any trigger's timing.
+SAME_DROP_TOLERANCE = 1e-6
+
+
+def _check_distinct_drops(recordings: Sequence[BounceRecording]) -> None:
+    """Refuse one drop given twice (the same event times, to :data:`SAME_DROP_TOLERANCE`, whatever
+    the files or formats they came from): its impacts would count twice and every interval would
+    narrow by about 1.4 for nothing.
+
+    Raises
+    ------
+    DuplicateInputError
+        naming both.
+    """
+    from impactid._files import DuplicateInputError
+
+    by_size: dict[int, list[BounceRecording]] = {}
+    for rec in recordings:
+        for earlier in by_size.get(rec.times.size, []):
+            if float(np.max(np.abs(rec.times - earlier.times))) <= SAME_DROP_TOLERANCE:
+                first = earlier.source or "an earlier drop given as an array"
+                raise DuplicateInputError(f"{rec.source or '(array)'}: the same {rec.times.size} event times as "
+                                          f"{first} (to {SAME_DROP_TOLERANCE * 1e6:g} us); each drop may be given "
+                                          "once, or its impacts would count twice")
+        by_size.setdefault(rec.times.size, []).append(rec)
 
 
 def _as_recording(source) -> BounceRecording:
@@ -236,9 +277,13 @@ def _fit_all(rows: pd.DataFrame, jacobians: list[np.ndarray], confidence: float,
              ) -> tuple[dict[str, LawFit], float, float]:
     """Every law fitted to the used coefficients with one variance model ``tau^2 + sigma_t^2 g``
     (estimated under the linear law, two rounds); returns the fits, ``tau`` and ``sigma_t``."""
+    from scipy.sparse import block_diag
+
     used = rows[rows["used"]]
     v, e, groups = used["impact_speed_m_s"].to_numpy(float), used["e"].to_numpy(float), used["drop"].to_numpy()
-    gains = np.concatenate([np.sum(J * J, axis=1) for J in jacobians if J.size]) if v.size else np.empty(0)
+    jacobians = [J for J in jacobians if J.shape[0]]
+    gains = (np.concatenate([np.asarray(J.multiply(J).sum(axis=1)).ravel() for J in jacobians]) if v.size
+             else np.empty(0))
     weights = None
     tau = sigma_t = math.nan
     reference = "linear" if v.size > 2 else "constant"
@@ -248,10 +293,8 @@ def _fit_all(rows: pd.DataFrame, jacobians: list[np.ndarray], confidence: float,
         tau, sigma_t = variance_model(resid, gains)
         weights = 1.0 / (tau ** 2 + sigma_t ** 2 * gains)
         weights = weights / np.mean(weights)
-    from scipy.linalg import block_diag
-
-    blocks = [J @ J.T for J in jacobians if J.size]
-    noise_cov = tau ** 2 * np.eye(v.size) + sigma_t ** 2 * block_diag(*blocks) if blocks else None
+    # the noise covariance tau^2 I + sigma_t^2 J J^T is held as its factors, never as an n x n matrix
+    noise_cov = TimingNoise(tau, sigma_t, block_diag(jacobians, format="csr")) if jacobians else None
     fits = {}
     for name in LAWS:
         if v.size > get_law(name).n_params:
@@ -312,6 +355,9 @@ def _drag_equivalent_terminal_speed(e_mean: float, gamma: float, v_lo: float, v_
             continue
         Ts = np.array(Ts)
         e_app, v_app = restitution_from_flights(Ts[:-1], Ts[1:], vac)
+        if not (np.all(np.isfinite(e_app)) and np.all(np.isfinite(v_app))):  # LAPACK never sees NaN
+            slopes.append(math.inf)
+            continue
         slopes.append(-np.polyfit(v_app, e_app, 1)[0])
     slopes = np.array(slopes)
     above = np.flatnonzero(slopes >= gamma)
@@ -356,6 +402,8 @@ def analyse_bounces(sources: Sequence, *, ball: Ball | None = None, drag: bool =
         a file cannot be read (see :func:`~impactid.rigs.ball.readers.read_bounces`).
     BounceAnalysisError
         no file holds a usable bouncing sequence (every refusal's reason is given).
+    DuplicateInputError
+        one drop given twice (the same event times).
     """
     if law != "auto":
         get_law(law)
@@ -364,6 +412,7 @@ def analyse_bounces(sources: Sequence, *, ball: Ball | None = None, drag: bool =
     recordings = [_as_recording(s) for s in sources]
     if not recordings:
         raise BounceAnalysisError("no drops given")
+    _check_distinct_drops(recordings)
     constants = flight_constants(ball, drag, gravity)
     provenance: list[str] = []
     notes: list[str] = []
@@ -381,7 +430,10 @@ def analyse_bounces(sources: Sequence, *, ball: Ball | None = None, drag: bool =
     frames, jacobians, vacuum_frames, vacuum_jacobians = [], [], [], []
     vacuum = flight_constants(None, gravity=gravity if gravity is not None else (ball.gravity if ball else None))
     for d, (rec, name) in enumerate(zip(recordings, names)):
-        seq = clean_sequence(rec.times, resolution=rec.resolution, z_reject=z_reject, name=name)
+        try:
+            seq = clean_sequence(rec.times, resolution=rec.resolution, z_reject=z_reject, name=name)
+        except ValueError as exc:  # times no drop can have (the readers refuse them first, naming the row)
+            raise BounceFileError(f"{rec.source or name}: {exc}") from None
         sequences.append(seq)
         counts = {k: v for k, v in seq.counts().items() if v}
         provenance.append(f"{name}: cleaned {rec.times.size} events: {counts}, sigma {1e3 * seq.sigma:.3g} ms, "

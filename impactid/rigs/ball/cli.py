@@ -2,9 +2,10 @@
 
 Thin: parses arguments, calls :func:`impactid.rigs.ball.analyse_bounces`, prints, writes. Follows
 the conventions of :mod:`impactid.cli`: arguments that are not finite or not positive are
-usage errors (``argument --x: ...``), output paths are checked before any computation, outputs
-are written as transactions (the JSON first, then the figures), and every failure is one line
-``impactid: error: ...`` with exit status 2.
+usage errors (``argument --x: ...``), the input files are checked before any is read (each must be
+a regular file, never a named pipe or a device, and no recording may be given twice), output paths
+are checked before any computation, outputs are written as transactions (the JSON first, then the
+figures), and every failure is one line ``impactid: error: ...`` with exit status 2.
 """
 
 from __future__ import annotations
@@ -122,10 +123,11 @@ def run(args) -> int:
     from impactid.rigs.ball.analysis import analyse_bounces
     from impactid.rigs.ball.figures import figure_names, write_figures
     from impactid.rigs.ball.flight import flight_constants
-    from impactid.rigs.ball.readers import read_bounces
+    from impactid.rigs.ball.readers import check_files, read_bounces
 
     ball = _ball(args)
     inputs = list(args.files)
+    check_files(inputs)  # before anything is opened: a named pipe would block the job forever
     if args.out:
         check_output(args.out, option="--out", inputs=inputs)
     if args.plots:

@@ -57,7 +57,7 @@ import pandas as pd
 from impactid.results import FitResult, Parameter
 from impactid.rigs.ball.flight import FlightConstants, flight_time, landing_speed
 
-__all__ = ["LAWS", "MIN_CLUSTERS", "ChainedFit", "Law", "LawFit", "fit_chained", "fit_law", "get_law",
+__all__ = ["LAWS", "MIN_CLUSTERS", "ChainedFit", "Law", "LawFit", "TimingNoise", "fit_chained", "fit_law", "get_law",
            "law_table", "select_law", "variance_model"]
 
 #: Fewest drops for cluster-robust standard errors.
@@ -180,6 +180,36 @@ class LawFit(FitResult):
         return fig if fig is not None else ax.figure
 
 
+@dataclass(frozen=True)
+class TimingNoise:
+    """The noise covariance ``tau^2 I + sigma_t^2 J J^T`` of per-impact coefficients (see
+    :func:`variance_model`), held as its factors: the (n, events) Jacobian ``J`` [1/s] is sparse
+    (three entries a row) and the n x n matrix is never formed, so n coefficients take memory in
+    proportion to n, not to its square.
+
+    Attributes
+    ----------
+    tau : intrinsic scatter of the restitution [-].
+    sigma_t : timing noise of one event [s].
+    jacobian : (n, events) sparse matrix (or array) ``de/dt`` [1/s].
+    """
+
+    tau: float
+    sigma_t: float
+    jacobian: object
+
+    def sandwich(self, A: np.ndarray) -> np.ndarray:
+        """``A C A^T`` for a (p, n) matrix ``A`` and this covariance ``C``, without forming ``C``."""
+        A = np.atleast_2d(np.asarray(A, dtype=float))
+        AJ = np.asarray(self.jacobian.T @ A.T).T  # (p, events)
+        return self.tau ** 2 * (A @ A.T) + self.sigma_t ** 2 * (AJ @ AJ.T)
+
+    def toarray(self) -> np.ndarray:
+        """The dense (n, n) covariance (for small n only)."""
+        J = self.jacobian.toarray() if hasattr(self.jacobian, "toarray") else np.asarray(self.jacobian)
+        return self.tau ** 2 * np.eye(J.shape[0]) + self.sigma_t ** 2 * (J @ J.T)
+
+
 def variance_model(residuals, gains, *, floor: float = 1e-300) -> tuple[float, float]:
     """Variance of each coefficient as ``tau^2 + sigma_t^2 g_k``: an intrinsic scatter of the
     restitution (``tau``, the same for every impact) plus the timing noise (``sigma_t`` [s], one per
@@ -189,6 +219,8 @@ def variance_model(residuals, gains, *, floor: float = 1e-300) -> tuple[float, f
 
     r2 = np.asarray(residuals, dtype=float) ** 2
     g = np.asarray(gains, dtype=float)
+    if not (np.all(np.isfinite(r2)) and np.all(np.isfinite(g))):  # never hand NaN or inf to the solver
+        raise ValueError("residuals and gains must be finite")
     scale = float(np.mean(g)) or 1.0
     A = np.column_stack([np.ones_like(g), g / scale])
     coef, _ = nnls(A, r2)
@@ -208,9 +240,9 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | None 
     v : impact speeds [m/s].
     e : coefficients of restitution [-].
     weights : inverse relative variances of the coefficients (see :func:`variance_model`); equal if None.
-    noise_cov : (n, n) covariance of the coefficients under the noise model (``tau^2 I + sigma_t^2 J J^T``,
-        block-diagonal by drop), for the model-based errors; None: independent, variances from the
-        residual scale and ``weights``.
+    noise_cov : covariance of the coefficients under the noise model (``tau^2 I + sigma_t^2 J J^T``,
+        block-diagonal by drop), for the model-based errors: a :class:`TimingNoise` (its factors) or
+        an (n, n) array; None: independent, variances from the residual scale and ``weights``.
     groups : the drop of each impact (the clusters); None: one drop.
     confidence : coverage of the intervals.
     hac_lag : with fewer than :data:`MIN_CLUSTERS` drops, the neighbours (within a drop) whose
@@ -232,6 +264,9 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | None 
         raise ValueError(f"law {spec.name!r} has {p} parameter(s) and needs more than {p} coefficients, got {n}")
     groups = np.zeros(n, dtype=int) if groups is None else np.asarray(groups)
     w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(e)) and np.all(np.isfinite(w)) and np.all(w >= 0)):
+        # checked here because LAPACK's least squares can loop forever on NaN or inf, beyond Ctrl-C
+        raise ValueError("speeds, coefficients and weights must be finite (weights not negative)")
     X = spec.design(v)
     y = e - spec.offset
     sw = np.sqrt(w)
@@ -245,7 +280,10 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | None 
         cov_model = sigma2 * bread
     else:
         A = bread @ (X * w[:, None]).T  # beta = A y
-        cov_model = A @ np.asarray(noise_cov, dtype=float) @ A.T
+        if isinstance(noise_cov, TimingNoise):
+            cov_model = noise_cov.sandwich(A)
+        else:
+            cov_model = A @ np.asarray(noise_cov, dtype=float) @ A.T
     labels, index = np.unique(groups, return_inverse=True)
     G = labels.size
     notes = []
@@ -430,10 +468,12 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
     N, P = total, x0.size
     rss = float(r @ r)
     sigma2 = rss / max(N - P, 1)
-    J = sol.jac.toarray() if hasattr(sol.jac, "toarray") else np.asarray(sol.jac)
+    J = sol.jac  # sparse (events x parameters, two drop columns a row): never made dense
     notes = [] if sol.success else [f"the optimiser stopped without converging: {sol.message}"]
+    JTJ = J.T @ J
+    JTJ = JTJ.toarray() if hasattr(JTJ, "toarray") else np.asarray(JTJ)
     try:
-        bread = np.linalg.inv(J.T @ J)
+        bread = np.linalg.inv(JTJ) if np.all(np.isfinite(JTJ)) else np.full((P, P), np.nan)
     except np.linalg.LinAlgError:
         bread = np.full((P, P), np.nan)
     cov_model = (sigma2 * bread)[:p, :p]
@@ -449,7 +489,7 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
             pos += size
         for c in labels:
             rows = np.array(rows_of[c])
-            sg = J[rows].T @ r[rows]
+            sg = np.asarray(J[rows].T @ r[rows]).ravel()
             meat += np.outer(sg, sg)
         cov_robust = (bread @ meat @ bread)[:p, :p] * (G / (G - 1)) * ((N - 1) / max(N - P, 1))
         raise_to = np.sqrt(np.maximum(np.diag(cov_model), 1e-300) / np.maximum(np.diag(cov_robust), 1e-300))

@@ -42,6 +42,12 @@ Steps (:func:`detect_onsets`):
 7. **Confidence**: ``1 - threshold / peak``, the fraction of the click's peak above the threshold
    (0 at the threshold, towards 1 for clear clicks).
 
+Memory: the audio is read block by block (a memory-mapped WAV is never copied whole); each block
+is band-passed with a margin on either side long enough for the filter's transients to decay below
+1e-13 of the signal, so the envelope is the one a single pass over the whole recording would give;
+the envelope itself is kept in single precision. A recording of ``n`` frames needs about
+:func:`memory_needed` bytes (8 per frame, plus the blocks).
+
 Timing accuracy measured on synthetic clicks (``tests/rigs/ball/test_onsets.py``,
 ``docs/bounces.md``): a constant offset, and interval errors of a few microseconds at 44.1 and
 48 kHz with background noise 40 dB below the loudest click.
@@ -54,7 +60,36 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Onsets", "detect_onsets", "envelope"]
+__all__ = ["BLOCK_FRAMES", "DEFAULT_BAND", "Onsets", "detect_onsets", "envelope", "memory_needed", "min_sample_rate"]
+
+#: Frames band-passed at a time (5.5 s at 48 kHz): the working memory of the envelope does not grow
+#: with the recording.
+BLOCK_FRAMES = 1 << 18
+#: Default band-pass [Hz]: from 800 Hz to min(12 kHz, 0.45 fs) (module notes).
+DEFAULT_BAND = (800.0, 12000.0)
+#: Highest band-pass edge as a fraction of the sample rate (the filter needs room below Nyquist).
+_NYQUIST_MARGIN = 0.45
+
+
+def min_sample_rate(band: tuple[float, float] | None = None) -> float:
+    """Lowest sample rate [Hz] the detector can work at: above ``DEFAULT_BAND[0] / 0.45`` (1778 Hz)
+    with the default band, whose upper edge ``min(12 kHz, 0.45 fs)`` must lie above its lower edge
+    of 800 Hz; above twice the upper edge of a given ``band``."""
+    if band is None:
+        return DEFAULT_BAND[0] / _NYQUIST_MARGIN
+    return 2.0 * float(band[1])
+
+
+def memory_needed(frames: int, channels: int, itemsize: int = 8) -> int:
+    """Bytes :func:`detect_onsets` needs for ``frames`` x ``channels`` samples of ``itemsize`` bytes
+    (not counting the samples themselves): the single-precision envelope and, at the same time,
+    its copy for the median or its deviations for the MAD, or the threshold mask and its edges
+    (8 bytes per frame); a copy of one channel for its median; and the block being filtered (a
+    dozen double-precision copies of a block and its margins, each at most a block)."""
+    frames, channels = int(frames), int(channels)
+    per_frame = max(8 * frames, itemsize * frames)
+    blocks = 12 * 8 * channels * min(frames, 3 * BLOCK_FRAMES)
+    return per_frame + blocks
 
 
 @dataclass(frozen=True)
@@ -108,29 +143,59 @@ class Onsets:
                 + (f"; {self.suppressed.size} ring-down/echo trigger(s) suppressed" if self.suppressed.size else ""))
 
 
-def envelope(samples: np.ndarray, sample_rate: float, band: tuple[float, float], window: float) -> np.ndarray:
+def _transient_frames(band: tuple[float, float], sample_rate: float, width: int) -> int:
+    """Samples after which a transient of the band-pass has decayed below 1e-13 (from its slowest
+    pole), plus the averaging window: the margin each block is filtered with (at most a block: a
+    band so narrow that its transients outlast a block still decays by e^-30 within one)."""
+    from scipy.signal import butter
+
+    _, poles, _ = butter(4, band, btype="bandpass", fs=sample_rate, output="zpk")
+    slowest = float(np.max(np.abs(poles))) if poles.size else 0.0
+    decay = math.ceil(math.log(1e-13) / math.log(slowest)) if 0.0 < slowest < 1.0 else BLOCK_FRAMES
+    return min(max(256, decay + width), BLOCK_FRAMES)
+
+
+def envelope(samples: np.ndarray, sample_rate: float, band: tuple[float, float], window: float, *,
+             scale: float = 1.0, offset: float = 0.0, block_frames: int = BLOCK_FRAMES) -> np.ndarray:
     """RMS envelope [full scale] of the band-passed ``samples`` ((n,) or (n, channels)), summed
-    over channels, averaged over ``window`` [s]."""
+    over channels, averaged over ``window`` [s]; single precision.
+
+    ``samples`` may be integers as stored in a file (a memory map): a sample at full scale is
+    ``(stored - offset) * scale``. They are band-passed ``block_frames`` at a time, each block with
+    a margin in which the filter's transients decay (module notes), so memory does not grow with
+    the recording beyond the envelope itself.
+    """
     from scipy.ndimage import uniform_filter1d
     from scipy.signal import butter, sosfiltfilt
 
-    x = np.asarray(samples, dtype=float)
+    x = samples if getattr(samples, "ndim", 0) else np.asarray(samples)
     if x.ndim == 1:
         x = x[:, None]
-    x = x - np.median(x, axis=0)
+    n, channels = x.shape
+    scale, offset = float(scale), float(offset)
+    centre = np.array([(float(np.median(x[:, j])) - offset) * scale for j in range(channels)])
     sos = butter(4, band, btype="bandpass", fs=sample_rate, output="sos")
-    pad = min(x.shape[0] - 1, 3 * int(sample_rate / band[0]) + 12)
-    y = sosfiltfilt(sos, x, axis=0, padlen=max(pad, 0))
-    power = np.sum(y * y, axis=1)
+    pad = 3 * int(sample_rate / band[0]) + 12
     width = max(3, int(round(window * sample_rate)))
-    return np.sqrt(np.maximum(uniform_filter1d(power, width, mode="nearest"), 0.0))
+    margin = _transient_frames(band, sample_rate, width)
+    block_frames = max(int(block_frames), 1)
+    out = np.empty(n, dtype=np.float32)
+    for start in range(0, n, block_frames):
+        stop = min(n, start + block_frames)
+        lo, hi = max(0, start - margin), min(n, stop + margin)
+        seg = (np.asarray(x[lo:hi], dtype=float) - offset) * scale - centre
+        y = sosfiltfilt(sos, seg, axis=0, padlen=max(min(seg.shape[0] - 1, pad), 0))
+        power = np.sum(y * y, axis=1)
+        smooth = uniform_filter1d(power, width, mode="nearest")
+        out[start:stop] = np.sqrt(np.maximum(smooth[start - lo:stop - lo], 0.0))
+    return out
 
 
 def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float, float] | None = None,
                   window: float = 0.25e-3, threshold_sigma: float = 8.0, release_sigma: float = 3.0,
                   fraction: float = 0.2,
                   refractory: float | None = None, quantum: float = 2.0 ** -24,
-                  envelope_rate: float = 2000.0) -> Onsets:
+                  envelope_rate: float = 2000.0, scale: float = 1.0, offset: float = 0.0) -> Onsets:
     """Find the impact clicks in an audio recording.
 
     Parameters
@@ -147,6 +212,8 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     quantum : quantisation step of the samples (full scale 1): the threshold is at least
         ``threshold_sigma`` of them.
     envelope_rate : rate [Hz] of the decimated envelope kept for figures.
+    scale, offset : ``samples`` as stored (e.g. the integers of a memory-mapped WAV): a sample at
+        full scale is ``(stored - offset) * scale``.
 
     Returns
     -------
@@ -156,16 +223,22 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     if not (math.isfinite(fs) and fs > 0):
         raise ValueError(f"sample_rate must be positive, got {sample_rate!r}")
     if band is None:
-        band = (800.0, min(12000.0, 0.45 * fs))
+        if not fs > min_sample_rate():
+            raise ValueError(f"sample rate {fs:g} Hz too low for the default band ({DEFAULT_BAND[0]:g} Hz to "
+                             f"{_NYQUIST_MARGIN:g} fs): the detector needs more than {min_sample_rate():.0f} Hz")
+        band = (DEFAULT_BAND[0], min(DEFAULT_BAND[1], _NYQUIST_MARGIN * fs))
     lo, hi = float(band[0]), float(band[1])
     if not (0.0 < lo < hi < 0.5 * fs):
         raise ValueError(f"band must satisfy 0 < low < high < fs/2 = {0.5 * fs:g} Hz, got {band!r}")
     if not 0.0 < fraction < 1.0:
         raise ValueError(f"fraction must lie in (0, 1), got {fraction!r}")
-    env = envelope(samples, fs, (lo, hi), window)
+    env = envelope(samples, fs, (lo, hi), window, scale=scale, offset=offset)
     n = env.size
     median = float(np.median(env))
-    mad = float(np.median(np.abs(env - median)))
+    deviation = env - np.float32(median)  # in place from here: one more envelope's worth of memory
+    np.abs(deviation, out=deviation)
+    mad = float(np.median(deviation, overwrite_input=True))
+    del deviation
     threshold = max(median + threshold_sigma * 1.4826 * mad, threshold_sigma * quantum)
     notes: list[str] = []
 
@@ -175,10 +248,12 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     release = max(median + release_sigma * 1.4826 * mad, release_sigma * quantum)
     gap = max(3, int(round(window * fs)))
     starts, ends = _runs(env > min(release, threshold), gap)
-    loud = np.array([bool(np.max(env[s:e]) > threshold) for s, e in zip(starts, ends)], dtype=bool)
-    starts, ends = starts[loud] if loud.size else starts, ends[loud] if loud.size else ends
+    # the loudest sample of a run: between runs the envelope is below the level that starts one
+    # (itself at most the threshold), so the maximum from one start to the next is the run's own
+    loud = np.maximum.reduceat(env, starts) > threshold if starts.size else np.zeros(0, dtype=bool)
+    starts, ends = starts[loud], ends[loud]
     peaks = np.array([s + int(np.argmax(env[s:e])) for s, e in zip(starts, ends)], dtype=int)
-    peak_values = env[peaks] if peaks.size else np.empty(0)
+    peak_values = env[peaks].astype(float) if peaks.size else np.empty(0)
     onset = np.array([_constant_fraction(env, s, p, fraction) for s, p in zip(starts, peaks)]) / fs
     durations = (ends - starts) / fs
     ring_down = float(np.median(durations)) if durations.size else 0.0
@@ -209,29 +284,26 @@ def _runs(mask: np.ndarray, gap: int) -> tuple[np.ndarray, np.ndarray]:
     separated by fewer than ``gap`` samples."""
     if not mask.any():
         return np.empty(0, dtype=int), np.empty(0, dtype=int)
-    d = np.diff(mask.astype(np.int8), prepend=0, append=0)
+    d = np.diff(mask.view(np.int8), prepend=np.int8(0), append=np.int8(0))
     starts = np.flatnonzero(d == 1)
     ends = np.flatnonzero(d == -1)
-    keep_s, keep_e = [starts[0]], [ends[0]]
-    for s, e in zip(starts[1:], ends[1:]):
-        if s - keep_e[-1] < gap:
-            keep_e[-1] = e
-        else:
-            keep_s.append(s)
-            keep_e.append(e)
-    return np.array(keep_s), np.array(keep_e)
+    del d
+    separate = starts[1:] - ends[:-1] >= gap  # a stretch that starts a run of its own
+    keep_s = starts[np.concatenate(([True], separate))]
+    keep_e = ends[np.concatenate((separate, [True]))]
+    return keep_s, keep_e
 
 
 def _constant_fraction(env: np.ndarray, start: int, peak: int, fraction: float) -> float:
     """Sub-sample index of the last upward crossing of ``fraction * env[peak]`` before ``peak``."""
-    level = fraction * env[peak]
+    level = fraction * float(env[peak])
     lo = max(0, start - int(2 * (peak - start)) - 8)
     seg = env[lo:peak + 1]
     below = np.flatnonzero(seg < level)
     if below.size == 0:
         return float(lo)
     i = lo + int(below[-1])
-    a, b = env[i], env[i + 1]
+    a, b = float(env[i]), float(env[i + 1])
     return i + (level - a) / (b - a) if b != a else float(i)
 
 

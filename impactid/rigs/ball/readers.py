@@ -24,13 +24,21 @@ Formats read
   ``t [s]``, ``time_ms``) is honoured (parsed by pint). A decimal comma is accepted when the
   separator is not a comma. Lines starting with ``#`` are comments.
 * **WAV audio** (mono or multichannel; 8-bit unsigned, 16-, 24- and 32-bit integer, 32- and 64-bit
-  float; any sample rate; read with :func:`scipy.io.wavfile.read`): the impact clicks are found by
-  :func:`impactid.rigs.ball.onsets.detect_onsets`.
+  float; any sample rate above :func:`~impactid.rigs.ball.onsets.min_sample_rate`, 1778 Hz; read
+  with :func:`scipy.io.wavfile.read`, memory-mapped, and scanned in blocks): the impact clicks are
+  found by :func:`impactid.rigs.ball.onsets.detect_onsets`.
 
 Every problem raises :class:`BounceFileError` with a one-line message that names the file and
-the problem: missing, a folder, empty, not a spreadsheet/CSV/WAV, no ``All`` sheet, no time
-column, non-numeric or NaN times, times not strictly increasing, fewer than three events, a WAV
-that is silent, clipped, too short, or holds fewer than three clicks.
+the problem: missing, a folder or a special file (a named pipe, device or socket is never opened:
+it could block forever), empty, not a spreadsheet/CSV/WAV, no ``All`` sheet, no time column,
+non-numeric or NaN times, times not strictly increasing, fewer than three events, more than
+:data:`~impactid.rigs.ball.sequence.MAX_EVENTS`, times that no drop can have (beyond
+:data:`MAX_TIME_MAGNITUDE` in magnitude or spanning more than :data:`MAX_EVENT_SPAN`), times in
+another unit than the one read (a median interval longer than :data:`MAX_TYPICAL_FLIGHT` or shorter
+than :data:`MIN_TYPICAL_FLIGHT`: the message names the column and the header that would say the
+unit), a table larger than :data:`MAX_TABLE_BYTES`, a WAV that needs more memory than
+:func:`memory_budget` allows, is sampled too slowly for the detector, is silent, clipped, too
+short, or holds fewer than three clicks. These checks come before any numerics.
 """
 
 from __future__ import annotations
@@ -40,19 +48,24 @@ import io
 import math
 import os
 import re
+import stat
 import struct
 import warnings
 import zipfile
-from collections.abc import Iterable, Sequence
+import zlib
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from impactid.errors import ImpactidError
+from impactid.rigs.ball.sequence import MAX_EVENTS
 
-__all__ = ["Audio", "BounceFileError", "BounceRecording", "MIN_EVENTS", "read_audio", "read_bounces",
-           "read_event_csv", "read_many", "read_phyphox", "read_wav", "time_resolution"]
+__all__ = ["Audio", "BounceFileError", "BounceRecording", "MAX_EVENTS", "MAX_EVENT_SPAN", "MAX_MEMORY",
+           "MAX_TABLE_BYTES", "MAX_TIME_MAGNITUDE", "MAX_TYPICAL_FLIGHT", "MIN_EVENTS", "MIN_TYPICAL_FLIGHT",
+           "check_file", "check_files", "memory_budget", "read_audio", "read_bounces", "read_event_csv", "read_many",
+           "read_phyphox", "read_wav", "time_resolution"]
 
 #: Fewest events a file must hold: three impacts give two flights, i.e. one coefficient of restitution.
 MIN_EVENTS = 3
@@ -63,6 +76,35 @@ AUDIO_RATES = (8000, 11025, 16000, 22050, 24000, 32000, 44100, 48000, 88200, 960
 MIN_WAV_SECONDS = 0.03
 #: A WAV with a larger fraction of samples at full scale is refused as clipped (overdriven input).
 MAX_CLIPPED_FRACTION = 0.01
+#: Largest magnitude of an event time [s]. 1e10 s (317 years) admits clock times such as Unix
+#: timestamps (1.7e9 s), which a double still resolves to 2 us, finer than any trigger; larger
+#: numbers are not the times of a drop, and their squares and cubes (which the cleaning fits)
+#: overflow: times of 1e300 s once sent LAPACK into an endless loop that not even SIGTERM stopped.
+MAX_TIME_MAGNITUDE = 1e10
+#: Longest time from the first to the last event of one drop [s]. A drop bounces for under a minute
+#: (a ball dropped from 10 m with e = 0.95 bounces for about 55 s); an hour leaves room for a
+#: recording started long before the drop or stopped long after it.
+MAX_EVENT_SPAN = 3600.0
+#: Longest typical flight [s]: the median interval between the events of a drop must be shorter. A
+#: flight of 10 s is a bounce 120 m high, ending at g T / 2 = 49 m/s: beyond any ball dropped by
+#: hand and above the terminal speed of common balls (table tennis 9 m/s, tennis 20, golf 30).
+#: Longer intervals mean that the times are not in the unit they were read in (milliseconds read
+#: as seconds make every flight 1000 times longer and every impact 1000 times faster).
+MAX_TYPICAL_FLIGHT = 10.0
+#: Shortest typical flight [s]: a median interval of 1 ms is a bounce 1.2 um high at 5 mm/s, far
+#: below any audible bounce (seconds read as milliseconds make flights 1000 times shorter).
+MIN_TYPICAL_FLIGHT = 1e-3
+#: Largest table of event times (CSV text, an uncompressed spreadsheet, an .xls file) [bytes].
+#: :data:`~impactid.rigs.ball.sequence.MAX_EVENTS` rows of a phyphox export take under 100 kB;
+#: 32 MiB is hundreds of times that, and its parse stays within a few hundred MiB of memory.
+MAX_TABLE_BYTES = 32 * 2 ** 20
+#: Most memory one input may need while it is analysed [bytes], when the system has twice as much
+#: available (:func:`memory_budget`). The audio of a drop lasts seconds to a minute and needs a few
+#: tens of MiB; 2 GiB admits about an hour and a half of 48 kHz audio (8 bytes a frame) and keeps a
+#: job on a shared machine from taking all of its memory.
+MAX_MEMORY = 2 * 2 ** 30
+#: Frames of audio checked at a time.
+_SCAN_FRAMES = 1 << 18
 
 _PHYPHOX_TIME = "event time (s)"
 _TIME_WORDS = ("event time", "time", "t", "times", "onset", "onsets", "onset time", "timestamp", "event")
@@ -74,24 +116,39 @@ class BounceFileError(ImpactidError, ValueError):
 
 @dataclass(frozen=True)
 class Audio:
-    """Audio samples as read from a WAV file.
+    """Audio samples as read from a WAV file, never copied whole.
 
     Attributes
     ----------
-    samples : (n_samples, n_channels) float array, full scale = 1.
+    samples : (n_samples, n_channels) array as stored: floats at full scale 1, or the file's
+        integers, usually a memory map of the file; a sample at full scale is
+        ``(stored - offset) * scale`` (:meth:`block` does the conversion a block at a time).
     sample_rate : [Hz].
     encoding : ``"int16"``, ``"int24"``, ``"int32"``, ``"uint8"``, ``"float32"``, ``"float64"``.
     source : the file read ("" if made in memory).
+    scale : full-scale value of one stored unit (``2**-15`` for 16-bit integers, 1 for floats).
+    offset : stored value of silence (128 for 8-bit WAV, else 0).
     """
 
     samples: np.ndarray
     sample_rate: float
     encoding: str = "float64"
     source: str = ""
+    scale: float = 1.0
+    offset: float = 0.0
+
+    def __post_init__(self) -> None:
+        samples = self.samples if getattr(self.samples, "ndim", 0) else np.asarray(self.samples)
+        if samples.ndim == 1:
+            object.__setattr__(self, "samples", samples.reshape(-1, 1))
 
     @property
     def n_channels(self) -> int:
         return int(self.samples.shape[1])
+
+    @property
+    def n_frames(self) -> int:
+        return int(self.samples.shape[0])
 
     @property
     def duration(self) -> float:
@@ -103,6 +160,19 @@ class Audio:
         """Smallest step of the encoding, full scale = 1."""
         return {"uint8": 2.0 ** -7, "int16": 2.0 ** -15, "int24": 2.0 ** -23, "int32": 2.0 ** -31,
                 "float32": 2.0 ** -24}.get(self.encoding, 2.0 ** -53)
+
+    def block(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Frames ``start:stop`` as a (frames, channels) float array at full scale 1."""
+        return (np.asarray(self.samples[start:stop], dtype=float) - self.offset) * self.scale
+
+    def blocks(self, frames: int = _SCAN_FRAMES) -> Iterator[np.ndarray]:
+        """The recording as consecutive :meth:`block` of ``frames`` frames."""
+        for start in range(0, self.n_frames, frames):
+            yield self.block(start, start + frames)
+
+    def frames_at_or_above(self, level: float) -> int:
+        """Number of frames with a channel whose magnitude reaches ``level`` [full scale]."""
+        return sum(int(np.count_nonzero(np.any(np.abs(x) >= level, axis=1))) for x in self.blocks())
 
 
 @dataclass(frozen=True)
@@ -154,6 +224,7 @@ class BounceRecording:
         """A recording from an array of event times [s] (checked as a file's would be)."""
         label = source or "(array)"
         t = _check_times(np.asarray(times, dtype=float), label, lambda i: f"event {i + 1}")
+        _check_scale(t, label, "the event times", factor=1.0, base=None)
         return cls(source=source, format="array", times=t, resolution=float(resolution),
                    provenance=(f"{len(t)} event times given as an array",))
 
@@ -193,26 +264,149 @@ def read_bounces(path: str | os.PathLike[str], *, onset_options: dict | None = N
 
 
 def read_many(paths: Iterable[str | os.PathLike[str]], **kwargs) -> list[BounceRecording]:
-    """:func:`read_bounces` for each path (several drops of one ball on one surface)."""
+    """:func:`read_bounces` for each path (several drops of one ball on one surface).
+
+    Raises
+    ------
+    BounceFileError
+        a file cannot be read.
+    DuplicateInputError
+        one recording given twice (by two names, or two files with the same bytes): its impacts
+        would count twice.
+    """
     paths = list(paths)
     if not paths:
         raise BounceFileError("no files given")
+    check_files(paths)
     return [read_bounces(p, **kwargs) for p in paths]
 
 
-def _head(path: Path, n: int = 4096) -> bytes:
-    if not path.exists():
-        raise BounceFileError(f"{path}: file not found")
-    if path.is_dir():
-        raise BounceFileError(f"{path}: is a directory, expected a file")
+def check_files(paths: Sequence[str | os.PathLike[str]]) -> None:
+    """Check the input files of one job before any is opened: each must be a regular file
+    (:func:`check_file`) and none may be given twice (by two names, or as two files with the same
+    bytes: :func:`impactid._files.check_distinct_inputs`). Only files whose size another input
+    shares can be the same, so only they are compared (and hashed): a large recording of a size of
+    its own is never read twice.
+
+    Raises
+    ------
+    BounceFileError
+        a file is missing, a directory or a special file.
+    DuplicateInputError
+        one recording given twice.
+    """
+    from impactid._files import check_distinct_inputs
+
+    sizes = [check_file(p).st_size for p in paths]
+    shared = [p for p, size in zip(paths, sizes) if sizes.count(size) > 1]
+    check_distinct_inputs(shared, what="recording")
+
+
+_SPECIAL_KINDS = ((stat.S_ISFIFO, "a named pipe (FIFO)"), (stat.S_ISCHR, "a character device"),
+                  (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+
+
+def _kind_error(path: Path, mode: int) -> BounceFileError | None:
+    if stat.S_ISDIR(mode):
+        return BounceFileError(f"{path}: is a directory, expected a file")
+    if not stat.S_ISREG(mode):
+        kind = next((name for test, name in _SPECIAL_KINDS if test(mode)), "a special file")
+        return BounceFileError(f"{path}: is {kind}, not a file of bounce times; refusing to read it (reading it "
+                               "could wait forever)")
+    return None
+
+
+def check_file(path: str | os.PathLike[str]) -> os.stat_result:
+    """Check, without opening it, that ``path`` is an existing regular file (a symbolic link to one
+    is fine); returns its status.
+
+    Raises
+    ------
+    BounceFileError
+        naming the file: not found, a directory, or a special file (a named pipe, a device or a
+        socket, which could block a reader forever).
+    """
+    path = Path(path)
     try:
-        with open(path, "rb") as fh:
+        status = os.stat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        raise BounceFileError(f"{path}: file not found") from None
+    except ValueError:  # a NUL byte in the name
+        raise BounceFileError(f"{str(path)!r}: not a valid file name") from None
+    except OSError as exc:
+        raise BounceFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    problem = _kind_error(path, status.st_mode)
+    if problem is not None:
+        raise problem
+    return status
+
+
+def _head(path: Path, n: int = 4096) -> bytes:
+    check_file(path)
+    try:
+        # O_NONBLOCK: should the file have been replaced by a named pipe since the check, opening it
+        # returns at once instead of waiting for a writer; it is then refused by its status
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+        with os.fdopen(fd, "rb") as fh:
+            problem = _kind_error(path, os.fstat(fh.fileno()).st_mode)
+            if problem is not None:
+                raise problem
             head = fh.read(n)
     except OSError as exc:
         raise BounceFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
     if not head:
         raise BounceFileError(f"{path}: empty file")
     return head
+
+
+def _too_large(path: Path, size: int, what: str) -> BounceFileError:
+    return BounceFileError(f"{path}: {what} of {size / 2 ** 20:.1f} MiB, more than the {MAX_TABLE_BYTES / 2 ** 20:g} "
+                           f"MiB a table of bounce times may take (the {MAX_EVENTS} events one drop can hold take "
+                           "under 100 kB); refusing to parse it")
+
+
+def _available_memory() -> int | None:
+    """Memory the system reports available [bytes] (MemAvailable, within a cgroup's limit), or None."""
+    available = None
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    available = int(line.split()[1]) * 1024
+                    break
+    except (OSError, ValueError, IndexError):
+        pass
+    if available is None:
+        try:
+            available = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (AttributeError, ValueError, OSError):
+            available = None
+    try:  # a container's own limit (cgroup v2)
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        if limit.isdigit():
+            used = int(Path("/sys/fs/cgroup/memory.current").read_text().strip())
+            free = max(int(limit) - used, 0)
+            available = free if available is None else min(available, free)
+    except (OSError, ValueError):
+        pass
+    return available
+
+
+def memory_budget() -> tuple[int, str]:
+    """Most memory [bytes] one input may need: :data:`MAX_MEMORY`, or half the memory the system
+    reports available when that is less; and a description of the limit for messages."""
+    available = _available_memory()
+    if available is None or available // 2 >= MAX_MEMORY:
+        return MAX_MEMORY, f"the limit of {MAX_MEMORY / 2 ** 30:g} GiB per input"
+    return available // 2, f"half the {available / 2 ** 20:,.0f} MiB of memory available"
+
+
+def _check_memory(path: Path, need: int, what: str) -> None:
+    budget, limit = memory_budget()
+    if need > budget:
+        raise BounceFileError(f"{path}: {what} needs about {need / 2 ** 20:,.0f} MiB of memory, more than "
+                              f"{budget / 2 ** 20:,.0f} MiB ({limit}); cut the recording to the drop (seconds to a "
+                              "minute of audio)")
 
 
 def _looks_binary(head: bytes) -> bool:
@@ -254,6 +448,13 @@ def _xlsx_sheet(path: Path, name: str):
     import pandas as pd
 
     try:
+        with zipfile.ZipFile(path) as archive:
+            unpacked = sum(info.file_size for info in archive.infolist())
+    except (zipfile.BadZipFile, OSError, EOFError):
+        raise BounceFileError(f"{path}: not a readable .xlsx workbook (damaged zip)") from None
+    if unpacked > MAX_TABLE_BYTES:
+        raise _too_large(path, unpacked, "a workbook that unpacks to a table")
+    try:
         with pd.ExcelFile(path, engine="openpyxl") as book:
             sheets = [str(s) for s in book.sheet_names]
             if name not in sheets:
@@ -275,6 +476,9 @@ def _xlsx_sheet(path: Path, name: str):
 
 
 def _xls_sheet(path: Path, name: str):
+    size = check_file(path).st_size
+    if size > MAX_TABLE_BYTES:
+        raise _too_large(path, size, "a workbook")
     try:
         import xlrd
     except ImportError as exc:  # pragma: no cover - xlrd is a dependency
@@ -326,9 +530,14 @@ def _read_zip(path: Path) -> BounceRecording:
                 held = ", ".join(names[:8]) or "nothing"
                 raise BounceFileError(f"{path}: a zip archive without 'All.csv' (holds: {held}"
                                       f"{' ...' if len(names) > 8 else ''}); expected a phyphox CSV export")
+            size = archive.getinfo(chosen[0]).file_size
+            if size > MAX_TABLE_BYTES:
+                raise _too_large(path, size, f"{chosen[0]} in the zip, a table")
             text = _decode(archive.read(chosen[0]), path)
-    except zipfile.BadZipFile:
+    except (zipfile.BadZipFile, zlib.error, EOFError):
         raise BounceFileError(f"{path}: not a readable zip archive (damaged)") from None
+    except (RuntimeError, NotImplementedError) as exc:  # encrypted, or an unsupported compression
+        raise BounceFileError(f"{path}: not a readable zip archive ({_short(exc)})") from None
     rec = _csv_text(path, text, f"{chosen[0]} in the zip")
     return rec
 
@@ -338,9 +547,12 @@ def read_event_csv(path: str | os.PathLike[str]) -> BounceRecording:
     path = Path(path)
     _head(path)
     try:
-        raw = path.read_bytes()
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_TABLE_BYTES + 1)  # never more, whatever the file has become since its check
     except OSError as exc:
         raise BounceFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if len(raw) > MAX_TABLE_BYTES:
+        raise _too_large(path, max(len(raw), check_file(path).st_size), "a text file")
     return _csv_text(path, _decode(raw, path), "")
 
 
@@ -361,6 +573,9 @@ def _csv_text(path: Path, text: str, where: str) -> BounceRecording:
     label = f"{path}" + (f" ({where})" if where else "")
     if not lines:
         raise BounceFileError(f"{label}: no data (only blank or comment lines)")
+    if len(lines) > MAX_EVENTS + 1:  # a header line and MAX_EVENTS events
+        raise BounceFileError(f"{label}: {len(lines)} lines of data, more events than one drop of a ball can hold "
+                              f"(at most {MAX_EVENTS}); one file is one drop")
     separator = _sniff_separator(lines[:20])
     rows = _split(lines, separator)
     first_numeric = all(_NUMBER.match(c.strip().strip('"')) or c.strip().lower() in ("nan", "") for c in rows[0])
@@ -454,6 +669,9 @@ def _from_columns(path: Path, fmt: str, header: list[str], columns: list[list], 
     else:
         j, factor, name = 0, 1.0, "column 1 (no header: seconds)"
     raw = list(columns[j])
+    if len(raw) > MAX_EVENTS + 1:  # before the trailing blank rows go (phyphox pads one column)
+        raise BounceFileError(f"{path}: {where}: {len(raw)} rows, more events than one drop of a ball can hold "
+                              f"(at most {MAX_EVENTS}); one file is one drop")
     # trailing blank rows (and phyphox's NaN padding when all columns end) are not data
     while raw and _blank(raw[-1]) and all(len(c) < len(raw) or _blank(c[len(raw) - 1]) for c in columns):
         raw.pop()
@@ -470,6 +688,8 @@ def _from_columns(path: Path, fmt: str, header: list[str], columns: list[list], 
             raise BounceFileError(f"{path}: {where}, row {i + row_offset}: time {str(v)[:40]!r} is not a number"
                                   ) from None
     times = _check_times(values * factor, str(path), lambda i: f"{where}, row {i + row_offset}")
+    _check_scale(times, str(path), f"{where}, column {name!r}", factor=factor,
+                 base=_header_base(header[j]) if header else "")
     resolution = time_resolution(times)
     unit = "" if factor == 1.0 else f" (x {factor:g} to s)"
     steps.append(f"read {len(times)} event times from {path.name}: {where}, column {name!r}{unit}"
@@ -491,15 +711,25 @@ def _blank(v) -> bool:
 
 
 def _check_times(values: np.ndarray, label: str, row) -> np.ndarray:
+    if values.ndim != 1:
+        raise BounceFileError(f"{label}: event times must be one sequence, got an array of shape {values.shape}")
     if values.size == 0:
         raise BounceFileError(f"{label}: no event times")
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
         raise BounceFileError(f"{label}: {row(int(bad[0]))}: time is NaN or empty"
                               + (f" ({bad.size} such rows)" if bad.size > 1 else ""))
+    huge = np.flatnonzero(np.abs(values) > MAX_TIME_MAGNITUDE)
+    if huge.size:
+        i = int(huge[0])
+        raise BounceFileError(f"{label}: {row(i)}: time {values[i]:.4g} s is beyond +/-{MAX_TIME_MAGNITUDE:g} s: not "
+                              "the time of an event of a drop" + (f" ({huge.size} such rows)" if huge.size > 1 else ""))
     if values.size < MIN_EVENTS:
         raise BounceFileError(f"{label}: only {values.size} event(s); at least {MIN_EVENTS} impacts are needed "
                               "for one coefficient of restitution")
+    if values.size > MAX_EVENTS:
+        raise BounceFileError(f"{label}: {values.size} events, more than one drop of a ball can hold (at most "
+                              f"{MAX_EVENTS}); one file is one drop")
     steps = np.diff(values)
     back = np.flatnonzero(steps <= 0.0)
     if back.size:
@@ -507,6 +737,55 @@ def _check_times(values: np.ndarray, label: str, row) -> np.ndarray:
         raise BounceFileError(f"{label}: event times are not strictly increasing at {row(i)} "
                               f"({values[i]:.6g} s after {values[i - 1]:.6g} s)")
     return values
+
+
+_UNITS = (("milliseconds", "ms", 1e-3), ("microseconds", "us", 1e-6), ("seconds", "s", 1.0), ("minutes", "min", 60.0))
+
+
+def _header_base(header: str) -> str:
+    """A column header without its unit (``"Time (ms)"`` -> ``"Time"``)."""
+    text = re.sub(r"\s*[\(\[][^\)\]]*[\)\]]\s*$", "", header.strip())
+    text = re.sub(r"[_ ](s|ms|us|µs|min)$", "", text)
+    return text.strip() or "time"
+
+
+def _check_scale(times: np.ndarray, label: str, column: str, *, factor: float, base: str | None) -> None:
+    """Refuse times whose typical interval no flight of a dropped ball can have (the unit is not the
+    one they were read in), or that span more than one drop can: naming the column, and the header
+    that would give the unit (``base``: the column's header without its unit, "" without a header,
+    None for times given as numbers). Never guesses a unit."""
+    d = np.diff(times)
+    typical = float(np.median(d))
+    unit = next((long for long, _, f in _UNITS if math.isclose(f, factor)), f"units of {factor:g} s")
+    raw = typical / factor  # the typical interval in the numbers of the file
+    fits = [(long, short) for long, short, f in _UNITS
+            if not math.isclose(f, factor) and MIN_TYPICAL_FLIGHT <= raw * f <= MAX_TYPICAL_FLIGHT]
+    if fits and base is None:
+        hint = f" If they are in {fits[0][0]}, convert them to seconds."
+    elif fits:
+        long, short = fits[0]
+        header = f"'{base or 'time'} ({short})'"
+        where = "the header of the time column" if base else "a header line"
+        hint = (f" If they are in {long}, say so in {where}, e.g. {header}: a unit in the header is honoured "
+                "('time (ms)', 't [us]', 'time_ms').")
+    else:
+        hint = ""
+    g = 9.80665
+    if typical > MAX_TYPICAL_FLIGHT:
+        raise BounceFileError(
+            f"{label}: {column}: events {typical:.4g} s apart (median interval), flights of a bounce "
+            f"{g * typical ** 2 / 8:.3g} m high ending at {g * typical / 2:.3g} m/s; no dropped ball flies longer than "
+            f"{MAX_TYPICAL_FLIGHT:g} s (a 120 m bounce at 49 m/s), so the times are not in {unit}.{hint}")
+    if typical < MIN_TYPICAL_FLIGHT:
+        raise BounceFileError(
+            f"{label}: {column}: events {1e3 * typical:.4g} ms apart (median interval), flights of a bounce "
+            f"{1e6 * g * typical ** 2 / 8:.3g} um high; no audible bounce is shorter than "
+            f"{1e3 * MIN_TYPICAL_FLIGHT:g} ms, so the times are not in {unit}.{hint}")
+    span = float(times[-1] - times[0])
+    if span > MAX_EVENT_SPAN:
+        raise BounceFileError(
+            f"{label}: {column}: the events span {span:.4g} s, more than the {MAX_EVENT_SPAN:g} s any recording of "
+            "one drop needs (a drop bounces for under a minute); one file is one drop")
 
 
 def _check_interval_column(header, columns, times, factor) -> str:
@@ -548,28 +827,52 @@ def time_resolution(times: np.ndarray) -> float:
 # ---- WAV ----------------------------------------------------------------------------------------
 
 
-def _wav_format(path: Path) -> tuple[int, int]:
-    """(format tag, bits per sample) from the ``fmt `` chunk (0, 0 if not found)."""
+@dataclass(frozen=True)
+class _WavHeader:
+    """What the ``fmt `` and ``data`` chunk headers of a WAV file say (zeros where not found)."""
+
+    tag: int = 0
+    bits: int = 0
+    channels: int = 0
+    rate: int = 0
+    block_align: int = 0
+    data_offset: int = 0
+    data_size: int = 0
+
+
+def _wav_header(path: Path) -> _WavHeader:
+    """The format and the data chunk of a RIFF/WAVE file, from its chunk headers (without reading
+    the samples)."""
+    fields: dict = {}
     try:
+        size = check_file(path).st_size
         with open(path, "rb") as fh:
-            data = fh.read(1 << 16)
-    except OSError:
-        return 0, 0
-    pos = 12
-    while pos + 8 <= len(data):
-        cid, size = data[pos:pos + 4], struct.unpack("<I", data[pos + 4:pos + 8])[0]
-        if cid == b"fmt " and pos + 24 <= len(data):
-            tag, _, _, _, _, bits = struct.unpack("<HHIIHH", data[pos + 8:pos + 24])
-            if tag == 0xFFFE and pos + 34 <= len(data):
-                tag = struct.unpack("<H", data[pos + 32:pos + 34])[0]
-            return tag, bits
-        pos += 8 + size + (size & 1)
-    return 0, 0
+            pos = 12
+            while pos + 8 <= size and ("data_offset" not in fields or "tag" not in fields):
+                fh.seek(pos)
+                chunk = fh.read(8)
+                if len(chunk) < 8:
+                    break
+                cid, length = chunk[:4], struct.unpack("<I", chunk[4:])[0]
+                if cid == b"fmt ":
+                    body = fh.read(min(length, 40))
+                    if len(body) >= 16:
+                        tag, channels, rate, _, block_align, bits = struct.unpack("<HHIIHH", body[:16])
+                        if tag == 0xFFFE and len(body) >= 26:
+                            tag = struct.unpack("<H", body[24:26])[0]
+                        fields.update(tag=tag, bits=bits, channels=channels, rate=rate, block_align=block_align)
+                elif cid == b"data":
+                    fields.update(data_offset=pos + 8, data_size=length)
+                pos += 8 + length + (length & 1)
+    except (OSError, struct.error):
+        pass
+    return _WavHeader(**fields)
 
 
 def read_audio(path: str | os.PathLike[str]) -> Audio:
-    """Read a WAV file into an :class:`Audio` (float samples, full scale 1), checking that it is
-    usable: not too short, not silent, not clipped, finite.
+    """Read a WAV file into an :class:`Audio` (memory-mapped when its samples are 1, 2, 4 or 8
+    bytes wide), checking that it is usable: analysable within :func:`memory_budget`, not too short,
+    finite, not silent, not clipped (scanned block by block).
 
     Raises
     ------
@@ -578,52 +881,77 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
     """
     from scipy.io import wavfile
 
+    from impactid.rigs.ball.onsets import memory_needed
+
     path = Path(path)
     head = _head(path, 12)
     if not (head[:4] == b"RIFF" and head[8:12] == b"WAVE"):
         raise BounceFileError(f"{path}: not a WAV file (no RIFF/WAVE header)")
-    tag, bits = _wav_format(path)
+    header = _wav_header(path)
+    file_size = check_file(path).st_size
+    mapped = True
+    if header.channels > 0 and header.block_align >= header.channels and header.data_offset:
+        # the memory the job needs, from the header, before a sample is read
+        container = header.block_align // header.channels
+        stored = min(header.data_size, max(file_size - header.data_offset, 0))
+        frames = stored // header.block_align
+        mapped = container in (1, 2, 4, 8) and header.data_size <= file_size - header.data_offset
+        itemsize = 4 if container == 3 else container
+        # without a memory map the samples are read whole (3-byte ones twice: bytes, then 4-byte integers)
+        resident = 0 if mapped else frames * header.channels * (itemsize + (container if container == 3 else 0))
+        need = resident + memory_needed(frames, header.channels, itemsize)
+        what = (f"analysing its {frames / max(header.rate, 1):,.0f} s of audio ({frames:,} frames x {header.channels} "
+                f"channel(s) at {header.rate} Hz)")
+        _check_memory(path, need, what)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # unknown chunks: read what can be read
-            rate, data = wavfile.read(path, mmap=False)
+            rate, data = wavfile.read(path, mmap=mapped)
     except (ValueError, EOFError, struct.error, OSError, MemoryError, IndexError, TypeError) as exc:
         raise BounceFileError(f"{path}: not a readable WAV file ({_short(exc)})") from None
     if data.ndim == 1:
-        data = data[:, None]
+        data = data.reshape(-1, 1)
     if data.ndim != 2 or data.shape[1] == 0:
         raise BounceFileError(f"{path}: WAV data of unexpected shape {data.shape}")
     if rate <= 0:
         raise BounceFileError(f"{path}: WAV sample rate {rate} Hz is not positive")
     kind = data.dtype
+    bits = header.bits
     if kind == np.uint8:
-        x, encoding, full = (data.astype(float) - 128.0) / 128.0, "uint8", 127.0 / 128.0
+        scale, offset, encoding, full = 1.0 / 128.0, 128.0, "uint8", 127.0 / 128.0
     elif kind == np.int16:
-        x, encoding, full = data.astype(float) / 32768.0, "int16", 32767.0 / 32768.0
+        scale, offset, encoding, full = 2.0 ** -15, 0.0, "int16", 32767.0 / 32768.0
     elif kind == np.int32:
-        x = data.astype(float) / 2.0 ** 31
+        scale, offset = 2.0 ** -31, 0.0
         encoding = "int24" if bits == 24 else "int32"
         full = (2.0 ** 23 - 1) / 2.0 ** 23 if bits == 24 else (2.0 ** 31 - 1) / 2.0 ** 31
     elif kind in (np.float32, np.float64):
-        x, encoding, full = data.astype(float), str(kind), 1.0
+        scale, offset, encoding, full = 1.0, 0.0, str(kind), 1.0
     elif kind == np.int64:
-        x, encoding, full = data.astype(float) / 2.0 ** 63, "int64", 1.0
+        scale, offset, encoding, full = 2.0 ** -63, 0.0, "int64", 1.0
     else:
         raise BounceFileError(f"{path}: unsupported WAV sample type {kind}")
-    n = x.shape[0]
+    audio = Audio(samples=data, sample_rate=float(rate), encoding=encoding, source=str(path), scale=scale,
+                  offset=offset)
+    n = audio.n_frames
     if n < 64 or n / rate < MIN_WAV_SECONDS:
         raise BounceFileError(f"{path}: too short ({n} samples, {n / rate:.3g} s); a drop needs at least "
                               f"{MIN_WAV_SECONDS:g} s of audio")
-    if not np.all(np.isfinite(x)):
-        raise BounceFileError(f"{path}: WAV holds NaN or infinite samples")
-    if np.all(x == x[0:1, :]):
+    first = audio.block(0, 1)
+    silent = True
+    at_full = 0
+    for x in audio.blocks():
+        if kind.kind == "f" and not np.all(np.isfinite(x)):
+            raise BounceFileError(f"{path}: WAV holds NaN or infinite samples")
+        silent = silent and bool(np.all(x == first))
+        at_full += int(np.count_nonzero(np.any(np.abs(x) >= full * (1.0 - 1e-9), axis=1)))
+    if silent:
         raise BounceFileError(f"{path}: silent (every sample equal)")
-    at_full = np.abs(x) >= full * (1.0 - 1e-9)
-    fraction = float(np.mean(np.any(at_full, axis=1)))
+    fraction = at_full / n
     if fraction > MAX_CLIPPED_FRACTION:
         raise BounceFileError(f"{path}: clipped: {100 * fraction:.2g} % of the samples are at full scale "
                               f"(more than {100 * MAX_CLIPPED_FRACTION:g} %); record again with a lower input gain")
-    return Audio(samples=x, sample_rate=float(rate), encoding=encoding, source=str(path))
+    return audio
 
 
 def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
@@ -633,20 +961,38 @@ def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
     ----------
     path : the WAV file.
     **onset_options : passed to :func:`~impactid.rigs.ball.onsets.detect_onsets`.
+
+    Raises
+    ------
+    BounceFileError
+        the file cannot be read (:func:`read_audio`), is sampled too slowly for the detector, or
+        holds fewer than three clicks or more than one drop can.
     """
-    from impactid.rigs.ball.onsets import detect_onsets
+    from impactid.rigs.ball.onsets import DEFAULT_BAND, detect_onsets, min_sample_rate
 
     path = Path(path)
     audio = read_audio(path)
-    steps = [f"read {path.name}: WAV, {audio.samples.shape[0]} samples x {audio.n_channels} channel(s), "
+    band = onset_options.get("band")
+    lowest = min_sample_rate(band)
+    if not audio.sample_rate > lowest:
+        why = (f"its band-pass starts at {DEFAULT_BAND[0]:g} Hz and must end below 0.45 x the sample rate"
+               if band is None else f"the band-pass {band[0]:g}-{band[1]:g} Hz must end below half the sample rate")
+        raise BounceFileError(f"{path}: sampled at {audio.sample_rate:g} Hz; the click detector needs at least "
+                              f"{math.floor(lowest) + 1} Hz ({why}); record at 8 kHz or more (phones record at 44.1 "
+                              "or 48 kHz)")
+    steps = [f"read {path.name}: WAV, {audio.n_frames} samples x {audio.n_channels} channel(s), "
              f"{audio.sample_rate:g} Hz, {audio.encoding}"]
-    onsets = detect_onsets(audio.samples, audio.sample_rate, quantum=audio.quantum, **onset_options)
+    onsets = detect_onsets(audio.samples, audio.sample_rate, quantum=audio.quantum, scale=audio.scale,
+                           offset=audio.offset, **onset_options)
     if onsets.times.size < MIN_EVENTS:
         raise BounceFileError(f"{path}: found {onsets.times.size} impact click(s) above the noise floor "
                               f"(threshold {onsets.threshold:.3g} full scale); at least {MIN_EVENTS} are needed")
+    if onsets.times.size > MAX_EVENTS:
+        raise BounceFileError(f"{path}: found {onsets.times.size} clicks, more than one drop of a ball can make (at "
+                              f"most {MAX_EVENTS}); one file is one drop")
     steps.append(onsets.describe())
     notes = [f"{path.name}: {n}" for n in onsets.notes]
-    clipped = int(np.sum(np.any(np.abs(audio.samples) >= 1.0 - 2 * audio.quantum, axis=1)))
+    clipped = audio.frames_at_or_above(1.0 - 2 * audio.quantum)
     if clipped:
         notes.append(f"{path.name}: {clipped} samples at full scale (clipped click peaks); onset times come from "
                      "the rising edge of each click and are not affected")

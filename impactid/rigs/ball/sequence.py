@@ -83,7 +83,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-__all__ = ["CleanedSequence", "INTERVAL_FLAGS", "clean_sequence"]
+__all__ = ["CleanedSequence", "INTERVAL_FLAGS", "MAX_EVENTS", "clean_sequence"]
 
 #: Interval flags, in the per-bounce table.
 INTERVAL_FLAGS = ("ok", "first", "anomalous", "missed", "echo", "spurious", "displaced", "release", "end",
@@ -103,6 +103,16 @@ MODEL_PRECISION = 5e-4
 #: which the triggers are taken as the impacts of a bouncing ball (measured: 0.5 % for the
 #: table-tennis recordings, 5 % for the worst rubber-ball drop; random triggers give 30 % and more).
 MAX_RELATIVE_SCATTER = 0.1
+#: Most events one drop may hold. A bouncing ball's flights shrink geometrically: with ``e <= 0.99``
+#: and flights from 10 s (a 120 m bounce) down to 1 ms (no two clicks are told apart closer) a drop
+#: has at most ln(1e-4) / ln(0.99) ~ 900 impacts; with as many echoes and spurious triggers again,
+#: 2000. The bound keeps the cleaning's cost (a dynamic programme whose states grow with the events,
+#: run a few dozen times) and memory (the robust starting line is a repeated median over all pairs
+#: of ratios, quadratic in their number) bounded: more events are not one drop of a ball.
+MAX_EVENTS = 2000
+#: Ratios of consecutive intervals are summed into a density on this many grid points per block of
+#: ratios (bounds the memory of the cluster search: grid points x block x 8 bytes, ~3 MB).
+_DENSITY_BLOCK = 1024
 
 
 @dataclass(frozen=True)
@@ -215,30 +225,33 @@ def _label(times: np.ndarray, model, sigma: float, z_reject: float, max_span: in
     m = times.size
     c_out = z_reject ** 2
     c_anom = c_out + MISS_COST
-    # state (i, j, k) -> [cost, back state, last flight, anomalous]
+    # state (i, j, k) -> [cost, back state, (span, flights) whose last flight is the state's, anomalous]
     states: dict[tuple[int, int, int], list] = {}
     model = [float(c) for c in model]
     for i in range(m):
         for j in range(i + 1, min(m, i + max_skip + 2)):
-            states[(i, j, 1)] = [c_out * i + c_out * (j - i - 1), None, times[j] - times[i], False]
+            states[(i, j, 1)] = [c_out * i + c_out * (j - i - 1), None, (times[j] - times[i], 1), False]
     by_end: dict[int, list[tuple[int, int, int]]] = {}
     for key in states:
         by_end.setdefault(key[1], []).append(key)
     for j in range(m):
         for key in sorted(by_end.get(j, [])):
-            cost, back, last, _ = states[key]
-            k_prev = key[2]
+            cost, back, (span, k_prev), _ = states[key]
+            last = _last_of_span(model, span, k_prev)  # once per state, not at every improvement
             # after the first flight (no predecessor, so unverified) only a single flight may follow:
             # a span there would be indistinguishable from a release artefact (fall time ~ flight / 2e)
             spans = 1 if back is None else max_span
+            # the predicted spans after this state's last flight do not depend on the next event
+            predictions = []
+            for k in range(1, spans + 1):
+                total = _predict(model, last, k)[0]
+                if not math.isfinite(total):
+                    break
+                predictions.append((k, total, sigma * math.sqrt(k + (1 if k_prev > 1 else 0))))
             for n in range(j + 1, min(m, j + max_skip + 2)):
                 gap = times[n] - times[j]
                 base = cost + c_out * (n - j - 1)
-                for k in range(1, spans + 1):
-                    total, _ = _predict(model, last, k)
-                    if not math.isfinite(total):
-                        break
-                    spread = sigma * math.sqrt(k + (1 if k_prev > 1 else 0))
+                for k, total, spread in predictions:
                     z = (gap - total) / spread
                     new = base + z * z + MISS_COST * (k - 1)
                     anomalous = False
@@ -249,7 +262,7 @@ def _label(times: np.ndarray, model, sigma: float, z_reject: float, max_span: in
                     if target not in states or new < states[target][0]:
                         if target not in states:
                             by_end.setdefault(n, []).append(target)
-                        states[target] = [new, key, _last_of_span(model, gap, k), anomalous]
+                        states[target] = [new, key, (gap, k), anomalous]
                     if total > gap + 6 * spread:
                         break
     if not states:
@@ -283,12 +296,21 @@ def _fit_ratio(prev: np.ndarray, nxt: np.ndarray):
     """Least squares ``T_next = r(T_prev) T_prev`` with ``r(T) = a + b T + c T^2`` (a line with
     fewer than twelve pairs, a constant with fewer than five; one degree less when ``r`` leaves
     (0, 1) over the flights seen), and the residual scale."""
+    coef = X = None
     for degree in ((2, 1, 0) if prev.size >= 12 else (1, 0) if prev.size >= 5 else (0,)):
-        X = np.column_stack([prev ** (p + 1) for p in range(degree, -1, -1)])
+        with np.errstate(over="ignore", invalid="ignore"):
+            X = np.column_stack([prev ** (p + 1) for p in range(degree, -1, -1)])
+        if not (np.all(np.isfinite(X)) and np.all(np.isfinite(nxt))):
+            # never hand non-finite numbers to LAPACK: its SVD can loop forever on them, out of reach
+            # of Ctrl-C and SIGTERM (the readers refuse such times; this guards direct callers)
+            coef = None
+            continue
         coef, *_ = np.linalg.lstsq(X, nxt, rcond=None)
         ends = np.polyval(coef, [prev.min(), prev.max()])
         if np.all((ends > 0.0) & (ends < 1.0)):  # physical over the flights seen, else one degree less
             break
+    if coef is None:
+        return np.array([math.nan]), math.nan
     resid = nxt - X @ coef
     dof = max(prev.size - degree - 1, 1)
     return coef, math.sqrt(float(resid @ resid) / dof)
@@ -319,18 +341,29 @@ def clean_sequence(times, *, resolution: float = math.nan, z_reject: float = 4.0
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise ValueError("times must be a 1-D strictly increasing finite array of at least 3 events")
+    if t.size > MAX_EVENTS:
+        raise ValueError(f"{t.size} events: more than one drop of a ball can hold (at most {MAX_EVENTS})")
     d = np.diff(t)
+    if not float(np.max(d)) < 1e100:  # the ratio model is fitted on powers of the flights up to T^3
+        raise ValueError(f"an interval of {float(np.max(d)):.3g} s is beyond any flight of a ball")
     floor = max(0.7 * resolution if math.isfinite(resolution) else 0.0, 1e-6, MODEL_PRECISION * float(np.median(d)))
     ratios = d[1:] / d[:-1]
-    plausible = (ratios > 0.0) & (ratios < 1.0)
+    # a pair of intervals shrinks only when the second is shorter than the first by more than the
+    # timing noise can make it: the ratios of a metronome's intervals lie within a few ulps of 1, on
+    # either side depending on how the times were rounded, and are no evidence of a bounce
+    plausible = (ratios > 0.0) & (d[1:] < d[:-1] - floor)
     where = f"{name}: " if name else ""
     if plausible.sum() == 0:
-        return _refusal(t, f"{where}no two consecutive intervals shrink: not a ball bouncing on a floor")
+        return _refusal(t, f"{where}no two consecutive intervals shrink beyond the timing noise ({1e3 * floor:.2g} "
+                           "ms): not a ball bouncing on a floor")
     r_ok = ratios[plausible]
     starts = [np.array([float(np.median(r_ok))])]
     if r_ok.size >= 3:  # the clusters of ratios: one of them is the bounces' even when echoes dominate
         grid = np.linspace(0.0, 1.0, 401)
-        density = np.exp(-0.5 * ((grid[:, None] - r_ok[None, :]) / 0.01) ** 2).sum(axis=1)
+        density = np.zeros(grid.size)
+        for first in range(0, r_ok.size, _DENSITY_BLOCK):  # blockwise: memory independent of the events
+            block = r_ok[first:first + _DENSITY_BLOCK]
+            density += np.exp(-0.5 * ((grid[:, None] - block[None, :]) / 0.01) ** 2).sum(axis=1)
         peaks = [i for i in range(1, grid.size - 1) if density[i] >= density[i - 1] and density[i] > density[i + 1]
                  and density[i] >= 0.2 * density.max()]
         for i in sorted(peaks, key=lambda i: -density[i])[:4]:
@@ -398,6 +431,13 @@ def _empty_flights() -> pd.DataFrame:
 def _result(t, chain, model, sigma, iterations, name) -> CleanedSequence:
     where = f"{name}: " if name else ""
     if len(chain) < 3:
+        d = np.diff(t)
+        ratio = float(np.polyval(np.asarray(model, dtype=float), np.median(d))) if len(model) else math.nan
+        if math.isfinite(ratio) and not ratio < 1.0:
+            # the ratio fitted to the triggers predicts no shorter flight, so no chain of flights can
+            # form: the reason is that they do not shrink, not that too few triggers were found
+            return _refusal(t, f"{where}the flights do not shrink: the ratio of consecutive intervals fitted to the "
+                               f"triggers is {ratio:.6g}, not below 1: not a ball bouncing on a floor")
         return _refusal(t, f"{where}no bouncing sequence: fewer than three triggers form one")
     m = t.size
     status = ["?"] * m

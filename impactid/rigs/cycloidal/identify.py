@@ -54,6 +54,7 @@ import numpy as np
 import pandas as pd
 from scipy import optimize, stats
 
+from impactid.covariance import covariance_from_jacobian
 from impactid.errors import ImpactidError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.cycloidal import cam
@@ -387,11 +388,10 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
         plus[k] += step
         minus[k] -= step
         J[:, j] = (model_all(plus) - model_all(minus)) / (2.0 * step)
-    JtJ = J.T @ J
-    cond = float(np.linalg.cond(JtJ))
-    cov = s2 * np.linalg.pinv(JtJ) if cond < 1e15 else np.full((p, p), math.nan)
-    if not cond < 1e15:
-        notes.append(f"the parameters are not separable from these data (condition number {cond:.2g})")
+    covariance = covariance_from_jacobian(J, s2, names=tuple(names))
+    cond, cov = covariance.condition, covariance.matrix
+    if covariance.reason:
+        notes.append(covariance.reason)
     q = float(stats.t.ppf(0.5 + 0.5 * confidence, max(dof, 1)))
     params = []
     for j, k in enumerate(names):

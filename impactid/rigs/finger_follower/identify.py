@@ -47,6 +47,7 @@ import numpy as np
 import pandas as pd
 from scipy import optimize, stats
 
+from impactid.covariance import covariance_from_jacobian
 from impactid.errors import ImpactidError, SimulationError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.finger_follower.cam import CycloidalLift
@@ -322,13 +323,9 @@ def _intervals(jac: np.ndarray, residual: np.ndarray, n_linear: int, confidence:
     if dof <= 0:
         return np.full((p, p), np.nan), np.full(p, np.nan), math.nan, dof
     s2 = float(residual @ residual) / dof
-    try:
-        cov = s2 * np.linalg.inv(jac.T @ jac)
-    except np.linalg.LinAlgError:
-        return np.full((p, p), np.nan), np.full(p, np.nan), math.nan, dof
-    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    covariance = covariance_from_jacobian(jac, s2)  # undetermined (NaN) above impactid.covariance.CONDITION_LIMIT
     q = float(stats.t.ppf(0.5 + 0.5 * confidence, dof))
-    return cov, se, q, dof
+    return covariance.matrix, covariance.stderr, q, dof
 
 
 def _project(r: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:

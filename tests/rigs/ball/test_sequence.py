@@ -104,6 +104,41 @@ def test_refusals(times, why):
     assert set(seq.intervals["flag"]) == {"refused"}
 
 
+def _metronomes():
+    """Regular triggers, 0.2 s apart, rounded in every way: the ratios of consecutive intervals lie
+    within a few ulps of 1, on either side depending on the rounding."""
+    base = [np.cumsum(np.full(12, 0.2)), 0.2 * np.arange(1, 13), np.linspace(0.2, 2.4, 12),
+            np.cumsum(np.full(12, 0.2))[::-1] * -1 + 3.0, 1e6 + 0.2 * np.arange(12)]
+    ulp = np.spacing(2.4)
+    shifted = [np.cumsum(np.full(12, 0.2)) + ulp * np.resize(pattern, 12)
+               for pattern in ([1, -1], [-1, 1], [0, 0, 1], [2, -2, 0, 1])]
+    rng = np.random.default_rng(0)
+    jittered = [0.2 * np.arange(1, 13) + rng.normal(0.0, 3e-4, 12) for _ in range(6)]
+    return base + shifted + jittered
+
+
+@pytest.mark.parametrize("times", _metronomes())
+def test_a_metronome_is_refused_for_not_shrinking_however_rounded(times):
+    """The reason does not flip with the last bits of the times, nor with the last bit of a
+    least-squares ratio (LAPACK builds differ): a metronome does not shrink."""
+    times = np.sort(times)
+    seq = clean_sequence(times)
+    assert seq.refused and "shrink" in seq.refused, seq.refused
+
+
+def test_a_fitted_ratio_of_one_is_called_not_shrinking():
+    """When the ratio fitted to the triggers predicts no shorter flight (1 + 1 ulp, say), no chain can
+    form; the reason is that the flights do not shrink, not that too few triggers were heard."""
+    from impactid.rigs.ball.sequence import _result
+
+    t = 0.2 * np.arange(1, 13)
+    chain = [(0, 0, False), (1, 1, False)]
+    for ratio in (1.0, np.nextafter(1.0, 2.0), 1.3):
+        seq = _result(t, chain, np.array([ratio]), 1e-4, 2, "")
+        assert "do not shrink" in seq.refused, seq.refused
+    assert "fewer than three" in _result(t, chain, np.array([0.9]), 1e-4, 2, "").refused
+
+
 def test_random_triggers_are_refused_or_mostly_rejected():
     rng = np.random.default_rng(0)
     t = np.sort(rng.uniform(0, 5, 15))
