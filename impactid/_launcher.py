@@ -25,8 +25,26 @@ class _Terminated(BaseException):
     """SIGTERM arrived before the command line's own handler was installed."""
 
 
+#: The signal that arrived while the modules were imported (None: none). A library's import code may
+#: turn the exception a signal raises into another one (NumPy re-raises any failure of its C core's
+#: import as ``ImportError``), so the decision rests on this record, not on the exception's type.
+_arrived: list[int] = []
+
+
 def _terminate(signum, frame):  # noqa: ARG001 - signal handler signature
+    _arrived.append(signum)
     raise _Terminated()
+
+
+def _interrupt(signum, frame):  # noqa: ARG001 - signal handler signature
+    _arrived.append(signum)
+    raise KeyboardInterrupt()
+
+
+def _quiet_unraisable(info) -> None:
+    """A stop raised inside a finalizer during the imports: the record above already says it."""
+    if not isinstance(info.exc_value, (KeyboardInterrupt, _Terminated)):
+        sys.__unraisablehook__(info)
 
 
 def _say(text: str) -> None:
@@ -37,25 +55,42 @@ def _say(text: str) -> None:
         pass
 
 
+def _stopped(signum: int) -> int:
+    if signum == signal.SIGTERM:
+        _say("terminated (SIGTERM) while starting; nothing was written")
+        return EXIT_TERMINATED
+    _say("interrupted (Ctrl-C) while starting; nothing was written")
+    return EXIT_INTERRUPTED
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``impactid`` command; returns the exit code."""
     in_main = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminate) if in_main else None
+    previous_term = signal.signal(signal.SIGTERM, _terminate) if in_main else None
+    previous_int = signal.signal(signal.SIGINT, _interrupt) if in_main else None
+    previous_hook = sys.unraisablehook
+    sys.unraisablehook = _quiet_unraisable
     try:
-        from impactid import cli  # the slow imports, interruptible
-
+        try:
+            from impactid import cli  # the slow imports, interruptible
+        except BaseException:
+            if _arrived:  # whatever a library made of the signal's exception
+                return _stopped(_arrived[0])
+            raise
+        finally:
+            sys.unraisablehook = previous_hook
+            if in_main:
+                signal.signal(signal.SIGINT, previous_int)
         # the command's own environment installs its SIGTERM handler for the command and restores
         # this one after it
         return cli.main(argv)
     except KeyboardInterrupt:
-        _say("interrupted (Ctrl-C) while starting; nothing was written")
-        return EXIT_INTERRUPTED
+        return _stopped(signal.SIGINT)
     except _Terminated:
-        _say("terminated (SIGTERM) while starting; nothing was written")
-        return EXIT_TERMINATED
+        return _stopped(signal.SIGTERM)
     finally:
         if in_main:
-            signal.signal(signal.SIGTERM, previous)
+            signal.signal(signal.SIGTERM, previous_term)
             if argv is None:
                 # the console script owns this process and the command has ended (its outputs are
                 # complete or rolled back): a Ctrl-C while the interpreter shuts down (about a second

@@ -984,6 +984,16 @@ def write_hdf5(recording: Recording, path: str | os.PathLike[str], *, truth: Map
 CSV_TIME_TOLERANCE = 0.05
 
 
+#: pandas before 3.1 parses decimal floats with a fast routine that can be off by up to about 2000
+#: units in the last place (0.8216181435011584 read as ...582); ``float_precision="round_trip"``
+#: makes it exact, and 3.1, where that parser is the default, deprecates the option. A CSV written
+#: with ``repr`` precision then reads back bit for bit on every supported pandas.
+def _exact_floats(pandas_version: str) -> dict[str, str]:
+    """The ``pd.read_csv`` option that parses floats exactly with this pandas (none from 3.1)."""
+    major_minor = tuple(int(part) for part in pandas_version.split(".")[:2] if part.isdigit())
+    return {} if major_minor >= (3, 1) else {"float_precision": "round_trip"}
+
+
 def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     """Read a CSV recording (a ``time_s`` column and channel columns, SI units) plus its rig.
 
@@ -1010,7 +1020,8 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
             warnings.simplefilter("error", pd.errors.ParserWarning)
             # (a UTF-8 byte-order mark is skipped; a trailing comma on every data row is dropped by
             # index_col=False, and pandas warns when the extra field holds a value)
-            frame = pd.read_csv(path, comment="#", skipinitialspace=True, index_col=False, on_bad_lines="error")
+            frame = pd.read_csv(path, comment="#", skipinitialspace=True, index_col=False, on_bad_lines="error",
+                                **_exact_floats(pd.__version__))
     except pd.errors.ParserWarning:
         raise RecordingError(f"{where}: malformed CSV: rows have a value after the last of the header's "
                              f"{len(header)} columns") from None

@@ -162,9 +162,9 @@ def test_seven_term_fit_matches_the_analytic_profile(rec110, fit7):
 
 
 def test_standard_errors_are_numbers_when_the_covariance_is_well_conditioned(rec110, fit7):
-    """A 3-term fit is determined (condition ~2e11): every standard error is a number. Seven overlapping terms are not (condition ~1e31): every
-    standard error is undetermined, the reason is in the result, and no release of a linear-algebra
-    library can turn part of them into numbers."""
+    """A 3-term fit is determined (condition ~2e11): every standard error is a number. Seven
+    overlapping terms are not (condition ~1e31): every standard error is undetermined, the reason is
+    in the result, and no release of a linear-algebra library can turn part of them into numbers."""
     fit3 = fit_cam_profile(rec110.recording, 3)
     assert fit3.covariance_condition < CONDITION_LIMIT
     errors = np.array(fit3.stderr_a + fit3.stderr_b + fit3.stderr_c)

@@ -18,6 +18,7 @@ def _run_and_signal(args, sig, delay):
     proc = subprocess.Popen([*LAUNCH, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             env={**os.environ, "PYTHONUNBUFFERED": "1"})
     time.sleep(delay)
+    assert proc.poll() is None, "the command ended before the signal: the test needs a longer one"
     proc.send_signal(sig)
     out, err = proc.communicate(timeout=120)
     return proc.returncode, out, err
@@ -26,9 +27,10 @@ def _run_and_signal(args, sig, delay):
 @pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
 @pytest.mark.parametrize("delay", [0.15, 0.4, 0.8, 1.5])
 def test_a_signal_while_starting_ends_in_one_line(sig, code, word, delay, tmp_path):
-    # a 5 s synthetic recording takes longer than the latest signal: the signal lands while Python imports
-    # the modules, while the parser is built, or while the command runs, and each ends in the one line
-    returncode, out, err = _run_and_signal(["synth", "--e-over-rc", "0.2", "--cam-speed", "16", "--duration", "5",
+    # a 30 s synthetic recording takes several seconds of CPU, far longer than the latest signal: the signal
+    # lands while Python imports the modules, while the parser is built, or while the command runs, and
+    # each ends in the one line
+    returncode, out, err = _run_and_signal(["synth", "--e-over-rc", "0.2", "--cam-speed", "16", "--duration", "30",
                                             "--out", str(tmp_path / "s.h5")], sig, delay)
     assert "Traceback" not in err, err
     assert returncode == code, (returncode, err)
