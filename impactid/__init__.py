@@ -18,9 +18,40 @@ __version__ = "0.1.0"
 
 import importlib
 import importlib.util
+import os
 import sys
+import tempfile
 import types
+from pathlib import Path
 from typing import Any
+
+
+def _numba_cache_fallback() -> None:
+    """Give numba a writable cache folder when neither of its own is writable.
+
+    numba caches compiled kernels beside the package (``__pycache__``) or, when the installation is
+    read-only, in the user's cache folder; when that is not writable either (no home folder, a
+    service account), every ``cache=True`` kernel fails at import with "no locator available". Then
+    ``NUMBA_CACHE_DIR`` is set to a per-user folder in the temporary directory (a cache that does
+    not outlive the machine, but a working command). An explicit ``NUMBA_CACHE_DIR`` is kept.
+    """
+    if os.environ.get("NUMBA_CACHE_DIR") or "numba" in sys.modules:
+        return
+    if os.access(Path(__file__).parent, os.W_OK):
+        return
+    try:
+        user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    except RuntimeError:  # no home folder at all
+        user = None
+    if user is not None:
+        existing = next((p for p in (user / "numba", user, *user.parents) if p.exists()), None)
+        if existing is not None and os.access(existing, os.W_OK):
+            return
+    uid = os.getuid() if hasattr(os, "getuid") else "user"
+    os.environ["NUMBA_CACHE_DIR"] = str(Path(tempfile.gettempdir()) / f"impactid-numba-cache-{uid}")
+
+
+_numba_cache_fallback()
 
 #: Where each public name lives. ``import impactid`` loads none of them (no numba, SciPy or pandas):
 #: a name is imported from its module on first use (PEP 562), so that ``impactid --help`` and a

@@ -157,10 +157,10 @@ def check_output(path: str | os.PathLike[str], *, option: str, inputs: Iterable[
         naming ``option`` and ``path``: it is an input, a special file, of the wrong kind, or its
         folder cannot be created (a path under a regular file, an unwritable folder).
     """
+    if str(os.fspath(path)).strip() == "":  # before Path(), which reads "" as "."
+        raise OutputError(f"{option}: empty path")
     path = Path(path)
     where = f"{option} {path}"
-    if str(path).strip() == "":
-        raise OutputError(f"{option}: empty path")
     for source in inputs:
         if source is not None and (path.exists() or path.is_symlink()) and same_file(path, source):
             raise OutputError(f"{where}: is an input of this command ({source}); refusing to overwrite it")

@@ -177,13 +177,23 @@ def recording_rig(args):
 
 
 def cam_speed(args, operating, required: bool = True) -> float | None:
-    """``--cam-speed`` [Hz] or ``--rpm``, else the rig file's ``[operating] cam_speed_hz``."""
+    """``--cam-speed`` [Hz] or ``--rpm``, else the rig file's ``[operating] cam_speed_hz``, within the
+    cam speeds a recording may have (:data:`impactid.io.MIN_CAM_SPEED_HZ` to ``MAX_CAM_SPEED_HZ``)."""
+    from impactid.io import MAX_CAM_SPEED_HZ, MIN_CAM_SPEED_HZ  # io loads numba: only when a speed is needed
+
+    given = None
     if getattr(args, "rpm", None) is not None:
-        return args.rpm / 60.0
-    if getattr(args, "cam_speed", None) is not None:
-        return args.cam_speed
-    if "cam_speed_hz" in operating:
-        return float(operating["cam_speed_hz"])
+        given, option = args.rpm / 60.0, "--rpm"
+    elif getattr(args, "cam_speed", None) is not None:
+        given, option = args.cam_speed, "--cam-speed"
+    elif "cam_speed_hz" in operating:
+        given, option = float(operating["cam_speed_hz"]), "the rig file's [operating] cam_speed_hz"
+    if given is not None:
+        if not MIN_CAM_SPEED_HZ <= given <= MAX_CAM_SPEED_HZ:
+            raise UsageError(f"argument {option}: cam speed {given:.6g} Hz ({given * 60:.6g} rpm) is outside "
+                             f"{MIN_CAM_SPEED_HZ:g} to {MAX_CAM_SPEED_HZ:g} Hz, the cam speeds impactid reads and "
+                             "simulates")
+        return given
     if required:
         raise UsageError("no cam speed: give --cam-speed HZ (or --rpm RPM), or a rig file with "
                          "[operating] cam_speed_hz")
@@ -217,9 +227,9 @@ def command_inputs(args, recordings: Sequence, extra: Sequence = ()) -> list:
 
 def check_outputs(args, inputs: Sequence, *, out: str = "out", out_is_dir: bool = False) -> None:
     """Check ``--out`` and ``--plots`` before the computation starts."""
-    if getattr(args, out, None):
+    if getattr(args, out, None) is not None:  # an empty path is refused, not taken for "no output"
         check_output(getattr(args, out), option="--out", inputs=inputs, directory=out_is_dir)
-    if getattr(args, "plots", None):
+    if getattr(args, "plots", None) is not None:
         check_output(args.plots, option="--plots", inputs=inputs, directory=True)
 
 

@@ -282,7 +282,11 @@ def _solve(per_event, used, x0, fix_n, lc_bounds, n_bounds, per_event_jacobian=N
 def _trust_region(fun, jac, x0, fix_n, lc_bounds, n_bounds, count):
     lower = [lc_bounds[0]] if fix_n is not None else [lc_bounds[0], n_bounds[0]]
     upper = [lc_bounds[1]] if fix_n is not None else [lc_bounds[1], n_bounds[1]]
-    res = optimize.least_squares(fun, np.asarray(x0, dtype=float), jac=jac, bounds=(lower, upper), method="trf",
+    # a start may lie outside the box (the profile walk can find a lower point beyond a bound of
+    # log10 c): the search starts from the nearest point of the box and ends on the bound if the
+    # minimum lies beyond it
+    x0 = np.clip(np.asarray(x0, dtype=float), lower, upper)
+    res = optimize.least_squares(fun, x0, jac=jac, bounds=(lower, upper), method="trf",
                                  x_scale="jac", xtol=1e-10, ftol=1e-12, gtol=1e-12, max_nfev=100)
     x = np.asarray(res.x, dtype=float)
     r = fun(x)

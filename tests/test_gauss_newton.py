@@ -190,3 +190,20 @@ def test_sensitivity_jacobian_gives_the_fit_of_differences_with_fewer_simulation
     assert sens.n_simulations < diff.n_simulations
     with pytest.raises(ValueError, match="jacobian"):
         fit_contact_damping(s2_events, fix_n=N, jacobian="adjoint")
+
+
+def test_a_start_outside_the_box_begins_on_its_edge():
+    """The profile walk may find a lower point beyond a bound of log10 c; the restart from it must not
+    fail ('Initial guess is outside of provided bounds') but end on the bound."""
+    from impactid.gauss_newton import _trust_region
+
+    target = np.array([8.0, 1.6])  # the minimum lies beyond the upper bound of log10 c (6)
+
+    def fun(x):
+        return np.asarray(x, dtype=float) - target
+
+    def jac(x):
+        return np.eye(2)
+
+    x, r, J, _ = _trust_region(fun, jac, [8.36, 1.56], None, (0.0, 6.0), (0.5, 2.5), [0])
+    assert x[0] == pytest.approx(6.0) and x[1] == pytest.approx(1.6, abs=1e-8)

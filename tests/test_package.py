@@ -36,3 +36,20 @@ def test_the_command_line_imports_in_a_fresh_process():
     # module import order is no longer fixed by the package face: the command line must import alone
     subprocess.run([sys.executable, "-c", "import impactid.cli"], check=True)
     subprocess.run([sys.executable, "-c", "import impactid.io"], check=True)
+
+
+def test_numba_gets_a_writable_cache_when_its_own_are_not(monkeypatch, tmp_path):
+    """A read-only installation and no writable home (a service account): numba would refuse every
+    cached kernel ('no locator available'); impactid points it at a per-user temporary folder."""
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.delitem(sys.modules, "numba")  # as before numba's first import (restored afterwards)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(impactid.os, "access", lambda path, mode: False)
+    impactid._numba_cache_fallback()
+    assert "impactid-numba-cache" in impactid.os.environ["NUMBA_CACHE_DIR"]
+    # a writable user cache: nothing changes
+    (tmp_path / "cache").mkdir()
+    monkeypatch.delenv("NUMBA_CACHE_DIR")
+    monkeypatch.setattr(impactid.os, "access", lambda path, mode: "cache" in str(path))
+    impactid._numba_cache_fallback()
+    assert "NUMBA_CACHE_DIR" not in impactid.os.environ

@@ -32,6 +32,9 @@ DEFAULT_SAMPLE_RATE_HZ = 204_800.0
 #: Default settling time [s]: the slowest Table 2 transient (e/r_c = 0.2, 16 Hz) needs about 35 s
 #: to reach period-1 motion (README, "Findings").
 DEFAULT_SETTLE_S = 40.0
+#: Longest settling time [s]: 90 times the default, which outlasts the slowest period-1 transient of
+#: rig P; more only costs time (and a contact table sized by it, which a huge value cannot allocate).
+MAX_SETTLE_S = 3600.0
 #: Output samples simulated beyond each end when decimating (the FIR filter's edge zone).
 _DECIMATION_MARGIN = 64
 
@@ -125,8 +128,9 @@ def synth_pivoted(rig: PivotedFollowerRig, cam_speed_hz: float, law: HuntCrossle
         raise SimulationInputError(f"unknown channel(s) {', '.join(unknown)}; rig P records {', '.join(ALL_CHANNELS)}")
     if not (math.isfinite(duration) and duration > 0.0):
         raise SimulationInputError(f"duration must be positive, got {duration!r} s")
-    if not (math.isfinite(settle_s) and settle_s >= 0.0):
-        raise SimulationInputError(f"settle_s must be >= 0, got {settle_s!r} s")
+    if not (math.isfinite(settle_s) and 0.0 <= settle_s <= MAX_SETTLE_S):
+        raise SimulationInputError(f"settling time settle_s (--settle) must be between 0 and {MAX_SETTLE_S:g} s, got "
+                                   f"{settle_s!r} s")
     if not (math.isfinite(sample_rate_hz) and sample_rate_hz > 0.0):
         raise SimulationInputError(f"sample_rate_hz must be positive, got {sample_rate_hz!r}")
     mu = rig.mu if mu is None else float(mu)
