@@ -98,6 +98,9 @@ MIN_TYPICAL_FLIGHT = 1e-3
 #: :data:`~impactid.rigs.ball.sequence.MAX_EVENTS` rows of a phyphox export take under 100 kB;
 #: 32 MiB is hundreds of times that, and its parse stays within a few hundred MiB of memory.
 MAX_TABLE_BYTES = 32 * 2 ** 20
+#: Most columns a table of bounce times may have: a time, an interval, a few quantities, or one
+#: column per trial of a lab's table of several drops; not a row of millions of fields.
+MAX_COLUMNS = 256
 #: Most memory one input may need while it is analysed [bytes], when the system has twice as much
 #: available (:func:`memory_budget`). The audio of a drop lasts seconds to a minute and needs a few
 #: tens of MiB; 2 GiB admits about an hour and a half of 48 kHz audio (8 bytes a frame) and keeps a
@@ -577,6 +580,10 @@ def _csv_text(path: Path, text: str, where: str) -> BounceRecording:
         raise BounceFileError(f"{label}: {len(lines)} lines of data, more events than one drop of a ball can hold "
                               f"(at most {MAX_EVENTS}); one file is one drop")
     separator = _sniff_separator(lines[:20])
+    fields = max((ln.count(separator) + 1 if separator else len(ln.split())) for ln in lines)
+    if fields > MAX_COLUMNS:  # counted before splitting: a 30 MB line of fields would take gigabytes
+        raise BounceFileError(f"{label}: a line of {fields:,} fields; a table of bounce times has one event per row "
+                              f"and at most {MAX_COLUMNS} columns")
     rows = _split(lines, separator)
     first_numeric = all(_NUMBER.match(c.strip().strip('"')) or c.strip().lower() in ("nan", "") for c in rows[0])
     header = None if first_numeric else [c.strip().strip('"').strip() for c in rows[0]]
@@ -893,7 +900,16 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
     if header.channels > 0 and header.block_align >= header.channels and header.data_offset:
         # the memory the job needs, from the header, before a sample is read
         container = header.block_align // header.channels
-        stored = min(header.data_size, max(file_size - header.data_offset, 0))
+        present = max(file_size - header.data_offset, 0)
+        if header.data_size > present + header.block_align and header.data_size != 0xFFFFFFFF:
+            # a copy or a recording cut short: refused rather than analysed in part without a word
+            # (0xFFFFFFFF is the size streaming writers leave when they do not know it)
+            announced = header.data_size / max(header.block_align * max(header.rate, 1), 1)
+            held = present / max(header.block_align * max(header.rate, 1), 1)
+            raise BounceFileError(f"{path}: truncated WAV file: its header announces {announced:.3g} s of audio, the "
+                                  f"file holds {held:.3g} s (a copy or a recording cut short; re-save what is there "
+                                  "with an audio editor to analyse it)")
+        stored = min(header.data_size, present)
         frames = stored // header.block_align
         mapped = container in (1, 2, 4, 8) and header.data_size <= file_size - header.data_offset
         itemsize = 4 if container == 3 else container

@@ -358,3 +358,25 @@ def test_the_unit_in_the_header_is_honoured(tmp_path, capsys):
     code, out, err = _run(["bounces", *paths, "--no-chained", "--json"], capsys)
     assert code == 0, err
     assert '"drops_analysed": 2' in out
+
+
+def test_a_line_of_millions_of_fields_is_refused_before_it_is_split(tmp_path, capsys):
+    """A 6 MB CSV whose one line holds 3 million fields: refused from a count of its separators
+    (splitting it into Python lists would take gigabytes)."""
+    path = tmp_path / "wide.csv"
+    path.write_text("time\n" + ",".join(["0"] * 3_000_000) + "\n")
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    code, out, err = _run(["bounces", path], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and "wide.csv" in line and "3,000,000 fields" in line and out == ""
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 500_000  # kB: far below the gigabytes
+
+
+def test_a_truncated_wav_is_refused_naming_the_file_and_what_is_missing(tmp_path, capsys):
+    times = np.cumsum(0.5 * 0.9 ** np.arange(12))
+    full = write_wav(tmp_path / "full.wav", synth_audio(times, 3.0 * 0.9 ** np.arange(12), sample_rate=44100), 44100)
+    cut = tmp_path / "cut.wav"
+    cut.write_bytes(full.read_bytes()[: full.stat().st_size // 3])
+    code, out, err = _run(["bounces", cut], capsys)
+    line = _one_error_line(err)
+    assert code == 2 and "cut.wav" in line and "truncated" in line
