@@ -32,6 +32,7 @@ from impactid.errors import ImpactidError, RigParameterError
 from impactid.rigs import load_rig_toml, rig_from_mapping
 from impactid.rigs.registry import RIG_MODELS
 from impactid.units import UnitError, si_factor
+from impactid.units import shown as shown_unit
 
 __all__ = ["CAM_SPEED_TOLERANCE", "CHANNEL_QUANTITY", "CHANNEL_UNITS", "CLIP_RUN", "CSV_TIME_TOLERANCE", "FORMAT_NAME",
            "FORMAT_VERSION", "MAX_CAM_SPEED_HZ", "MAX_SAMPLE_RATE_HZ", "MEMORY_FACTORS", "MEMORY_LIMIT_VARIABLE",
@@ -452,7 +453,7 @@ def _to_si(where: str, channel: str, unit: str, data: np.ndarray) -> tuple[np.nd
     try:
         factor = si_factor(unit, quantity)
     except UnitError as exc:
-        raise RecordingError(f"{where}: channel {channel!r} has units {unit!r}: {exc.reason}") from None
+        raise RecordingError(f"{where}: channel {channel!r} has units {shown_unit(unit)}: {exc.reason}") from None
     if factor == 1.0:
         return data, si, None
     return data * factor, si, f"channel {channel!r} converted from {unit} to {si} (x {factor!r})"

@@ -52,8 +52,17 @@ class UnitError(ImpactidError, ValueError):
     """
 
     def __init__(self, unit: str, reason: str):
-        super().__init__(f"unit {unit!r}: {reason}")
+        super().__init__(f"unit {shown(unit)}: {reason}")
         self.reason = reason
+
+
+def shown(unit: object, limit: int = MAX_UNIT_LENGTH) -> str:
+    """A unit string as a message shows it: its ``repr``, cut to ``limit`` characters with the length
+    said (a 500,000-character attribute is not echoed whole)."""
+    text = repr(unit)
+    if len(text) <= limit:
+        return text
+    return f"{text[:limit]}... ({len(str(unit)):,} characters)"
 
 
 @functools.lru_cache(maxsize=1)
