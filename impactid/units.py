@@ -56,7 +56,7 @@ class UnitError(ImpactidError, ValueError):
         self.reason = reason
 
 
-def shown(unit: object, limit: int = MAX_UNIT_LENGTH) -> str:
+def shown(unit: object, limit: int = 2 * MAX_UNIT_LENGTH) -> str:
     """A unit string as a message shows it: its ``repr``, cut to ``limit`` characters with the length
     said (a 500,000-character attribute is not echoed whole)."""
     text = repr(unit)
