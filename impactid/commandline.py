@@ -200,6 +200,27 @@ def cam_speed(args, operating, required: bool = True) -> float | None:
     return None
 
 
+def refuse_foreign_options(args, model, command_key: str = "valvetrain_command", group: str = "valvetrain") -> None:
+    """Refuse an option of another rig's version of this command.
+
+    Several rigs contribute a command of the same name (``valvetrain simulate``, ...); argparse
+    accepts the union of their options, and the rig ``--rig`` chose would silently ignore another's.
+    Any option given that ``model``'s own command does not declare is a usage error naming it.
+    """
+    name = getattr(args, command_key, None)
+    spec = next((c for c in model.commands if c.name == name), None)
+    if spec is None:
+        return
+    own = {"command", command_key, "func", "rig", "resolved_rig"}
+    for argument in spec.arguments:
+        flag = argument.flags[0]
+        own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
+    for dest, value in sorted(vars(args).items()):
+        if dest not in own and value not in (None, False, [], ()):
+            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of '{group} {name}' for the "
+                             f"{model.name!r} rig (it belongs to another rig's version of the command)")
+
+
 def noise_channels(items) -> dict[str, float]:
     """``--noise-channel NAME=FRACTION`` (repeated) as a dict."""
     noise = {}

@@ -22,7 +22,7 @@ import math
 import warnings
 from pathlib import Path
 
-from impactid.commandline import MAX_SYNTH_SAMPLES, UsageError
+from impactid.commandline import MAX_SYNTH_SAMPLES, UsageError, refuse_foreign_options
 from impactid.commandline import integer_in as _count
 from impactid.commandline import nonnegative as _nonnegative
 from impactid.commandline import number as _number
@@ -119,20 +119,8 @@ def _steps_per_rev(args, rig) -> int | None:
 
 
 def _own_options(args, model) -> None:
-    """Refuse an option of the other valve train's version of this command (argparse accepts the union
-    of both rigs' options; this rig would silently ignore the other's)."""
-    name = getattr(args, "valvetrain_command", None)
-    spec = next((c for c in model.commands if c.name == name), None)
-    if spec is None:
-        return
-    own = {"command", "valvetrain_command", "func", "rig", "resolved_rig"}
-    for argument in spec.arguments:
-        flag = argument.flags[0]
-        own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
-    for dest, value in sorted(vars(args).items()):
-        if dest not in own and value not in (None, False, [], ()):
-            raise _UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'valvetrain {name}' for the "
-                              f"{model.name!r} rig (it belongs to another valve train)")
+    """Options of the other valve train's version of this command are refused."""
+    refuse_foreign_options(args, model)
 
 
 def _level(args, allowed, default="A") -> str:

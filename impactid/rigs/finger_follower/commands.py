@@ -25,7 +25,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from impactid.commandline import integer_in, positive
+from impactid.commandline import integer_in, positive, refuse_foreign_options
 from impactid.errors import RigParameterError, SimulationError, SimulationInputError
 from impactid.rigs.base import Argument, CommandSpec
 
@@ -72,20 +72,8 @@ def _positive(name: str, value) -> float:
 
 
 def _own_options(args, model) -> None:
-    """Refuse an option of the other valve train's version of this command (argparse accepts the
-    union of both rigs' options; this rig would silently ignore the other's)."""
-    name = getattr(args, "valvetrain_command", None)
-    spec = next((c for c in model.commands if c.name == name), None)
-    if spec is None:
-        return
-    own = {"command", "valvetrain_command", "func", "rig", "resolved_rig"}
-    for argument in spec.arguments:
-        flag = argument.flags[0]
-        own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
-    for dest, value in sorted(vars(args).items()):
-        if dest not in own and value not in (None, False, [], ()):
-            raise SimulationInputError(f"argument --{dest.replace('_', '-')}: not an option of 'valvetrain {name}' "
-                                       f"for the {MODEL_NAME!r} rig (it belongs to another valve train)")
+    """Options of the other valve train's version of this command are refused."""
+    refuse_foreign_options(args, model)
 
 
 def _speed_check(train, value, what: str) -> float:

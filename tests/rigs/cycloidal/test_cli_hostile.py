@@ -203,7 +203,7 @@ def test_fit_surge_refuses_a_recording_given_twice(capsys, tmp_path, load_record
 
 
 @pytest.mark.parametrize("argv, needles", [
-    (["valvetrain", "simulate", *RIG, "--rpm", "3000", "--lift", "lift.csv"], ("argument --lift", "another valve")),
+    (["valvetrain", "simulate", *RIG, "--rpm", "3000", "--lift", "lift.csv"], ("argument --lift", "another rig")),
     (["valvetrain", "simulate", *RIG, "--rpm", "3000", "--clip-tension"], ("argument --clip-tension",)),
     (["valvetrain", "jump-speed", *RIG, "--rpm-from", "100"], ("argument --rpm-from",)),
     (["valvetrain", "synth", *RIG, "--rpm", "3000", "--noise-free", "--out", "x.h5"], ("argument --noise-free",)),

@@ -203,7 +203,7 @@ def test_non_finite_samples_are_refused_naming_file_and_channel(capsys, tmp_path
 
 
 @pytest.mark.parametrize("argv, needles", [
-    (["valvetrain", "simulate", *FF, "--rpm", "900", "--level", "B"], ("argument --level", "another valve train")),
+    (["valvetrain", "simulate", *FF, "--rpm", "900", "--level", "B"], ("argument --level", "another rig")),
     (["valvetrain", "simulate", *FF, "--rpm", "900", "--speeds", "1000"], ("argument --speeds",)),
     (["valvetrain", "synth", *FF, "--rpm", "900", "--sample-rate", "1000", "--out", "x.h5"],
      ("argument --sample-rate",)),
