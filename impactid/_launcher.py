@@ -2,10 +2,12 @@
 
 The command line's own handlers (:func:`impactid.cli.main`) are in place only once its modules are
 imported, and those imports (NumPy, SciPy, pandas, numba, the rigs) take a second or more. This
-module imports nothing heavy at load time: it installs a SIGTERM handler, imports :mod:`impactid.cli`
-inside :func:`main` (the one reason for a function-level import here: the import is the slow part
-that must be interruptible), and turns an interruption during the imports or the parser's
-construction into the same one-line error and exit status as an interruption during a command.
+module imports nothing heavy at load time: it installs SIGINT and SIGTERM handlers, imports
+:mod:`impactid.cli` inside :func:`main` (the one reason for a function-level import here: the import
+is the slow part a signal must not break), and turns a signal during the imports or the parser's
+construction into the same one-line error and exit status as a signal during a command. A signal
+during the imports is recorded and acted on when they end, not raised inside a library's
+initialisation.
 """
 
 from __future__ import annotations
@@ -25,20 +27,24 @@ class _Terminated(BaseException):
     """SIGTERM arrived before the command line's own handler was installed."""
 
 
-#: The signal that arrived while the modules were imported (None: none). A library's import code may
-#: turn the exception a signal raises into another one (NumPy re-raises any failure of its C core's
-#: import as ``ImportError``), so the decision rests on this record, not on the exception's type.
+#: The signals that arrived while the modules were imported. The first is only recorded, and acted on
+#: once the imports are done (a second or two at most): an exception raised in the middle of a
+#: library's initialisation can leave its C state half-built (NumPy re-raises it as ``ImportError``;
+#: an old numba/llvmlite was seen to crash). A second signal is raised at once, as an escape hatch.
 _arrived: list[int] = []
+_importing = [False]
 
 
 def _terminate(signum, frame):  # noqa: ARG001 - signal handler signature
     _arrived.append(signum)
-    raise _Terminated()
+    if not _importing[0] or len(_arrived) > 1:
+        raise _Terminated()
 
 
 def _interrupt(signum, frame):  # noqa: ARG001 - signal handler signature
     _arrived.append(signum)
-    raise KeyboardInterrupt()
+    if not _importing[0] or len(_arrived) > 1:
+        raise KeyboardInterrupt()
 
 
 def _quiet_unraisable(info) -> None:
@@ -71,16 +77,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     previous_hook = sys.unraisablehook
     sys.unraisablehook = _quiet_unraisable
     try:
+        _importing[0] = True
         try:
-            from impactid import cli  # the slow imports, interruptible
+            from impactid import cli  # the slow imports; a signal meanwhile is acted on right after them
         except BaseException:
-            if _arrived:  # whatever a library made of the signal's exception
+            if _arrived:  # whatever a library made of a second signal's exception
                 return _stopped(_arrived[0])
             raise
         finally:
+            _importing[0] = False
             sys.unraisablehook = previous_hook
             if in_main:
                 signal.signal(signal.SIGINT, previous_int)
+        if _arrived:
+            return _stopped(_arrived[0])
         # the command's own environment installs its SIGTERM handler for the command and restores
         # this one after it
         return cli.main(argv)
