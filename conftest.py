@@ -52,8 +52,11 @@ def _cold_groups() -> list[tuple[str, tuple[str, ...]]]:
     cache_dir = os.environ.get("NUMBA_CACHE_DIR")
     cold = []
     for marker, tests in WARMUP_GROUPS:
-        if next(package.glob(marker), None) is None and not (
-                cache_dir and Path(cache_dir).is_dir() and next(Path(cache_dir).rglob(Path(marker).name), None)):
+        if cache_dir:  # numba then reads and writes only there
+            warm = Path(cache_dir).is_dir() and next(Path(cache_dir).rglob(Path(marker).name), None) is not None
+        else:
+            warm = next(package.glob(marker), None) is not None
+        if not warm:
             cold.append((marker.split("/__pycache__")[0], tests))
     return cold
 
