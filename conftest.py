@@ -39,6 +39,9 @@ WARMUP_GROUPS = (
      ("tests/rigs/finger_follower/test_simulate.py::test_rest_on_the_base_circle_stays_at_rest",)),
     ("rigs/flat/__pycache__/kernel.integrate-*.nbi",
      ("tests/simulate/test_flat_simulator.py::test_free_start_matches_reference",)),
+    ("rigs/drop/__pycache__/kernel.replay-*.nbi",
+     ("tests/rigs/drop/test_kernel.py::test_kernel_matches_reference",
+      "tests/rigs/drop/test_identify.py::test_noise_free_recovery")),
 )
 
 

@@ -162,3 +162,4 @@ from impactid.rigs.flat import MODEL as _FLAT; register(_FLAT)  # noqa: E402, E7
 from impactid.rigs.ball import MODEL as _BALL; register(_BALL)  # noqa: E402, E702, I001
 from impactid.rigs.finger_follower import MODEL as _FINGER; register(_FINGER)  # noqa: E402, E702, I001
 from impactid.rigs.cycloidal import MODEL as _CYCLOIDAL; register(_CYCLOIDAL)  # noqa: E402, E702, I001
+from impactid.rigs.drop import MODEL as _DROP; register(_DROP)  # noqa: E402, E702, I001

@@ -1,0 +1,125 @@
+"""The single-impact test rig (``drop-impact``): a mass dropped or swung onto a contact.
+
+What drop towers, instrumented pendulums and ball-drop force plates record: an impactor of known
+mass falls (or swings) onto a contact, impacts and bounces; an accelerometer on the impactor and,
+optionally, a load cell under the contact record the impacts. The contact is the Hunt–Crossley law
+``F = max(k delta^p + beta delta^n d(delta)/dt, 0)``; the fit identifies ``k``, ``beta`` and ``n``.
+
+* :mod:`.parameters` - :class:`DropRig`, :class:`DropLaw`, the preset :data:`STEEL_ON_PA6`, Hertz's
+  closed forms;
+* :mod:`.kernel` - the compiled event-driven integrator (DP5 core, forward sensitivities);
+  :mod:`.simulate` - :func:`simulate_drop`, :func:`replay_impacts`;
+* :mod:`.synth` - synthetic recordings; :mod:`.measure` - recording to per-impact observations;
+  :mod:`.identify` - :func:`fit_drop`; :mod:`.figures`; :mod:`.commands` (``impactid synth --rig
+  drop-impact``, ``impactid drop simulate``, ``impactid drop fit``).
+
+See ``docs/drop.md``. Importing this package loads no numba: the numerical modules are imported on
+first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+import math
+from typing import Any
+
+from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
+from impactid.rigs.drop.commands import COMMANDS
+from impactid.rigs.drop.parameters import (
+    ACCELERATION_CHANNEL,
+    FORCE_CHANNEL,
+    MODEL_NAME,
+    N_BOUNDS,
+    PA6_PAD_LAW,
+    PRESETS,
+    STEEL_ON_PA6,
+    DropLaw,
+    DropRig,
+    nominal_law,
+)
+
+#: The contact law the rig's simulator and fit take: Hunt-Crossley with the force clipped at 0.
+LAW_NAME = "hunt-crossley-clipped"
+
+#: The channels this rig's recordings may hold.
+CHANNELS = {
+    ACCELERATION_CHANNEL: ChannelSpec(ACCELERATION_CHANNEL, "acceleration", "m/s^2",
+                                      "accelerometer on the impactor: specific force along the line of impact, away "
+                                      "from the contact (F/m: 0 in flight, +g at rest on the contact)"),
+    FORCE_CHANNEL: ChannelSpec(FORCE_CHANNEL, "force", "N", "load cell under the contact: contact force, compressive "
+                                                            "positive"),
+}
+
+#: Where the numerical names live (imported on first use: reading a rig file does not load numba).
+_LAZY = {
+    "simulate_drop": "impactid.rigs.drop.simulate", "replay_impacts": "impactid.rigs.drop.simulate",
+    "DropRun": "impactid.rigs.drop.simulate", "Tolerances": "impactid.rigs.drop.simulate",
+    "synth_drop_impact": "impactid.rigs.drop.synth", "synth_drop_series": "impactid.rigs.drop.synth",
+    "measure_impacts": "impactid.rigs.drop.measure", "ImpactObservations": "impactid.rigs.drop.measure",
+    "fit_drop": "impactid.rigs.drop.identify", "DropFit": "impactid.rigs.drop.identify",
+}
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def _simulate(rig: DropRig, law: DropLaw | None = None, height: float = 0.05, **options):
+    """:func:`~impactid.rigs.drop.simulate.simulate_drop` (the rig's nominal law by default)."""
+    from impactid.rigs.drop.simulate import simulate_drop
+
+    return simulate_drop(rig, law if law is not None else nominal_law(rig), height, **options)
+
+
+def _measure(recording, **options):
+    from impactid.rigs.drop.measure import measure_impacts
+
+    return measure_impacts(recording, **options)
+
+
+def _pack_rig(rig: DropRig):
+    import numpy as np
+
+    return np.array([rig.mass, rig.gravity, rig.k, rig.p], dtype=float)
+
+
+def _pack_law(law: DropLaw):
+    """``(beta, n)``; ``k`` is the rig's (:func:`_pack_rig`)."""
+    import numpy as np
+
+    return np.array([law.beta, law.n], dtype=float)
+
+
+#: The rig model record (registered in :mod:`impactid.rigs.registry`).
+MODEL = RigModel(
+    name=MODEL_NAME,
+    title="single-impact test rig: a mass dropped or swung onto a Hunt-Crossley contact (drop tower, "
+          "instrumented pendulum, ball-drop force plate)",
+    citation="",  # Hunt & Crossley (1975), cited in docs/drop.md (not in docs/bibliography.md)
+    parameters=DropRig,
+    presets=PRESETS,
+    channels=CHANNELS,
+    # named apart from rig P's (unclipped) "hunt-crossley": the estimate pipeline takes a rig whose law is
+    # "hunt-crossley" and feeds its measurement model to rig P's estimators, which this rig's is not made for
+    laws=(ContactLaw(name=LAW_NAME, law_type=DropLaw,
+                     parameters={"k": ("N m^-p", (0.0, math.inf)), "beta": ("N s m^-(n+1)", (0.0, math.inf)),
+                                 "n": ("1", N_BOUNDS)}, pack=_pack_law),),
+    gap=lambda rig, state, cam_angle: -state[0],
+    gap_rate=lambda rig, state, cam_angle, cam_rate: -state[1],
+    contact_coordinate=lambda state, cam_angle: state[0],
+    pack=_pack_rig,
+    kernel="impactid.rigs.drop.kernel",
+    simulate=_simulate,
+    measure=_measure,
+    commands=COMMANDS,
+)
+
+__all__ = ["ACCELERATION_CHANNEL", "CHANNELS", "FORCE_CHANNEL", "LAW_NAME", "MODEL", "MODEL_NAME", "N_BOUNDS",
+           "PA6_PAD_LAW", "PRESETS", "STEEL_ON_PA6", "DropFit", "DropLaw", "DropRig", "DropRun", "ImpactObservations",
+           "Tolerances", "fit_drop", "measure_impacts", "nominal_law", "replay_impacts", "simulate_drop",
+           "synth_drop_impact", "synth_drop_series"]
