@@ -17,6 +17,8 @@ import sys
 import threading
 from collections.abc import Sequence
 
+from impactid._signals import stopping_handler
+
 __all__ = ["main"]
 
 EXIT_INTERRUPTED = 130
@@ -61,12 +63,21 @@ def _say(text: str) -> None:
         pass
 
 
-def _stopped(signum: int) -> int:
+def _words(signum: int) -> str:
     if signum == signal.SIGTERM:
-        _say("terminated (SIGTERM) while starting; nothing was written")
-        return EXIT_TERMINATED
-    _say("interrupted (Ctrl-C) while starting; nothing was written")
-    return EXIT_INTERRUPTED
+        return "terminated (SIGTERM) while starting; nothing was written"
+    return "interrupted (Ctrl-C) while starting; nothing was written"
+
+
+def _raise_for(signum: int) -> None:
+    if signum == signal.SIGTERM:
+        raise _Terminated()
+    raise KeyboardInterrupt()
+
+
+def _stopped(signum: int) -> int:
+    _say(_words(signum))
+    return EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -91,8 +102,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                 signal.signal(signal.SIGINT, previous_int)
         if _arrived:
             return _stopped(_arrived[0])
-        # the command's own environment installs its SIGTERM handler for the command and restores
-        # this one after it
+        if in_main:  # until the command's own environment takes over: never inside numba (impactid._signals)
+            late = stopping_handler(_raise_for, lambda signum: _words(signum))
+            signal.signal(signal.SIGTERM, late)
+            signal.signal(signal.SIGINT, late)
+        # the command's own environment installs its handlers for the command and restores these after it
         return cli.main(argv)
     except KeyboardInterrupt:
         return _stopped(signal.SIGINT)
@@ -101,6 +115,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if in_main:
             signal.signal(signal.SIGTERM, previous_term)
+            signal.signal(signal.SIGINT, previous_int)
             if argv is None:
                 # the console script owns this process and the command has ended (its outputs are
                 # complete or rolled back): a Ctrl-C while the interpreter shuts down (about a second

@@ -35,6 +35,7 @@ from collections.abc import Iterator, Sequence
 
 from impactid import __version__
 from impactid._files import TerminationRequested, request_termination, termination_requested
+from impactid._signals import stopping_handler
 from impactid.commandline import (
     UsageError,
     end_progress_line,
@@ -253,8 +254,14 @@ def _command_environment() -> Iterator[None]:
             shown.add(text)
             print(f"impactid: warning: {text}", file=sys.stderr, flush=True)
 
-    def terminate(signum, frame):
-        request_termination()  # raises; outputs are rolled back as on Ctrl-C
+    def stop(signum):
+        if signum == signal.SIGTERM:
+            request_termination()  # raises; outputs are rolled back as on Ctrl-C
+        raise KeyboardInterrupt()
+
+    # raised only outside numba's and llvmlite's machinery (impactid._signals: an exception there
+    # crashed the process)
+    handler = stopping_handler(stop, _last_words)
 
     def unraisable(info):
         # a stop raised inside a finalizer is swallowed by Python; the flag it set still stops the
@@ -262,11 +269,12 @@ def _command_environment() -> Iterator[None]:
         if not isinstance(info.exc_value, (TerminationRequested, KeyboardInterrupt)):
             previous_hook(info)
 
-    previous_handler = None
+    previous_handler = previous_interrupt = None
     previous_hook = sys.unraisablehook
     in_main = threading.current_thread() is threading.main_thread()
     if in_main:
-        previous_handler = signal.signal(signal.SIGTERM, terminate)
+        previous_handler = signal.signal(signal.SIGTERM, handler)
+        previous_interrupt = signal.signal(signal.SIGINT, handler)
     sys.unraisablehook = unraisable
     try:
         with warnings.catch_warnings():
@@ -282,6 +290,14 @@ def _command_environment() -> Iterator[None]:
         sys.unraisablehook = previous_hook
         if in_main:
             signal.signal(signal.SIGTERM, previous_handler)
+            signal.signal(signal.SIGINT, previous_interrupt)
+
+
+def _last_words(signum: int) -> str:
+    """The one-line message of a command stopped by ``signum``."""
+    if signum == signal.SIGTERM:
+        return "terminated (SIGTERM); outputs not completed were not written"
+    return "interrupted (Ctrl-C); outputs not completed were not written"
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -299,10 +315,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         _error(exc)
         return EXIT_INPUT_ERROR
     except KeyboardInterrupt:
-        _error("interrupted (Ctrl-C); outputs not completed were not written")
+        _error(_last_words(signal.SIGINT))
         return EXIT_INTERRUPTED
     except TerminationRequested:
-        _error("terminated (SIGTERM); outputs not completed were not written")
+        _error(_last_words(signal.SIGTERM))
         return EXIT_TERMINATED
     except MemoryError:
         _error("out of memory: the input or the requested computation is too large for this machine")

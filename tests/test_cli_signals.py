@@ -53,3 +53,34 @@ def test_a_closed_stdout_ends_quietly(monkeypatch, capsys):
     monkeypatch.setattr(cli.build_parser().__class__, "parse_args", lambda self, argv=None: args)
     assert cli.main(["regime"]) == cli.EXIT_BROKEN_PIPE
     assert capsys.readouterr().err == ""
+
+
+def test_a_stop_inside_numba_waits_until_it_returns():
+    """A signal that lands in numba's or llvmlite's Python code is not raised there (an exception
+    unwinding through LLVM's callbacks crashed the process); it is raised a moment later, outside."""
+    from impactid._signals import in_native_machinery, stopping_handler
+
+    class Stop(Exception):
+        pass
+
+    calls = []
+
+    def stop(signum):
+        calls.append(signum)
+        raise Stop()
+
+    handler = stopping_handler(stop, lambda signum: "stopped")
+    namespace: dict = {}
+    exec(compile("import sys\ndef inside():\n    return sys._getframe()\n", "/site-packages/numba/core/fake.py",
+                 "exec"), namespace)
+    frame = namespace["inside"]()
+    assert in_native_machinery(frame) and not in_native_machinery(sys._getframe())
+    previous = signal.signal(signal.SIGUSR1, handler)
+    try:
+        handler(signal.SIGUSR1, frame)  # inside: nothing raised, a retry is on its way
+        assert calls == []
+        with pytest.raises(Stop):
+            time.sleep(5)  # the retry lands here, outside numba: the stop is raised
+        assert calls == [signal.SIGUSR1]
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
