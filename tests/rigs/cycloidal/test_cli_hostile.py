@@ -19,22 +19,14 @@ from impactid.io import Recording, write_hdf5
 from impactid.rigs.cycloidal import KUSHWAHA2000, synth_recording
 from impactid.rigs.registry import save_rig_toml
 from impactid.rigs.valvespring import damper_damping_ratio
+from tests.cli_contract import fails_with_one_line
 
 RIG = ("--rig", "cycloidal-flat-follower-ehl")
 #: the preset's speed range: 1/300 to 3 times its rigid-follower jump speed (3239.5 rpm)
 LOWEST, HIGHEST = 3239.5 / 300.0, 3.0 * 3239.5
 
 
-def _fails(capsys, argv, *needles, code=2):
-    """Run ``argv``; it must exit ``code`` with exactly one error line, last, containing ``needles``."""
-    assert main(argv) == code
-    err = capsys.readouterr().err
-    errors = [line for line in err.splitlines() if line.startswith("impactid: error:")]
-    assert len(errors) == 1, err
-    assert err.rstrip("\n").splitlines()[-1] == errors[0] and "Traceback" not in err
-    for needle in needles:
-        assert needle in errors[0], (needle, errors[0])
-    return errors[0]
+_fails = fails_with_one_line
 
 
 @pytest.fixture(scope="module")

@@ -18,20 +18,12 @@ from impactid.io import Recording, write_hdf5
 from impactid.rigs.finger_follower.parameters import KIM1990
 from impactid.rigs.finger_follower.simulate import prepare, rigid_jump_rpm, speed_range
 from impactid.rigs.finger_follower.synth import Sensors, synth_recording
+from tests.cli_contract import fails_with_one_line
 
 FF = ("--rig", "finger-follower-hla")
 
 
-def _fails(capsys, argv, *needles, code=2):
-    """Run ``argv``; it must exit ``code`` with exactly one error line, last, containing ``needles``."""
-    assert main(argv) == code
-    err = capsys.readouterr().err
-    errors = [line for line in err.splitlines() if line.startswith("impactid: error:")]
-    assert len(errors) == 1, err
-    assert err.rstrip("\n").splitlines()[-1] == errors[0] and "Traceback" not in err
-    for needle in needles:
-        assert needle in errors[0], (needle, errors[0])
-    return errors[0]
+_fails = fails_with_one_line
 
 
 @pytest.fixture(scope="module")
