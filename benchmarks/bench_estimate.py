@@ -6,7 +6,7 @@ Everything is measured in one run on this machine (ratios, so that the machine's
    16 Hz and 0.25 at 15 Hz; beta 24.7 GN s m^-2.5, n 1.5; 0.2 % noise, 24-bit ADC), made by
    impactid's generator. For the least-squares method (the default) and the optimiser: the
    ``n``-fixed fit of the first recording and the joint fit of both, through
-   :func:`impactid.estimates.fit_contact_damping` on the reconstructed events (S1 simulations
+   :func:`impactid.rigs.pivoted.estimates.fit_contact_damping` on the reconstructed events (S1 simulations
    counted by the objective, wall time of the fit alone).
 2. **Agreement** on validation cases: noise-free S2 at e/r_c 0.2, 16 Hz (``n`` fixed), the joint
    fit over 0.2/16 Hz + 0.25/15 Hz (noise-free), the two noisy recordings of part 1 (``n`` fixed
@@ -39,9 +39,9 @@ sys.path.insert(0, str(ROOT))
 
 from benchmarks.pages import BenchmarkPage  # noqa: E402
 from impactid import SUNDAR2016, HuntCrossley  # noqa: E402
-from impactid.estimates import fit_contact_damping  # noqa: E402
-from impactid.reconstruct import reconstruct  # noqa: E402
-from impactid.residuals import EventSet  # noqa: E402
+from impactid.rigs.pivoted.estimates import fit_contact_damping  # noqa: E402
+from impactid.rigs.pivoted.reconstruct import reconstruct  # noqa: E402
+from impactid.rigs.pivoted.residuals import EventSet  # noqa: E402
 from impactid.synth import SensorModel, synth_pivoted  # noqa: E402
 
 BETA, N = 24.7e9, 1.5

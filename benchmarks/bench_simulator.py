@@ -82,7 +82,7 @@ def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int,
     """Time [us] of the compiled kernel alone for the S1 event (arguments packed and tables allocated
     once, outside the timing), and its accepted and rejected steps."""
     from impactid.rigs.pivoted import kernel as K
-    from impactid.simulate.runs import pack_law, pack_rig
+    from impactid.rigs.pivoted.runs import pack_law, pack_rig
 
     tol = DEFAULT_TOLERANCES
     p, law_vec, omega = pack_rig(rig), pack_law(law), 2 * math.pi * hz

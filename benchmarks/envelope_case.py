@@ -37,12 +37,12 @@ The command-line options, each a diagnostic or an experiment:
     joint shift of ``(ln beta, n)`` with the condition number of the pair. Then n-fixed fits
     (uncalibrated) on oracle event sets: true cam phase, true ``alpha_m``, true onset state, both.
 --fit, --joint
-    The n-fixed (joint) fit through :func:`impactid.estimates.estimate` as the validation ran it,
+    The n-fixed (joint) fit through :func:`impactid.pipeline.estimate` as the validation ran it,
     with its calibration record, and again without calibration.
 --joint-oracle SET [SET ...]
     Joint fits (uncalibrated) on oracle event sets of both recordings.
 --calibration
-    The ``alpha_m`` bias :func:`impactid.calibration.pipeline_bias` measures at the true law,
+    The ``alpha_m`` bias :func:`impactid.rigs.pivoted.calibration.pipeline_bias` measures at the true law,
     against the actual mean ``alpha_m`` error, per recording.
 --seeds K
     The n-fixed fit on K further noise realisations (seeds ``case.seed + 7919 k``): error,
@@ -90,9 +90,10 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from impactid.estimates import C_BOUNDS, _Objective, estimate, fit_contact_damping, reference_indentation  # noqa: E402
-from impactid.reconstruct import reconstruct  # noqa: E402
-from impactid.residuals import EventSet  # noqa: E402
+from impactid.rigs.pivoted.estimates import C_BOUNDS, _Objective, fit_contact_damping, reference_indentation  # noqa: E402
+from impactid.pipeline import estimate  # noqa: E402
+from impactid.rigs.pivoted.reconstruct import reconstruct  # noqa: E402
+from impactid.rigs.pivoted.residuals import EventSet  # noqa: E402
 from impactid.synth.sensors import SensorModel, apply_sensors  # noqa: E402
 from tests import envelope as E  # noqa: E402
 
@@ -380,7 +381,7 @@ def main(argv=None) -> int:
     parser.add_argument("--scales", type=float, nargs="+", default=[1.0, 0.5, 0.25])
     parser.add_argument("--keep-all", action="store_true")
     parser.add_argument("--calibration", action="store_true",
-                        help="the pipeline bias impactid.calibration measures at the true law, per recording, "
+                        help="the pipeline bias impactid.rigs.pivoted.calibration measures at the true law, per recording, "
                              "against the actual mean alpha_m error")
     parser.add_argument("--joint-oracle", nargs="+", default=[], metavar="SET",
                         help="joint fits (uncalibrated) on oracle event sets of both recordings: measured, "
@@ -393,11 +394,11 @@ def main(argv=None) -> int:
     parser.add_argument("--anchor-margin", type=int, default=None, metavar="SAMPLES",
                         help="experiment: start the return-time anchor's free flight this many samples after the "
                              "detected separation and end it this many samples before the next onset "
-                             "(impactid.reconstruct.ANCHOR_MARGIN, default 8; the start is the later of this and "
+                             "(impactid.rigs.pivoted.reconstruct.ANCHOR_MARGIN, default 8; the start is the later of this and "
                              "--anchor-delay)")
     parser.add_argument("--anchor-delay", type=float, default=None, metavar="SECONDS",
                         help="experiment: the return-time anchor's free flight starts this long after the detected "
-                             "separation (impactid.reconstruct.ANCHOR_SEPARATION_DELAY, default 1.2e-3; 0 gives "
+                             "separation (impactid.rigs.pivoted.reconstruct.ANCHOR_SEPARATION_DELAY, default 1.2e-3; 0 gives "
                              "the anchoring of the validation runs before the fix, 8 samples)")
     parser.add_argument("--anchor", default="cam-phase", help="anchor of the reconstructions and fits (experiment)")
     parser.add_argument("--residual", default="lambda1", help="residual of the --fit/--joint/--seeds fits (experiment)")
@@ -406,10 +407,10 @@ def main(argv=None) -> int:
     case = load_case(args.case)
     OPTIONS.update(anchor=args.anchor, residual=args.residual)
     if args.anchor_margin is not None:
-        sys.modules["impactid.reconstruct"].ANCHOR_MARGIN = int(args.anchor_margin)  # (the package exports
+        sys.modules["impactid.rigs.pivoted.reconstruct"].ANCHOR_MARGIN = int(args.anchor_margin)  # (the package exports
         # a function of the same name, so the module is taken from sys.modules)
     if args.anchor_delay is not None:
-        sys.modules["impactid.reconstruct"].ANCHOR_SEPARATION_DELAY = float(args.anchor_delay)
+        sys.modules["impactid.rigs.pivoted.reconstruct"].ANCHOR_SEPARATION_DELAY = float(args.anchor_delay)
     pd.set_option("display.width", 200)
     pd.set_option("display.max_columns", 30)
     report: dict = {"case": case.id}
@@ -490,7 +491,7 @@ def main(argv=None) -> int:
             if args.joint_oracle:
                 oracles.append(oracle_sets(es, tr))
             if args.calibration:
-                from impactid.calibration import pipeline_bias
+                from impactid.rigs.pivoted.calibration import pipeline_bias
                 from impactid.contact import HuntCrossley
 
                 bias, _ = _quiet(pipeline_bias, r, HuntCrossley(case.beta, case.n))

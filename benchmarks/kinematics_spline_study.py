@@ -1,7 +1,7 @@
 """Contact-point kinematics (Lee 2005): follower acceleration from analytic derivatives vs a differentiated spline.
 
 For rig F's eccentric cam (A-17, Table 5) and a sharper profile (the same cam with its nose pulled in
-over a few degrees, :func:`impactid.cam_kinematics.revised_nose_profile`), a periodic cubic spline
+over a few degrees, :func:`impactid.rigs.flat.cam_kinematics.revised_nose_profile`), a periodic cubic spline
 is fitted through the follower displacement at N uniform nodes per revolution and differentiated;
 its velocity and acceleration are compared with the analytic ones on a dense grid between the nodes.
 Relative errors are divided by the largest analytic magnitude over a revolution (Lee's (2005)
@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from impactid.cam_kinematics import (
+from impactid.rigs.flat.cam_kinematics import (
     DEFAULT_NODES,
     convergence_order,
     follower_kinematics,
@@ -33,7 +33,8 @@ from impactid.cam_kinematics import (
     spline_error_study,
     spline_follower_kinematics,
 )
-from impactid.reports import plot_kinematics_spline_study, save_figure_atomic, write_csv_atomic
+from impactid.reports import save_figure_atomic, write_csv_atomic
+from impactid.rigs.pivoted.figures import plot_kinematics_spline_study
 from impactid.rigs.flat import ALZATE2007
 
 COLUMNS = ["nodes", "node_spacing_deg", "max_rel_error_velocity", "rms_rel_error_velocity",

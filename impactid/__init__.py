@@ -10,11 +10,10 @@ The public API, following the data::
     MODELS, rig_model, register         the rig registry (rig P, rig F, the bouncing ball, ...)
     Parameter, FitResult, Estimate      result types
 
-Everything else lives in the submodules (``impactid.rigs.flat``, ``impactid.camprofile``,
-``impactid.synth``, ...).
+Everything else lives in the submodules: the core (``impactid.io``, ``impactid.events``,
+``impactid.simulate``, ``impactid.synth``, ...) and each rig's folder (``impactid.rigs.pivoted``,
+``impactid.rigs.flat``, ...).
 """
-
-__version__ = "0.1.0"
 
 import importlib
 import importlib.util
@@ -24,6 +23,8 @@ import tempfile
 import types
 from pathlib import Path
 from typing import Any
+
+from impactid._version import __version__
 
 
 def _numba_cache_fallback() -> None:
@@ -61,17 +62,17 @@ _PUBLIC = {
     "HuntCrossley": "impactid.contact", "Restitution": "impactid.contact",
     "ImpactidError": "impactid.errors", "RigParameterError": "impactid.errors",
     "SimulationError": "impactid.errors", "SimulationInputError": "impactid.errors",
-    "Estimate": "impactid.estimates", "estimate": "impactid.estimates",
+    "Estimate": "impactid.rigs.pivoted.estimates", "estimate": "impactid.pipeline",
     "find_events": "impactid.events",
     "Recording": "impactid.io", "read_recording": "impactid.io",
     "Pipeline": "impactid.pipeline",
-    "reconstruct": "impactid.reconstruct",
+    "reconstruct": "impactid.rigs.pivoted.reconstruct",
     "FitResult": "impactid.results", "Parameter": "impactid.results",
     "ALZATE2007": "impactid.rigs", "SUNDAR2016": "impactid.rigs", "FlatFollowerRig": "impactid.rigs",
     "PivotedFollowerRig": "impactid.rigs", "load_rig_toml": "impactid.rigs", "save_rig_toml": "impactid.rigs",
     "MODELS": "impactid.rigs.registry", "register": "impactid.rigs.registry", "rig_model": "impactid.rigs.registry",
-    "Tolerances": "impactid.simulate", "simulate": "impactid.simulate", "simulate_event": "impactid.simulate",
-    "simulate_events": "impactid.simulate",
+    "Tolerances": "impactid.simulate", "simulate": "impactid.rigs.pivoted.runs",
+    "simulate_event": "impactid.rigs.pivoted.runs", "simulate_events": "impactid.rigs.pivoted.runs",
 }
 
 

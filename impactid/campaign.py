@@ -16,7 +16,7 @@ job on a ``dask.distributed`` cluster (or serially in this process) and keeps ev
   so that a rerun does not read large files again.
 * **Outputs**, all written atomically (a temporary file renamed into place, permissions from the
   umask): ``fits/<key>.json`` per fit as soon as it finishes (status, reason, the estimate of
-  :meth:`impactid.estimates.Estimate.to_dict`); ``prepared/<key>.pkl`` per prepared recording (the
+  :meth:`impactid.rigs.pivoted.estimates.Estimate.to_dict`); ``prepared/<key>.pkl`` per prepared recording (the
   cache of the joint fits; delete it freely); at the end the summary table ``campaign.parquet`` and
   ``campaign.csv`` (one row per fit; rebuilt from the JSON files by :func:`summary_table`).
 * **Reruns.** A fit whose ``fits/<key>.json`` holds a finished estimate is not run again (reported
@@ -55,8 +55,8 @@ from typing import Any
 
 import pandas as pd
 
-from impactid import __version__
 from impactid._files import StagedFiles, atomic_write, same_file
+from impactid._version import __version__
 from impactid.commandline import json_text
 from impactid.errors import ImpactidError
 from impactid.pipeline import Pipeline, PreparedRecording, _estimable
@@ -391,7 +391,7 @@ def rig_groups(recordings: Sequence[RecordingSpec]) -> dict[str, tuple[str, ...]
 #: Rig parameters that may differ between the recordings of one joint fit: the operating point's
 #: eccentricity ``e`` (rig P). Every other parameter (the contact pair, the follower) must be equal,
 #: as :meth:`impactid.pipeline.Pipeline.fit` requires
-#: (:attr:`impactid.reconstruct.Reconstruction.fixed_parameters`).
+#: (:attr:`impactid.rigs.pivoted.reconstruct.Reconstruction.fixed_parameters`).
 OPERATING_RIG_PARAMETERS = ("e",)
 
 
@@ -564,7 +564,7 @@ class PrepareJob:
     ----------
     key : the task's key (content hash).
     recording : the recording.
-    integration, anchor : the reconstruction's methods (:func:`impactid.reconstruct.reconstruct`).
+    integration, anchor : the reconstruction's methods (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`).
     cache : the cached product's file (loaded when it holds this key), or None.
     """
 

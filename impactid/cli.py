@@ -30,12 +30,13 @@ import os
 import signal
 import sys
 import threading
+import types
 import warnings
 from collections.abc import Iterator, Sequence
 
-from impactid import __version__
 from impactid._files import TerminationRequested, request_termination, termination_requested
 from impactid._signals import stopping_handler
+from impactid._version import __version__
 from impactid.commandline import (
     UsageError,
     end_progress_line,
@@ -210,15 +211,19 @@ def _add_rig_commands(sub) -> None:
         for _, spec in entries:
             for argument in spec.arguments:
                 argument.add_to(p)
+        option_defaults = types.MappingProxyType({a.dest: a.default for a in p._actions})
         p.set_defaults(func=functools.partial(_run_rig_command, command=command,
                                               specs={m.name: spec for m, spec in entries},
                                               choose=resolve or bool(group) or len(names) > 1,
-                                              resolve=resolve, default=default))
+                                              resolve=resolve, default=default),
+                       option_defaults=option_defaults)
 
 
 def _run_rig_command(args, *, command: str, specs: dict, choose: bool, resolve: bool, default: str | None) -> int:
     """Run the implementation of the rig ``--rig`` names (``choose``), or the only rig's (a command of
-    one rig, which may declare and resolve a ``--rig`` of its own)."""
+    one rig, which may declare and resolve a ``--rig`` of its own). ``args.option_defaults`` holds
+    the command's option defaults (a rig can tell an option of another rig's version of a shared
+    command that was given from one that was not)."""
     from impactid.rigs.registry import resolve_rig, rig_model
 
     if resolve:

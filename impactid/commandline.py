@@ -23,6 +23,7 @@ import numpy as np
 from impactid._files import StagedFiles, check_distinct_inputs, check_output
 from impactid.errors import ImpactidError
 from impactid.rigs.base import Argument
+from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, RIG_MODELS, rig_by_name, rig_model
 
 __all__ = ["CAM_PPR", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "SAMPLE_RATE", "SEED",
            "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "check_synth_size",
@@ -155,8 +156,6 @@ def rig_help(what: str) -> str:
 
 def is_rig_file(spec: str | None) -> bool:
     """Whether a ``--rig`` value names a rig file (not a model or preset name)."""
-    from impactid.rigs.registry import rig_by_name
-
     return spec is not None and rig_by_name(spec) is None
 
 
@@ -164,8 +163,6 @@ def recording_rig(args):
     """``--rig`` of a recording command, for :func:`impactid.io.read_recording`: the parameter set a
     model or preset name stands for, the rig file's path (read with the recording: it also supplies
     the operating point), or None to use the recording's own rig."""
-    from impactid.rigs.registry import RIG_MODELS, rig_by_name
-
     spec = getattr(args, "rig", None)
     if spec is None:
         return None
@@ -211,7 +208,7 @@ def refuse_foreign_options(args, model, command_key: str = "valvetrain_command",
     spec = next((c for c in model.commands if c.name == name), None)
     if spec is None:
         return
-    own = {"command", command_key, "func", "rig", "resolved_rig"}
+    own = {"command", command_key, "func", "rig", "resolved_rig", "option_defaults"}
     for argument in spec.arguments:
         flag = argument.flags[0]
         own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
@@ -269,9 +266,7 @@ def recording_paths(args, several: bool = False) -> list:
     if args.example:
         if given and not several:
             raise UsageError("give either a recording or --example, not both")
-        from impactid.examples import example_recording_paths
-
-        paths = example_recording_paths()
+        paths = list(rig_model(DEFAULT_EXAMPLE_MODEL).example())
         given = (paths if several else paths[:1]) + given
     elif not given:
         what = "give one or more recordings" if several else "no recording given (pass a file"

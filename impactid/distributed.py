@@ -2,7 +2,7 @@
 
 The long jobs of impactid are made of independent parts: the recordings and fits of a campaign
 (:mod:`impactid.campaign`), the operating points of a regime map
-(:func:`impactid.simulate.regimes.regime_map`), the cam speeds of a bifurcation diagram
+(:func:`impactid.rigs.pivoted.regimes.regime_map`), the cam speeds of a bifurcation diagram
 (:func:`impactid.rigs.flat.simulate.bifurcation`), the cases of the envelope validation
 (``benchmarks/validate_envelope.py``). Each accepts a ``client`` (a :class:`distributed.Client`):
 with one, the parts are mapped over the cluster's workers; without (the default), they run here,

@@ -27,7 +27,7 @@ cam revolution) and ``not_period1`` (spacing or pulse size differs from the neig
 one-impact-per-revolution assumption of the anchoring step fails there). Events with the last
 three flags are named in the result's notes (:attr:`EventTable.warnings`), which
 :func:`find_events` issues as :class:`EventWarning`, each once, unless a caller that carries the
-notes on in its own result (:func:`impactid.reconstruct.reconstruct`) asks it not to.
+notes on in its own result (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`) asks it not to.
 """
 
 from __future__ import annotations

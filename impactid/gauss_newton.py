@@ -1,8 +1,8 @@
 """Least-squares estimation of the contact law: trust-region Gauss–Newton along the valley.
 
-The ``"least-squares"`` method of :func:`impactid.estimates.fit_contact_damping` (docs/estimation.md).
+The ``"least-squares"`` method of :func:`impactid.rigs.pivoted.estimates.fit_contact_damping` (docs/estimation.md).
 It minimises the sum of squares of the **per-event residual vector** ``r(x)`` (``lambda1`` signed;
-:mod:`impactid.residuals`) over ``x = (log10 c, n)``, ``c = beta delta_ref^n`` the damping at the
+:mod:`impactid.rigs.pivoted.residuals`) over ``x = (log10 c, n)``, ``c = beta delta_ref^n`` the damping at the
 reference indentation: coordinates in which the ``beta``-``n`` valley is nearly straight.
 
 Search. A 41-point scan of ``log10 c`` over its bounds at the starting ``n`` (1.5, or the fixed
@@ -37,7 +37,7 @@ Uncertainty. With ``s^2 = RSS / (m - p)`` (``m`` events, ``p`` parameters), ``t 
   ``beta``. With ``n`` fixed both reduce to ``log10 c +- t s / |dr/dlog10 c|``.
 * **systematic errors** propagated linearly and added in quadrature to each side: the
   pipeline's own residual floor (a common-mode error of every event of one recording, at most
-  :data:`~impactid.estimates.RESIDUAL_FLOOR` or the calibrated ``systematic``; each recording
+  :data:`~impactid.rigs.pivoted.estimates.RESIDUAL_FLOOR` or the calibrated ``systematic``; each recording
   independently), and the error of each recording's cam phase (cam-phase anchor).
 * a **linearised bootstrap** over events (resampled weights in the Gauss–Newton normal
   equations; no simulations), reported beside the interval.

@@ -30,7 +30,7 @@ from impactid._files import StagedFiles, atomic_write
 from impactid._scan import channel_scan, count_equal, extreme_stats
 from impactid.errors import ImpactidError, RigParameterError
 from impactid.rigs import load_rig_toml, rig_from_mapping
-from impactid.rigs.registry import RIG_MODELS
+from impactid.rigs.registry import is_rig_parameters
 from impactid.units import UnitError, si_factor
 from impactid.units import shown as shown_unit
 
@@ -209,7 +209,7 @@ class Recording:
             check_cam_speed(where, operating["cam_speed_hz"], float(rate))
         object.__setattr__(self, "operating", MappingProxyType(operating))
         object.__setattr__(self, "provenance", tuple(self.provenance))
-        if self.rig is not None and not isinstance(self.rig, tuple(RIG_MODELS.values())):
+        if self.rig is not None and not is_rig_parameters(self.rig):
             raise RecordingError(f"{where}: rig must be a rig dataclass, got {type(self.rig).__name__}")
         ecc = operating.get("eccentricity_m")
         rig_e = getattr(self.rig, "e", None)
@@ -882,7 +882,7 @@ def _resolve_rig(rig: Any) -> tuple[Any, dict[str, float], str]:
         except RigParameterError as exc:
             raise RecordingError(str(exc)) from None
         return loaded, operating, f"rig from {rig}"
-    if isinstance(rig, tuple(RIG_MODELS.values())):
+    if is_rig_parameters(rig):
         return rig, {}, f"rig supplied by the caller ({rig.model})"
     raise RecordingError(f"rig must be a rig dataclass or a TOML rig file path, got {type(rig).__name__}")
 

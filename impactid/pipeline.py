@@ -7,7 +7,7 @@ uncertainty options, the calibration) and runs the steps in order::
     recordings -> events -> kinematics -> event sets -> contact damping (+ calibration) -> restitution
 
 :func:`impactid.estimate` is a thin call on it. The pipeline's options are recorded in the result
-(:attr:`~impactid.estimates.Estimate.pipeline` and its provenance), so that an estimate says how it
+(:attr:`~impactid.rigs.pivoted.estimates.Estimate.pipeline` and its provenance), so that an estimate says how it
 was made.
 
 Example
@@ -28,9 +28,9 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from impactid import __version__
+from impactid._version import __version__
 from impactid.errors import ImpactidError
-from impactid.estimates import (
+from impactid.rigs.pivoted.estimates import (
     BOOTSTRAP_RESAMPLES,
     BOOTSTRAP_SEED,
     C_BOUNDS,
@@ -44,13 +44,13 @@ from impactid.estimates import (
     fit_contact_damping,
     fit_restitution,
 )
-from impactid.residuals import EventSet, residual_name
+from impactid.rigs.pivoted.residuals import EventSet, residual_name
 
 if TYPE_CHECKING:
-    from impactid.calibration import RecordingSampling
-    from impactid.reconstruct import Reconstruction
+    from impactid.rigs.pivoted.calibration import RecordingSampling
+    from impactid.rigs.pivoted.reconstruct import Reconstruction
 
-__all__ = ["Pipeline", "PreparedRecording"]
+__all__ = ["Pipeline", "PreparedRecording", "estimate"]
 
 
 @dataclass(frozen=True)
@@ -65,11 +65,11 @@ class Pipeline:
         profile along the valley; :mod:`impactid.gauss_newton`), ``"optimise"`` (nested bounded Brent
         searches along the valley, lattice and bootstrap intervals) or ``"grid"`` (the paper's grid).
     grid : grid points ``(n_c, n_n)`` of the grid method.
-    integration, anchor : per-event kinematics (:func:`impactid.reconstruct.reconstruct`).
+    integration, anchor : per-event kinematics (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`).
     c_bounds : bounds of ``c = beta delta_ref^n`` [N s/m]; n_bounds : bounds of ``n``.
     landscape : also compute the objective landscape (for plots).
     calibrate : measure and correct the pipeline's alpha_m bias on the model's own recording
-        (:mod:`impactid.calibration`; lambda1 only).
+        (:mod:`impactid.rigs.pivoted.calibration`; lambda1 only).
     residual_floor : the residual's noise floor (None: the calibrated default of the residual).
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
     bootstrap_resamples, bootstrap_seed : the bootstrap over events.
@@ -100,7 +100,7 @@ class Pipeline:
             raise ValueError(f"bootstrap_resamples must be at least 10, got {self.bootstrap_resamples!r}")
 
     def fit_options(self) -> dict:
-        """The keyword arguments of :func:`~impactid.estimates.fit_contact_damping` this pipeline uses."""
+        """The keyword arguments of :func:`~impactid.rigs.pivoted.estimates.fit_contact_damping` this pipeline uses."""
         return dict(fix_n=self.fix_n, method=self.method, grid=self.grid, c_bounds=self.c_bounds,
                     n_bounds=self.n_bounds, landscape=self.landscape, residual_floor=self.residual_floor,
                     separability_width=self.separability_width, bootstrap_resamples=self.bootstrap_resamples,
@@ -134,8 +134,8 @@ class Pipeline:
             the reconstruction, the event set the fits replay, the per-impact speeds of the restitution
             fit, the sampling the calibration needs and the notes of the per-impact kinematics.
         """
-        from impactid.calibration import RecordingSampling
         from impactid.io import Recording, read_recording
+        from impactid.rigs.pivoted.calibration import RecordingSampling
 
         if isinstance(recording, Recording):
             rec = recording.with_rig(rig) if rig is not None else recording
@@ -168,7 +168,7 @@ class Pipeline:
             with the damping estimate, the restitution law (None, with the reason among the
             warnings, when it cannot be fitted), per-event tables, notes and provenance. The notes
             of every step are collected in the result's ``warnings`` and issued here, each once, as
-            :class:`~impactid.estimates.EstimationWarning` (the steps themselves do not warn).
+            :class:`~impactid.rigs.pivoted.estimates.EstimationWarning` (the steps themselves do not warn).
         """
         from impactid.io import Recording, check_memory, read_recording
 
@@ -192,7 +192,7 @@ class Pipeline:
         prepared : the :meth:`prepare` products of one or several recordings of one rig (they may
             differ in cam speed and eccentricity only).
         progress : callback ``(stage, fraction)`` for a progress display.
-        warn : issue the notes as :class:`~impactid.estimates.EstimationWarning` (they are in the
+        warn : issue the notes as :class:`~impactid.rigs.pivoted.estimates.EstimationWarning` (they are in the
             result's ``warnings`` either way).
 
         Returns
@@ -243,7 +243,7 @@ class Pipeline:
                         pipeline=self.to_dict())
 
     def _calibrated(self) -> bool:
-        """Whether the estimate is calibrated (:mod:`impactid.calibration`; lambda1 only)."""
+        """Whether the estimate is calibrated (:mod:`impactid.rigs.pivoted.calibration`; lambda1 only)."""
         return bool(self.calibrate and residual_name(self.residual) == "lambda1")
 
 
@@ -254,12 +254,12 @@ class PreparedRecording:
     Attributes
     ----------
     source : the recording's name in messages and results.
-    reconstruction : the per-impact kinematics (rig P: a :class:`~impactid.reconstruct.Reconstruction`;
+    reconstruction : the per-impact kinematics (rig P: a :class:`~impactid.rigs.pivoted.reconstruct.Reconstruction`;
         without the samples when prepared with ``keep_samples=False``).
-    event_set : the :class:`~impactid.residuals.EventSet` the fits replay.
+    event_set : the :class:`~impactid.rigs.pivoted.residuals.EventSet` the fits replay.
     impacts : per impact ``source, event, approach_speed`` [m/s], ``xi`` [-], ``separation_speed``
         [m/s] (the restitution fit's data).
-    sampling : the :class:`~impactid.calibration.RecordingSampling` of the calibration (None when the
+    sampling : the :class:`~impactid.rigs.pivoted.calibration.RecordingSampling` of the calibration (None when the
         pipeline is not calibrated).
     warnings : the notes of the per-impact kinematics.
     """
@@ -283,7 +283,7 @@ def _estimable(model) -> bool:
 
 def _per_impact_kinematics(recording, *, integration: str, anchor: str):
     """The per-impact kinematics of one recording by its rig's measurement model (the registry's
-    :attr:`~impactid.rigs.base.RigModel.measure`: rig P's is :func:`impactid.reconstruct.reconstruct`),
+    :attr:`~impactid.rigs.base.RigModel.measure`: rig P's is :func:`impactid.rigs.pivoted.reconstruct.reconstruct`),
     with their notes in the result rather than warned."""
     from impactid.io import RecordingError
     from impactid.rigs.registry import MODELS, rig_model
@@ -297,11 +297,11 @@ def _per_impact_kinematics(recording, *, integration: str, anchor: str):
 
 
 def _calibrated(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
-    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.calibration`); where it
+    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.rigs.pivoted.calibration`); where it
     exceeds :data:`CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit again, with the
     intervals' indifference at least half the largest correction."""
-    from impactid.calibration import pipeline_bias
     from impactid.contact import HuntCrossley
+    from impactid.rigs.pivoted.calibration import pipeline_bias
 
     law = HuntCrossley(beta=damping.beta, n=damping.n)
     biases = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
@@ -321,3 +321,31 @@ def _calibrated(damping, samplings, sets, fit_options: dict, *, integration: str
     again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
                     seconds=again.seconds + damping.seconds)
     return again, corrected, record
+
+
+def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = None, method: str = "least-squares",
+             grid: tuple[int, int] = (41, 21), rig=None, integration: str = "rk", anchor: str = "cam-phase",
+             c_bounds=C_BOUNDS, n_bounds=N_BOUNDS, landscape: bool = False,
+             progress: Progress | None = None, calibrate: bool = True) -> Estimate:
+    """Read, segment and reconstruct recordings, then estimate ``beta, n`` and the restitution laws.
+
+    A thin call on :class:`impactid.pipeline.Pipeline` (which holds every option of the job and is
+    recorded in the result's provenance): ``estimate(recs, **options)`` is
+    ``Pipeline(**options).run(recs, rig=rig, progress=progress)``.
+
+    Parameters
+    ----------
+    recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
+    residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
+    rig : overrides the recordings' rig: rig parameters (e.g. :data:`~impactid.rigs.SUNDAR2016`), or the path of
+        a TOML rig file, whose ``[operating]`` table also supplies or overrides the operating point.
+    integration, anchor : per-event kinematics methods (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`).
+    progress : callback ``(stage, fraction)`` for a progress display.
+    calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first
+        estimate and, where it matters, correct it and fit again (:mod:`impactid.rigs.pivoted.calibration`;
+        lambda1 only).
+    """
+    pipeline = Pipeline(residual=residual, fix_n=fix_n, method=method, grid=tuple(grid), integration=integration,
+                        anchor=anchor, c_bounds=tuple(c_bounds), n_bounds=tuple(n_bounds), landscape=landscape,
+                        calibrate=calibrate)
+    return pipeline.run(recordings, rig=rig, progress=progress)

@@ -29,6 +29,8 @@ from typing import Any, ClassVar
 import numpy as np
 import pandas as pd
 
+from impactid._version import __version__
+
 __all__ = ["FitResult", "Parameter", "json_ready", "result_kinds"]
 
 _KINDS: dict[str, type[FitResult]] = {}
@@ -191,8 +193,6 @@ class FitResult:
         object.__setattr__(self, "notes", tuple(self.notes))
         object.__setattr__(self, "provenance", tuple(self.provenance))
         if not self.version:
-            from impactid import __version__
-
             object.__setattr__(self, "version", __version__)
 
     # ---- access -----------------------------------------------------------------------------

@@ -189,7 +189,7 @@ class EventSpan:
     the next onset ``tail`` samples after its last sample (both in [0, 1]); ``head_rate_change``
     and ``tail_rate_change`` [rad/s] are the integrals of the measured acceleration over those
     two sub-sample pieces (from the edge models of the pulse, see
-    :func:`impactid.reconstruct.reconstruct`).
+    :func:`impactid.rigs.pivoted.reconstruct.reconstruct`).
     """
 
     head: float

@@ -38,7 +38,7 @@ def seed_law():
 def s2_synthetic():
     """Noise-free S2 recording at the paper's Table 3 point (e/r_c 0.2, 16 Hz), 1 s after 40 s settling."""
     from impactid import SUNDAR2016
-    from impactid.synth import synth_pivoted
+    from impactid.rigs.pivoted.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, seed_law_s2(), 1.0)
 
@@ -53,7 +53,7 @@ def s2_file(s2_synthetic, tmp_path_factory):
 def s3_synthetic():
     """Noise-free S3 recording (restitution law, gamma = 0.8 s/m) at e/r_c 0.2, 16 Hz, 1 s."""
     from impactid import SUNDAR2016, Restitution
-    from impactid.synth import synth_pivoted
+    from impactid.rigs.pivoted.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, Restitution(gamma=0.8), 1.0)
 
@@ -62,7 +62,7 @@ def s3_synthetic():
 def s2_second_point():
     """Noise-free S2 recording at the other fast-settling period-1 point (e/r_c 0.25, 15 Hz), 1 s."""
     from impactid import SUNDAR2016
-    from impactid.synth import synth_pivoted
+    from impactid.rigs.pivoted.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.25), 15.0, seed_law_s2(), 1.0)
 
@@ -71,7 +71,8 @@ def s2_second_point():
 def s2_noisy():
     """S2 at e/r_c 0.2, 16 Hz, 4 s, with 0.5 % noise on every channel (seed 3)."""
     from impactid import SUNDAR2016
-    from impactid.synth import SensorModel, synth_pivoted
+    from impactid.synth import SensorModel
+    from impactid.rigs.pivoted.synth import synth_pivoted
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, seed_law_s2(), 4.0,
                          sensors=SensorModel(noise=0.005, seed=3))

@@ -12,7 +12,7 @@ whose steady state is found by shooting, so that a bias shared by the estimator 
 cannot cancel. Each Hunt–Crossley case is paired with a second period-1 point of the same rig and
 law whose approach speed differs by at least 30 %, for a joint fit of ``beta`` and ``n``.
 
-Every fit is run through :func:`impactid.estimates.estimate` (what ``impactid estimate`` calls) and
+Every fit is run through :func:`impactid.pipeline.estimate` (what ``impactid estimate`` calls) and
 ends in one of three outcomes: an *estimate* (numbers with intervals), a *refusal* (an
 :class:`~impactid.errors.ImpactidError` naming the reason: the tool says it cannot answer), or an
 *error* (any other exception: a bug; the target is none). Nothing here passes the truth to the
@@ -31,7 +31,8 @@ import numpy as np
 
 from impactid import SUNDAR2016, HuntCrossley, Restitution
 from impactid.errors import ImpactidError
-from impactid.synth import SensorModel, synth_pivoted
+from impactid.synth import SensorModel
+from impactid.rigs.pivoted.synth import synth_pivoted
 
 try:
     from . import reference_recordings as RR
@@ -89,7 +90,7 @@ class Case:
 
 
 def _period1(e_over_rc: float, cam_speed_hz: float, law, mu: float) -> bool:
-    from impactid.simulate.regimes import classify_regime
+    from impactid.rigs.pivoted.regimes import classify_regime
 
     try:
         r = classify_regime(SUNDAR2016.with_eccentricity_ratio(e_over_rc), cam_speed_hz, law, mu=mu,
@@ -101,7 +102,7 @@ def _period1(e_over_rc: float, cam_speed_hz: float, law, mu: float) -> bool:
 
 def _approach_speed(e_over_rc: float, cam_speed_hz: float, law, mu: float) -> float:
     """Approach speed [m/s] of the settled period-1 motion (impactid's simulator; case selection only)."""
-    from impactid.simulate import simulate
+    from impactid.rigs.pivoted.runs import simulate
 
     run = simulate(SUNDAR2016.with_eccentricity_ratio(e_over_rc), cam_speed_hz, law, SETTLE_S + 0.3, mu=mu)
     rows = run.contacts[run.contacts["kind"] != "stick"]
@@ -212,7 +213,7 @@ class Outcome:
 
 
 def _fit(name: str, recordings, **options) -> tuple[Outcome, object]:
-    from impactid.estimates import estimate
+    from impactid.pipeline import estimate
 
     started = time.perf_counter()
     try:

@@ -23,7 +23,7 @@ What is shared with impactid, and what is not
   integrator, the steady-state search and the formulas of the channels. The accelerometer signal
   ``l_a * alpha_ddot`` uses ``reference_rigp.angular_acceleration``, and the pivot reaction (docs/rig_p.md
   1.4 with the friction term of 1.9) is written out in this module. Nothing here imports
-  ``impactid.simulate``, the geometry functions of ``impactid.rigs`` or ``impactid.synth.pivoted``.
+  ``impactid.simulate``, the geometry functions of ``impactid.rigs`` or ``impactid.rigs.pivoted.synth``.
 
 Steady state by shooting, not by settling
 -----------------------------------------

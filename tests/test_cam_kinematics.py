@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from impactid.cam_kinematics import (
+from impactid.rigs.flat.cam_kinematics import (
     DEFAULT_NODES,
     ProfileSum,
     convergence_order,
@@ -19,7 +19,7 @@ from impactid.cam_kinematics import (
     spline_error_study,
     spline_follower_kinematics,
 )
-from impactid.camprofile import GaussianSumProfile
+from impactid.rigs.flat.camprofile import GaussianSumProfile
 from impactid.rigs.flat import ALZATE2007 as RIG
 
 OMEGA = 130.0 * 2.0 * math.pi / 60.0  # [rad/s]

@@ -35,7 +35,8 @@ OPTIONS = '[options]\ncalibrate = false\n'
 @pytest.fixture(scope="session")
 def recordings(tmp_path_factory) -> dict[str, Path]:
     """Two 0.3 s recordings of rig P at two operating points (0.2 % noise) and a corrupt file."""
-    from impactid.synth import SensorModel, synth_pivoted
+    from impactid.synth import SensorModel
+    from impactid.rigs.pivoted.synth import synth_pivoted
 
     folder = tmp_path_factory.mktemp("campaign_recordings")
     paths = {}
@@ -289,7 +290,7 @@ def test_regime_map_and_bifurcation_give_the_same_results_on_a_client():
     distributed = pytest.importorskip("distributed")
     from impactid import ALZATE2007
     from impactid.rigs.flat.simulate import bifurcation
-    from impactid.simulate.regimes import regime_map
+    from impactid.rigs.pivoted.regimes import regime_map
 
     serial = regime_map(SUNDAR2016, [0.2, 0.25], [5.0, 15.0, 16.0], max_revolutions=400)
     speeds = np.array([110.0, 130.0, 140.0, 150.0, 160.0]) / 60.0
@@ -331,23 +332,51 @@ def test_campaign_on_a_local_cluster_survives_a_worker_death(tmp_path, recording
 
     spec = load_campaign(_campaign(tmp_path, recordings))
     killed: list[int] = []
+    released = tmp_path / "joint-fit-may-finish"
     environ = {key: os.environ.get(key) for key in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS")}
+
+    def hold_the_joint_fit(marker: str) -> None:
+        """In each worker: the joint fit waits for ``marker`` (at most 120 s) before it runs, so
+        that a worker is certainly busy with it when a single fit has finished. A worker started
+        after the kill does not wait (it has not run this), nor does any once the marker exists."""
+        import os as _os
+        import time as _time
+
+        import impactid.campaign as campaign_module
+
+        original = campaign_module.fit_task
+
+        def held(job, *prepared):
+            if job.kind == "joint":
+                deadline = _time.monotonic() + 120
+                while not _os.path.exists(marker) and _time.monotonic() < deadline:
+                    _time.sleep(0.05)
+            return original(job, *prepared)
+
+        campaign_module.fit_task = held  # the task is pickled by reference: workers resolve it here
+
     with connect(workers=2) as client:
         pids = client.run(os.getpid)
+        client.run(hold_the_joint_fit, str(released))
 
         def kill_when_a_fit_is_done() -> None:
-            deadline = time.monotonic() + 600
-            while time.monotonic() < deadline and not killed:
-                finished = [p for p in (spec.out / "fits").glob("*.json")
-                            if json.loads(p.read_text())["status"] == "ok"] if (spec.out / "fits").exists() else []
-                busy = {w: keys for w, keys in client.processing().items() if any("fit-" in k for k in keys)}
-                if finished and busy:
-                    witness.append((finished[0], finished[0].read_bytes()))
-                    worker = next(iter(busy))
-                    killed.append(pids[worker])
-                    os.kill(pids[worker], signal.SIGKILL)
-                    return
-                time.sleep(0.2)
+            try:
+                deadline = time.monotonic() + 300
+                while time.monotonic() < deadline and not killed:
+                    fits = spec.out / "fits"
+                    finished = [p for p in fits.glob("*.json")
+                                if json.loads(p.read_text())["status"] == "ok"] if fits.exists() else []
+                    busy = {w: keys for w, keys in client.processing().items()
+                            if any("fit-joint" in k for k in keys)}
+                    if finished and busy:
+                        witness.append((finished[0], finished[0].read_bytes()))
+                        worker = next(iter(busy))
+                        killed.append(pids[worker])
+                        os.kill(pids[worker], signal.SIGKILL)
+                        return
+                    time.sleep(0.1)
+            finally:
+                released.touch()
 
         witness: list[tuple[Path, bytes]] = []
         killer = threading.Thread(target=kill_when_a_fit_is_done, daemon=True)
@@ -355,7 +384,7 @@ def test_campaign_on_a_local_cluster_survives_a_worker_death(tmp_path, recording
         result = run_campaign(spec, spec.out, client=client)
         killer.join(timeout=5)
         # the sweeps on the same (real, multi-process) cluster
-        from impactid.simulate.regimes import regime_map
+        from impactid.rigs.pivoted.regimes import regime_map
 
         grid = dict(e_over_rc=[0.25], cam_speeds_hz=[5.0, 15.0], max_revolutions=300)
         pd.testing.assert_frame_equal(regime_map(SUNDAR2016, **grid, client=client), regime_map(SUNDAR2016, **grid))

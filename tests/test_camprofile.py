@@ -20,7 +20,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid.camprofile import (
+from impactid.rigs.flat.camprofile import (
     ALZATE2007_CAM,
     C_MAX,
     CamProfileError,
@@ -40,7 +40,7 @@ from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.results import FitResult
 from impactid.rigs.flat import ALZATE2007
-from impactid.synth import synth_flat_encoders
+from impactid.rigs.flat.synth import synth_flat_encoders
 from tests.golden import assert_matches_golden
 
 RIG = ALZATE2007

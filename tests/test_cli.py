@@ -106,7 +106,7 @@ def test_synth_s3_and_rig_f(tmp_path, capsys):
 
 def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):
     monkeypatch.setenv("IMPACTID_CACHE_DIR", str(tmp_path))
-    from impactid.examples import example_recording, example_recording_path
+    from impactid.rigs.pivoted.example import example_recording, example_recording_path
 
     path = example_recording_path()
     assert path.parent == tmp_path

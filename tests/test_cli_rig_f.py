@@ -11,7 +11,7 @@ from impactid import save_rig_toml
 from impactid.cli import main
 from impactid.rigs import ALZATE2007
 from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION
-from impactid.synth.flat_impacts import synth_flat_impacting
+from impactid.rigs.flat.synth_impacts import synth_flat_impacting
 from tests.golden import assert_matches_golden
 
 

@@ -43,7 +43,7 @@ def _tree(root: Path) -> dict[str, str]:
 @pytest.fixture(scope="module")
 def good(tmp_path_factory):
     """A small valid recording (0.4 s at e/r_c 0.25, 15 Hz, 6 impacts) as the base of the mutations."""
-    from impactid.synth import synth_pivoted
+    from impactid.rigs.pivoted.synth import synth_pivoted
 
     return synth_pivoted(RIG, 15.0, LAW, 0.4, settle_s=5.0).recording
 

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid.encoder_impacts import (
+from impactid.rigs.flat.encoder_impacts import (
     EncoderImpactError,
     SpeedLawResult,
     fit_speed_law,
@@ -21,8 +21,8 @@ from impactid.encoder_impacts import (
 from impactid.results import FitResult
 from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.simulate import SpeedRestitution
-from impactid.synth.flat import synth_flat_encoders
-from impactid.synth.flat_impacts import synth_flat_impacting
+from impactid.rigs.flat.synth import synth_flat_encoders
+from impactid.rigs.flat.synth_impacts import synth_flat_impacting
 
 LAW = SpeedRestitution.from_rpm(0.65 + 130 * 0.004, -0.004)  # r = 0.65 at 130 rpm, 0.57 at 150 rpm
 SPEEDS_RPM = (130.0, 140.0, 150.0)

@@ -15,17 +15,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from impactid.estimates import (
-    ContactDampingResult,
-    EstimationWarning,
-    RestitutionResult,
-    estimate,
-    fit_contact_damping,
-    fit_restitution,
-)
+from impactid.rigs.pivoted.estimates import ContactDampingResult, EstimationWarning, RestitutionResult, fit_contact_damping, fit_restitution
+from impactid.pipeline import estimate
 from impactid.io import RecordingError
-from impactid.reconstruct import reconstruct
-from impactid.residuals import EventSet, loop_area, residual_name
+from impactid.rigs.pivoted.reconstruct import reconstruct
+from impactid.rigs.pivoted.residuals import EventSet, loop_area, residual_name
 from impactid.results import FitResult
 
 BETA, N = 24.7e9, 1.5

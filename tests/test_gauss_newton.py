@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from impactid.estimates import EstimationWarning, fit_contact_damping
+from impactid.rigs.pivoted.estimates import EstimationWarning, fit_contact_damping
 from impactid.gauss_newton import JACOBIAN_STEP, fit_least_squares, jacobian
-from impactid.reconstruct import reconstruct
-from impactid.residuals import EventSet
+from impactid.rigs.pivoted.reconstruct import reconstruct
+from impactid.rigs.pivoted.residuals import EventSet
 
 BETA, N = 24.7e9, 1.5
 
@@ -91,7 +91,7 @@ def s2_events(s2_synthetic):
 def test_central_difference_jacobian_of_the_simulator_is_step_independent(s2_events):
     """The batched central differences at the default steps against steps 4x smaller (truncation
     h^2: 16x smaller) and 4x larger: the default is accurate to better than 1e-3 relative."""
-    from impactid.estimates import _Objective, reference_indentation
+    from impactid.rigs.pivoted.estimates import _Objective, reference_indentation
 
     obj = _Objective([s2_events], "lambda1", reference_indentation([s2_events]))
     x = np.array([math.log10(BETA * obj.delta_ref ** N), N])

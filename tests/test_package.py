@@ -24,12 +24,13 @@ def test_public_names_resolve_to_their_modules_objects():
 
 
 def test_functions_named_like_submodules_stay_functions():
-    import impactid.reconstruct  # noqa: F401 - the submodules, imported before the names are read
-    import impactid.simulate.runs  # noqa: F401
+    import impactid.rigs.pivoted.reconstruct  # noqa: F401 - the submodules, imported before the names are read
+    import impactid.rigs.pivoted.runs  # noqa: F401
+    import impactid.simulate.dp5  # noqa: F401 - the core package named like the function
     from impactid import reconstruct, simulate
 
     assert callable(impactid.simulate) and impactid.simulate is simulate and simulate.__module__.endswith("runs")
-    assert callable(impactid.reconstruct) and impactid.reconstruct is reconstruct
+    assert callable(impactid.reconstruct) and reconstruct.__module__ == "impactid.rigs.pivoted.reconstruct"
 
 
 def test_the_command_line_imports_in_a_fresh_process():

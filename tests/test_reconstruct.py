@@ -15,9 +15,10 @@ import pytest
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import EventWarning, find_events
 from impactid.io import RecordingError
-from impactid.reconstruct import ANCHORS, reconstruct
+from impactid.rigs.pivoted.reconstruct import ANCHORS, reconstruct
 from impactid.signal import INTEGRATORS
-from impactid.synth import SensorModel, synth_pivoted
+from impactid.synth import SensorModel
+from impactid.rigs.pivoted.synth import synth_pivoted
 
 COMBOS = list(itertools.product(INTEGRATORS, ANCHORS))
 

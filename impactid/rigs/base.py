@@ -144,6 +144,8 @@ class RigModel:
     simulate : the rig's main simulation entry point, or None.
     measure : the measurement model: ``measure(recording, **options)`` turns a recording into
         per-event (per-impact, per-revolution, per-bounce) kinematics, or None.
+    example : ``example(refresh=False)`` -> the paths of the rig's built-in example recordings
+        (generated on first use and cached), or None.
     commands : what the rig adds to the command line.
     """
 
@@ -162,6 +164,7 @@ class RigModel:
     kernel: Any = None
     simulate: Callable | None = None
     measure: Callable | None = None
+    example: Callable | None = None
     commands: Sequence[CommandSpec] = ()
 
     @property

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -13,34 +14,110 @@ from impactid.errors import RigParameterError
 from impactid.rigs._toml import read_toml, write_text_atomic
 from impactid.rigs.base import RigModel
 
-__all__ = ["MODELS", "RIG_MODELS", "ResolvedRig", "load_rig_toml", "register", "resolve_rig", "rig_by_name",
-           "rig_from_mapping", "rig_model", "save_rig_toml"]
+__all__ = ["DEFAULT_EXAMPLE_MODEL", "MODELS", "PLUGINS", "RIG_MODELS", "ResolvedRig", "is_rig_parameters", "load_rig_toml", "register",
+           "resolve_rig", "rig_by_name", "rig_from_mapping", "rig_model", "save_rig_toml"]
 
-#: The registered rig models by docs/formats.md model name (:class:`~impactid.rigs.base.RigModel`).
-MODELS: dict[str, RigModel] = {}
+#: The built-in rigs, one line per rig: the docs/formats.md model name, the package whose ``MODEL``
+#: (a :class:`~impactid.rigs.base.RigModel`) it is, and whether the rig is described by TOML rig
+#: files (the bouncing ball is not). A rig package is imported on first use of its name (the
+#: plug-in pattern of obspy's entry points): importing the registry loads no rig, and reading a
+#: recording of one rig loads that rig only.
+PLUGINS: dict[str, tuple[str, bool]] = {
+    "pivoted-follower": ("impactid.rigs.pivoted", True),
+    "flat-follower": ("impactid.rigs.flat", True),
+    "bouncing-ball": ("impactid.rigs.ball", False),
+    "finger-follower-hla": ("impactid.rigs.finger_follower", True),
+    "cycloidal-flat-follower-ehl": ("impactid.rigs.cycloidal", True),
+    "drop-impact": ("impactid.rigs.drop", True),
+}
+
+#: The rig whose built-in example recordings the commands' ``--example`` reads.
+DEFAULT_EXAMPLE_MODEL = "pivoted-follower"
+
+#: Models already loaded (or registered at run time with :func:`register`).
+_LOADED: dict[str, RigModel] = {}
 
 
-def register(model: RigModel) -> RigModel:
-    """Add a rig model to the registry (one line per rig, below)."""
-    if model.name in MODELS:
-        raise ValueError(f"rig model {model.name!r} is registered twice")
-    MODELS[model.name] = model
-    if hasattr(model.parameters, "from_mapping"):  # rigs described by rig files (not the bouncing ball)
-        RIG_MODELS[model.name] = model.parameters
+def _load(name: str) -> RigModel:
+    model = _LOADED.get(name)
+    if model is None:
+        package, _ = PLUGINS[name]
+        model = importlib.import_module(package).MODEL
+        if model.name != name:
+            raise RuntimeError(f"{package}.MODEL is named {model.name!r}, registered as {name!r}")
+        _LOADED[name] = model
     return model
 
 
-#: Rig ``model`` names (of rig files and recordings) and the parameter dataclass of each (filled by
-#: :func:`register`).
-RIG_MODELS: dict[str, type] = {}
+class _Models(Mapping):
+    """The registered rig models by model name, imported on first access (read-only mapping)."""
+
+    def __getitem__(self, name: str) -> RigModel:
+        if name not in PLUGINS:
+            raise KeyError(name)
+        return _load(name)
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(list(PLUGINS))
+
+    def __len__(self) -> int:
+        return len(PLUGINS)
+
+    def __contains__(self, name: object) -> bool:
+        return name in PLUGINS
+
+    def __repr__(self) -> str:
+        return f"MODELS({', '.join(PLUGINS)})"
+
+
+class _RigModels(Mapping):
+    """Rig ``model`` names of rig files and recordings -> the parameter dataclass of each (imported
+    on first access of that name)."""
+
+    def __getitem__(self, name: str) -> type:
+        if name not in PLUGINS or not PLUGINS[name][1]:
+            raise KeyError(name)
+        return _load(name).parameters
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([name for name, (_, files) in PLUGINS.items() if files])
+
+    def __len__(self) -> int:
+        return sum(files for _, files in PLUGINS.values())
+
+    def __contains__(self, name: object) -> bool:
+        return name in PLUGINS and PLUGINS[name][1]
+
+
+#: The registered rig models by docs/formats.md model name (:class:`~impactid.rigs.base.RigModel`).
+MODELS: Mapping[str, RigModel] = _Models()
+
+#: Rig ``model`` names (of rig files and recordings) and the parameter dataclass of each.
+RIG_MODELS: Mapping[str, type] = _RigModels()
+
+
+def register(model: RigModel, package: str | None = None) -> RigModel:
+    """Add a rig model at run time (a rig outside impactid): ``package`` is where its ``MODEL`` lives
+    (default: the module that defines its parameters)."""
+    if model.name in PLUGINS:
+        raise ValueError(f"rig model {model.name!r} is registered twice")
+    PLUGINS[model.name] = (package or model.parameters.__module__, hasattr(model.parameters, "from_mapping"))
+    _LOADED[model.name] = model
+    return model
 
 
 def rig_model(name: str) -> RigModel:
     """The registered rig model named ``name``; unknown names raise ``KeyError`` listing the known ones."""
-    try:
-        return MODELS[name]
-    except KeyError:
-        raise KeyError(f"unknown rig model {name!r} (known: {', '.join(MODELS) or 'none'})") from None
+    if name not in PLUGINS:
+        raise KeyError(f"unknown rig model {name!r} (known: {', '.join(PLUGINS) or 'none'})")
+    return _load(name)
+
+
+def is_rig_parameters(value: Any) -> bool:
+    """Whether ``value`` is the parameter set of a registered rig described by rig files (loads
+    that rig only)."""
+    name = getattr(value, "model", None)
+    return isinstance(name, str) and name in RIG_MODELS and isinstance(value, RIG_MODELS[name])
 
 
 @dataclass(frozen=True)
@@ -154,12 +231,3 @@ def load_rig_toml(path: str | os.PathLike[str]):
 def save_rig_toml(rig, path: str | os.PathLike[str], operating: Mapping[str, float] | None = None) -> Path:
     """Write a rig (and optional operating point) as a TOML rig file, atomically."""
     return write_text_atomic(path, rig.to_toml(operating))
-
-
-# ---- the registry: one line per rig (a rig's folder defines its MODEL; see impactid/rigs/base.py) ----
-from impactid.rigs.pivoted import MODEL as _PIVOTED; register(_PIVOTED)  # noqa: E402, E702, I001
-from impactid.rigs.flat import MODEL as _FLAT; register(_FLAT)  # noqa: E402, E702, I001
-from impactid.rigs.ball import MODEL as _BALL; register(_BALL)  # noqa: E402, E702, I001
-from impactid.rigs.finger_follower import MODEL as _FINGER; register(_FINGER)  # noqa: E402, E702, I001
-from impactid.rigs.cycloidal import MODEL as _CYCLOIDAL; register(_CYCLOIDAL)  # noqa: E402, E702, I001
-from impactid.rigs.drop import MODEL as _DROP; register(_DROP)  # noqa: E402, E702, I001

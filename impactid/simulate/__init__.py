@@ -1,18 +1,11 @@
-"""Forward simulation of rig P: the compiled hybrid integrator and the runs built on it."""
+"""The simulation core shared by every rig: the Dormand-Prince 5(4) stepper with dense output and
+event location (:mod:`impactid.simulate.dp5`, compiled with numba) and the integrator tolerances
+(:class:`Tolerances`).
 
-from impactid.simulate.runs import (
-    DEFAULT_TOLERANCES,
-    BatchResult,
-    EventResult,
-    SimulationResult,
-    Tolerances,
-    observables,
-    simulate,
-    simulate_event,
-    simulate_events,
-)
+Each rig's kernel and runs live in its own folder (rig P's long runs and S1 events are
+:mod:`impactid.rigs.pivoted.runs`).
+"""
 
-__all__ = [
-    "DEFAULT_TOLERANCES", "BatchResult", "EventResult", "SimulationResult", "Tolerances",
-    "observables", "simulate", "simulate_event", "simulate_events",
-]
+from impactid.simulate.tolerances import DEFAULT_TOLERANCES, Tolerances
+
+__all__ = ["DEFAULT_TOLERANCES", "Tolerances"]

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from impactid import SUNDAR2016, HuntCrossley, Restitution, simulate_event
-from impactid.simulate.runs import simulate
+from impactid.rigs.pivoted.runs import simulate
 from tests import reference_rigp as ref
 
 #: (n, beta) giving comparable damping at the rig's indentations and speeds

@@ -6,8 +6,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from impactid import SUNDAR2016
-from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, free_flight, return_time_anchors
-from impactid.simulate.runs import pack_rig
+from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, free_flight, return_time_anchors
+from impactid.rigs.pivoted.runs import pack_rig
 
 RIG = SUNDAR2016
 P = pack_rig(RIG)

@@ -9,7 +9,7 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley, contact
 from impactid.rigs.pivoted import kernel as K
-from impactid.simulate.runs import pack_law, pack_rig
+from impactid.rigs.pivoted.runs import pack_law, pack_rig
 
 
 def _reference_acceleration(rig, law, mode, t, a, ad, theta_ref, omega):

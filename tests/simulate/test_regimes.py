@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from impactid import SUNDAR2016, HuntCrossley, simulate
-from impactid.simulate.regimes import (
+from impactid.rigs.pivoted.regimes import (
     classify_regime,
     detachment_speed,
     follower_kinematics,

@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 from impactid import SUNDAR2016, HuntCrossley
-from impactid.reconstruct import reconstruct
-from impactid.residuals import EventSet
+from impactid.rigs.pivoted.reconstruct import reconstruct
+from impactid.rigs.pivoted.residuals import EventSet
 from impactid.rigs.pivoted import kernel as K
-from impactid.simulate.runs import Tolerances, pack_law, pack_rig, simulate_events
+from impactid.rigs.pivoted.runs import Tolerances, pack_law, pack_rig, simulate_events
 
 #: Tight tolerances for the difference quotients: with rtol 1e-12 and a step of 1e-5 in ln beta and
 #: n, a central difference carries about 1e-12 / 1e-5 = 1e-7 (relative) of round-off and integration

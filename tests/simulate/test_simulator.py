@@ -24,7 +24,7 @@ from impactid import (
     simulate_events,
 )
 from impactid.rigs.pivoted import kernel as K
-from impactid.simulate.runs import EventResult, pack_law, pack_rig
+from impactid.rigs.pivoted.runs import EventResult, pack_law, pack_rig
 
 
 def _point_mass_parameters(mass, stiffness, arm=1000.0, contact_radius=0.03):

@@ -9,7 +9,7 @@ import pytest
 
 from impactid.errors import SimulationInputError
 from impactid.rigs import ALZATE2007
-from impactid.synth import synth_flat_encoders
+from impactid.rigs.flat.synth import synth_flat_encoders
 
 
 def test_contact_angle_derivatives_match_finite_differences():

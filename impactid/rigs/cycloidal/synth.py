@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -32,34 +31,13 @@ from impactid.rigs.cycloidal.simulate import (
     level_b_steady_cycle,
     omega_of,
 )
+from impactid.synth.recording import SyntheticRecording
 
 __all__ = ["CHANNELS", "SyntheticRecording", "synth_recording"]
 
 TWO_PI = 2.0 * math.pi
 #: Channels a synthetic recording can hold, and their SI units.
 CHANNELS = {"cam_angle": "rad", "valve_displacement": "m", "valve_velocity": "m/s", "contact_load": "N"}
-
-
-@dataclass(frozen=True)
-class SyntheticRecording:
-    """A synthetic recording and what generated it.
-
-    Attributes
-    ----------
-    recording : the :class:`~impactid.io.Recording` (SI units, the rig and operating point attached).
-    exact : the noise-free channels.
-    truth : what generated it (written to ``/truth``).
-    """
-
-    recording: Any
-    exact: Mapping[str, np.ndarray]
-    truth: Mapping[str, Any] = field(default_factory=dict)
-
-    def write(self, path):
-        """Write as HDF5 (docs/formats.md) with the ``/truth`` group; returns the path."""
-        from impactid.io import write_hdf5
-
-        return write_hdf5(self.recording, path, truth=dict(self.truth))
 
 
 def synth_recording(rig: CycloidalEHLRig, rpm: float, *, level: str = "A", revolutions: float = 4.0,

@@ -81,11 +81,10 @@ _PLOTS = Argument(("--plots",), {"metavar": "DIR", "help": "write figures into t
 
 def _foreign_options(args, spec: CommandSpec, command: list[str]) -> None:
     """Refuse an option another rig's version of a shared command declared (argparse accepts the union
-    of the rigs' options; this rig would silently ignore it): a value that differs from its default."""
-    from impactid.cli import build_parser
-
-    defaults = vars(build_parser().parse_args(command))
-    own = {"command", "func", "rig", "resolved_rig"}
+    of the rigs' options; this rig would silently ignore it): a value that differs from its default
+    (``args.option_defaults``, set by the command line)."""
+    defaults = getattr(args, "option_defaults", {})
+    own = {"command", "func", "rig", "resolved_rig", "option_defaults"}
     for argument in spec.arguments:
         flag = argument.flags[0]
         options = argument.options() if callable(argument.options) else argument.options

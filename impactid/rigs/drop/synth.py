@@ -22,14 +22,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from impactid._version import __version__
 from impactid.errors import SimulationInputError
 from impactid.rigs.drop.parameters import ACCELERATION_CHANNEL, FORCE_CHANNEL, DropLaw, DropRig
 from impactid.rigs.drop.simulate import DEFAULT_TOLERANCES, Tolerances, simulate_drop
+from impactid.synth.recording import SyntheticRecording
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, antialias_decimate, apply_sensors
 
 __all__ = ["CHANNELS", "DEFAULT_DURATION_S", "DEFAULT_PRE_TRIGGER_S", "DEFAULT_SAMPLE_RATE_HZ", "SyntheticRecording",
@@ -46,28 +48,6 @@ DEFAULT_DURATION_S = 0.5
 DEFAULT_PRE_TRIGGER_S = 0.01
 #: Output samples simulated beyond each end when decimating (the FIR filter's edge zone).
 _DECIMATION_MARGIN = 64
-
-
-@dataclass(frozen=True)
-class SyntheticRecording:
-    """A synthetic drop recording and what generated it.
-
-    Attributes
-    ----------
-    recording : the :class:`~impactid.io.Recording` (SI units, the rig and the drop attached).
-    exact : the noise-free channels at the sample instants.
-    truth : what generated it (written to ``/truth``).
-    """
-
-    recording: Any
-    exact: Mapping[str, np.ndarray]
-    truth: Mapping[str, Any] = field(default_factory=dict)
-
-    def write(self, path):
-        """Write as HDF5 (docs/formats.md) with the ``/truth`` group; returns the path."""
-        from impactid.io import write_hdf5
-
-        return write_hdf5(self.recording, path, truth=dict(self.truth))
 
 
 def _positive(name: str, value, *, allow_zero: bool = False) -> float:
@@ -103,7 +83,6 @@ def synth_drop_impact(rig: DropRig, law: DropLaw, height: float, *, release_spee
     -------
     :class:`SyntheticRecording`
     """
-    from impactid import __version__
     from impactid.io import Recording
 
     unknown = sorted(set(channels) - set(CHANNELS))

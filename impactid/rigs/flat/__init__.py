@@ -7,8 +7,8 @@
 * :mod:`~impactid.rigs.flat.commands`: its commands (``impactid bifurcation``, ``restitution``,
   ``cam-fit``, and its ``detachment`` and ``synth``).
 
-Its measurement model (encoders to impacts and restitution) is :mod:`impactid.encoder_impacts`; its
-cam profile fit is :mod:`impactid.camprofile`.
+Its measurement model (encoders to impacts and restitution) is :mod:`impactid.rigs.flat.encoder_impacts`; its
+cam profile fit is :mod:`impactid.rigs.flat.camprofile`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
@@ -38,8 +38,8 @@ def _simulate(*args, **kwargs):
 
 def _measure(recording, **options):
     """Restitution at the recording's cam speed from its encoders
-    (:func:`impactid.encoder_impacts.restitution_at_speed`)."""
-    from impactid.encoder_impacts import restitution_at_speed
+    (:func:`impactid.rigs.flat.encoder_impacts.restitution_at_speed`)."""
+    from impactid.rigs.flat.encoder_impacts import restitution_at_speed
 
     return restitution_at_speed(recording, **options)
 

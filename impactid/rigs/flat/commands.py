@@ -81,7 +81,7 @@ def _restitution_law(args):
 
 def run_bifurcation(args, model) -> int:
     from impactid._files import StagedFiles
-    from impactid.reports import write_bifurcation
+    from impactid.rigs.flat.figures import write_bifurcation
     from impactid.rigs.flat.simulate import bifurcation
     from impactid.rigs.registry import resolve_rig
 
@@ -126,8 +126,8 @@ def run_bifurcation(args, model) -> int:
 
 def run_restitution(args, model) -> int:
     from impactid._files import StagedFiles
-    from impactid.encoder_impacts import fit_speed_law, restitution_at_speed
     from impactid.io import read_recording
+    from impactid.rigs.flat.encoder_impacts import fit_speed_law, restitution_at_speed
     from impactid.rigs.registry import resolve_rig
 
     if not args.recordings:
@@ -136,7 +136,7 @@ def run_restitution(args, model) -> int:
     check_outputs(args, inputs)
     profile = None
     if args.profile:
-        from impactid.camprofile import load_profile_json
+        from impactid.rigs.flat.camprofile import load_profile_json
 
         profile = load_profile_json(args.profile)
     rig = resolve_rig(args.rig).rig if args.rig else None
@@ -172,15 +172,15 @@ def run_restitution(args, model) -> int:
 
 def _cam_fit_figures(args, fit):
     """The figures of ``cam-fit --plots``: their names and their writer."""
-    from impactid import reports
+    from impactid.rigs.flat import figures
 
     names = ["cam_fit.png"] + (["cam_fit_order.png"] if getattr(fit, "order_table", None) is not None else [])
-    return names, lambda staged: reports.cam_fit_figures(fit, args.plots, staged)
+    return names, lambda staged: figures.cam_fit_figures(fit, args.plots, staged)
 
 
 def run_cam_fit(args, model) -> int:
-    from impactid.camprofile import fit_cam_profile
     from impactid.io import read_recording
+    from impactid.rigs.flat.camprofile import fit_cam_profile
 
     path = recording_paths(args)[0]
     inputs = command_inputs(args, [path])
@@ -215,7 +215,8 @@ def run_cam_fit(args, model) -> int:
 
 
 def run_synth(args, model) -> int:
-    from impactid.synth import SensorModel, synth_flat_encoders
+    from impactid.rigs.flat.synth import synth_flat_encoders
+    from impactid.synth import SensorModel
 
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
     noise = noise_channels(args.noise_channel)

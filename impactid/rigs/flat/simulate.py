@@ -22,8 +22,8 @@ import numpy as np
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.flat import FlatFollowerRig
 from impactid.rigs.flat import kernel as FK
-from impactid.simulate.regimes import _find_period
-from impactid.simulate.runs import DEFAULT_TOLERANCES, Tolerances
+from impactid.simulate.periodicity import find_period
+from impactid.simulate.tolerances import DEFAULT_TOLERANCES, Tolerances
 
 __all__ = ["DEFAULT_RESTITUTION", "EVENT_KINDS", "RPM", "TWO_PI", "V_STICK", "BifurcationResult", "FlatRun",
            "SpeedRestitution", "bifurcation", "pack_flat_rig", "simulate_flat", "strobe_phase_default"]
@@ -294,7 +294,7 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
     samples are kept and classified: ``"contact"`` when the follower never left the cam in them, periodic with
     period k when the stroboscopic states repeat after k samples to ``periodicity_tol`` (angle
     relative to the cam's stroke, rate relative to the largest rate; the test of
-    :func:`impactid.simulate.regimes._find_period`, which also rejects slowly decaying transients),
+    :func:`impactid.simulate.periodicity.find_period`, which also rejects slowly decaying transients),
     ``"irregular"`` otherwise. ``periodicity_tol`` sits far above the integrator's error (rtol
     1e-10) and below the differences between distinct periodic branches.
 
@@ -349,7 +349,7 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
         if releases == 0.0 and impacts == 0.0:
             regime, period = "contact", 1
         else:
-            period = _find_period(angle[i], rate[i], stroke, periodicity_tol, max_period)
+            period = find_period(angle[i], rate[i], stroke, periodicity_tol, max_period)
             regime = "irregular" if period == 0 else ("period-1" if period == 1 else "period-k")
         rows.append({"cam_speed_hz": float(speed), "cam_speed_rpm": float(speed) * 60.0, "restitution": float(rs[i]),
                      "regime": regime, "period_revolutions": int(period), "impacts_per_revolution": impacts,

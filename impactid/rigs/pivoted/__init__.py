@@ -5,13 +5,13 @@ The folder holds the rig's parts, following the data:
 * :mod:`~impactid.rigs.pivoted.parameters`: geometry and forces as pure functions, the
   :class:`PivotedFollowerRig` parameters and the paper's rig :data:`SUNDAR2016`;
 * :mod:`~impactid.rigs.pivoted.kernel`: the compiled event-driven simulator (on the shared DP5 core
-  :mod:`impactid.simulate.dp5`), driven by :mod:`impactid.simulate.runs`.
+  :mod:`impactid.simulate.dp5`), driven by :mod:`impactid.rigs.pivoted.runs`.
 * :mod:`~impactid.rigs.pivoted.commands`: its commands (``impactid estimate``, ``events``, ``regime``,
   ``regime-map``, ``simulate``, and its ``detachment`` and ``synth``).
 
 The measurement model (accelerometer and force channels to per-impact kinematics) is
-:func:`impactid.reconstruct.reconstruct` (``MODEL.measure``, through which the estimate pipeline
-reaches it); the estimators are in :mod:`impactid.estimates`.
+:func:`impactid.rigs.pivoted.reconstruct.reconstruct` (``MODEL.measure``, through which the estimate pipeline
+reaches it); the estimators are in :mod:`impactid.rigs.pivoted.estimates`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
@@ -40,32 +40,38 @@ __all__ = ["MODEL", "MODEL_NAME", "SUNDAR2016", "PivotedFollowerRig", "free_torq
 
 
 def _simulate(*args, **kwargs):
-    """:func:`impactid.simulate.runs.simulate` (imported on use: reading a rig file does not load numba)."""
-    from impactid.simulate.runs import simulate
+    """:func:`impactid.rigs.pivoted.runs.simulate` (imported on use: reading a rig file does not load numba)."""
+    from impactid.rigs.pivoted.runs import simulate
 
     return simulate(*args, **kwargs)
 
 
 def _detachment(rig, **options):
-    from impactid.simulate.regimes import detachment_speed
+    from impactid.rigs.pivoted.regimes import detachment_speed
 
     return detachment_speed(rig, **options).cam_speed_hz
 
 
 def _measure(recording, **options):
-    from impactid.reconstruct import reconstruct
+    from impactid.rigs.pivoted.reconstruct import reconstruct
 
     return reconstruct(recording, **options)
 
 
+def _example(refresh: bool = False):
+    from impactid.rigs.pivoted.example import example_recording_paths
+
+    return example_recording_paths(refresh)
+
+
 def _pack_rig(rig):
-    from impactid.simulate.runs import pack_rig
+    from impactid.rigs.pivoted.runs import pack_rig
 
     return pack_rig(rig)
 
 
 def _pack_law(law):
-    from impactid.simulate.runs import pack_law
+    from impactid.rigs.pivoted.runs import pack_law
 
     return pack_law(law)
 
@@ -92,5 +98,6 @@ MODEL = RigModel(
     kernel="impactid.rigs.pivoted.kernel",
     simulate=_simulate,
     measure=_measure,
+    example=_example,
     commands=COMMANDS,
 )

@@ -125,7 +125,7 @@ def _law(args):
 
 
 def run_regime(args, model) -> int:
-    from impactid.simulate.regimes import classify_regime, detachment_speed
+    from impactid.rigs.pivoted.regimes import classify_regime, detachment_speed
 
     rig, operating = _simulated_rig(args, "regime")
     speed = cam_speed(args, operating)
@@ -145,7 +145,7 @@ def run_regime(args, model) -> int:
 
 
 def run_detachment(args, model) -> int:
-    from impactid.simulate.regimes import detachment_speed
+    from impactid.rigs.pivoted.regimes import detachment_speed
 
     rig = args.resolved_rig.rig
     if args.e_over_rc is not None:
@@ -161,8 +161,8 @@ def run_detachment(args, model) -> int:
 
 def run_regime_map(args, model) -> int:
     from impactid._files import StagedFiles
-    from impactid.reports import write_regime_map
-    from impactid.simulate.regimes import regime_map
+    from impactid.rigs.pivoted.figures import write_regime_map
+    from impactid.rigs.pivoted.regimes import regime_map
 
     rig, _ = _simulated_rig(args, "regime-map")
     points = len(args.e_over_rc_values) * len(args.cam_speeds)
@@ -191,7 +191,7 @@ def run_regime_map(args, model) -> int:
 
 def run_simulate(args, model) -> int:
     from impactid._files import StagedFiles
-    from impactid.simulate import simulate
+    from impactid.rigs.pivoted.runs import simulate
 
     rig, operating = _simulated_rig(args, "simulate")
     speed = cam_speed(args, operating)
@@ -220,7 +220,8 @@ def run_simulate(args, model) -> int:
 
 def run_synth(args, model) -> int:
     from impactid.contact import HuntCrossley, Restitution
-    from impactid.synth import SensorModel, synth_pivoted
+    from impactid.rigs.pivoted.synth import synth_pivoted
+    from impactid.synth import SensorModel
 
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
     noise = noise_channels(args.noise_channel)
@@ -245,7 +246,7 @@ def run_events(args, model) -> int:
     from impactid._files import StagedFiles
     from impactid.events import find_events
     from impactid.io import check_memory, read_recording
-    from impactid.reconstruct import reconstruct
+    from impactid.rigs.pivoted.reconstruct import reconstruct
 
     path = recording_paths(args)[0]
     inputs = command_inputs(args, [path])
@@ -274,16 +275,17 @@ def run_events(args, model) -> int:
 
 def _estimate_figures(args, result):
     """The figures of ``estimate --plots``: their names and their writer."""
-    from impactid import reports
+    from impactid.rigs.pivoted import figures
 
     names = ["hysteresis.png"] + (["restitution.png"] if result.restitution is not None else []) + [
         "landscape.png", "residuals.png"]
-    return names, lambda staged: reports.estimate_figures(result, args.plots, staged)
+    return names, lambda staged: figures.estimate_figures(result, args.plots, staged)
 
 
 def run_estimate(args, model) -> int:
-    from impactid.estimates import C_BOUNDS, EstimationWarning, estimate
     from impactid.io import check_memory
+    from impactid.rigs.pivoted.estimates import C_BOUNDS, EstimationWarning
+    from impactid.pipeline import estimate
 
     paths = recording_paths(args, several=True)
     lo, hi = args.n_range
@@ -353,7 +355,7 @@ def _kinematics_arguments(anchor: str) -> tuple[Argument, ...]:
                                                                          "paper)"}
 
     def anchors():
-        from impactid.reconstruct import ANCHORS
+        from impactid.rigs.pivoted.reconstruct import ANCHORS
 
         return {"default": anchor, "choices": list(ANCHORS),
                 "help": f"integration-constant anchor (default {anchor}; return-time is the paper's)"}

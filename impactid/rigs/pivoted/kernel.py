@@ -31,7 +31,7 @@ Method
   velocity (friction direction) during a contact.
 
 Status codes are returned instead of raising (numba cannot raise rich errors from parallel
-loops); :mod:`impactid.simulate.runs` turns them into :class:`~impactid.errors.SimulationError`.
+loops); :mod:`impactid.rigs.pivoted.runs` turns them into :class:`~impactid.errors.SimulationError`.
 """
 
 from __future__ import annotations

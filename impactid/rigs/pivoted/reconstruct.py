@@ -73,9 +73,9 @@ from impactid.events import EventTable, EventWarning, find_events
 from impactid.io import Recording, RecordingError
 from impactid.rigs._params import RigParameters
 from impactid.rigs.pivoted import MODEL_NAME, spring_force
+from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
+from impactid.rigs.pivoted.runs import pack_rig
 from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator
-from impactid.simulate.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
-from impactid.simulate.runs import pack_rig
 
 __all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
            "EDGE_SNR", "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "EventKinematics",

@@ -13,7 +13,7 @@ the recording's operating point with the fitted law, sampled at the recording's 
 noise level, and put through the same pipeline; the relative error of the reconstructed
 ``alpha_m`` against the simulation's own maximum angle is the bias (the calibration recording has
 at least :data:`MIN_EVENTS` impacts, so that the bias is measured to a small fraction of the
-per-event scatter). Where the bias is significant, :func:`impactid.estimates.estimate` corrects the
+per-event scatter). Where the bias is significant, :func:`impactid.pipeline.estimate` corrects the
 measured ``alpha_m`` by it, fits again, and widens the intervals by half the correction plus two
 standard errors of the calibration (the calibration reproduced 50 to 100 % of the actual bias in
 the envelope validation; an anti-alias filter the calibration cannot know of accounts for the rest).
@@ -109,8 +109,9 @@ def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase"
     seed : seed of the simulated noise.
     """
     from impactid.events import find_events
-    from impactid.reconstruct import reconstruct
-    from impactid.synth import SensorModel, synth_pivoted
+    from impactid.rigs.pivoted.reconstruct import reconstruct
+    from impactid.rigs.pivoted.synth import synth_pivoted
+    from impactid.synth import SensorModel
 
     sampling = recording if isinstance(recording, RecordingSampling) else RecordingSampling.of(recording)
     fraction = sampling.noise_fraction

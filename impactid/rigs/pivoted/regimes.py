@@ -38,7 +38,8 @@ from scipy import optimize
 from impactid.contact import HuntCrossley, Restitution
 from impactid.errors import SimulationInputError
 from impactid.rigs.pivoted import PivotedFollowerRig
-from impactid.simulate.runs import DEFAULT_TOLERANCES, Tolerances, simulate
+from impactid.rigs.pivoted.runs import DEFAULT_TOLERANCES, Tolerances, simulate
+from impactid.simulate.periodicity import find_period
 
 __all__ = ["SEED_S2_LAW", "DetachmentResult", "Law", "RegimeResult", "classify_regime", "detachment_speed",
            "follower_kinematics", "regime_map", "required_contact_force"]
@@ -88,32 +89,6 @@ class RegimeResult:
             if isinstance(value, float) and not math.isfinite(value):
                 d[key] = None
         return d
-
-
-def _find_period(alpha: np.ndarray, rate: np.ndarray, alpha_scale: float, tol: float, max_period: int) -> int:
-    """Smallest k such that the stroboscopic states repeat after k samples.
-
-    Two tests must pass: neighbours ``k`` apart agree, and samples a large multiple ``M`` of ``k``
-    apart (at least half the record) agree too. The second test rejects slowly decaying
-    transients, whose neighbours differ by only ``A r^j (r^k - 1)`` when the decay ratio per
-    revolution ``r`` is close to 1.
-    """
-    rate_scale = max(float(np.max(np.abs(rate))), 1e-12)
-    n = alpha.size
-    for k in range(1, max_period + 1):
-        if n < 4 * k:
-            break
-        big = (n // 2 // k) * k
-        ok = True
-        for lag in (k, big):
-            da = np.max(np.abs(alpha[lag:] - alpha[:-lag])) / alpha_scale
-            dr = np.max(np.abs(rate[lag:] - rate[:-lag])) / rate_scale
-            if not (da < tol and dr < tol):
-                ok = False
-                break
-        if ok:
-            return k
-    return 0
 
 
 def classify_regime(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law | None = None, *,
@@ -173,7 +148,7 @@ def classify_regime(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law | Non
             k = 1
             regime = "contact"
         else:
-            k = _find_period(pair_a, pair_r, stroke, periodicity_tol, max_period)
+            k = find_period(pair_a, pair_r, stroke, periodicity_tol, max_period)
             regime = "irregular" if k == 0 else ("period-1" if (k == 1 and in_window.size == window) else "period-k")
         # a decaying transient can look periodic with a multiple of its true period: accept k > 1
         # only when the lag-1 differences have stopped shrinking between the two windows

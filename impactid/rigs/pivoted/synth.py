@@ -11,18 +11,17 @@ are discarded, and the exact dense output is sampled at the sample instants
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-import impactid
+from impactid._version import __version__
 from impactid.contact import HuntCrossley, Restitution
 from impactid.errors import SimulationInputError
 from impactid.io import CHANNEL_UNITS, Recording
 from impactid.rigs.pivoted import PivotedFollowerRig, spring_force
-from impactid.simulate import simulate
-from impactid.simulate.runs import DEFAULT_TOLERANCES, observables
+from impactid.rigs.pivoted.runs import DEFAULT_TOLERANCES, observables, simulate
+from impactid.synth.recording import SyntheticRecording
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, antialias_decimate, apply_sensors, encoder_counts
 
 __all__ = ["ALL_CHANNELS", "DEFAULT_SAMPLE_RATE_HZ", "DEFAULT_SETTLE_S", "SyntheticRecording", "pivot_reaction",
@@ -39,18 +38,6 @@ MAX_SETTLE_S = 3600.0
 _DECIMATION_MARGIN = 64
 
 ALL_CHANNELS = ("accel_tangential", "force_x", "force_y", "cam_angle")
-
-
-@dataclass(frozen=True)
-class SyntheticRecording:
-    """A synthetic recording and what generated it (the future ``/truth`` group)."""
-
-    recording: Recording
-    truth: dict[str, Any]
-
-    def write(self, path) -> Any:
-        """Write to HDF5 with the ``/truth`` group (atomically)."""
-        return impactid.io.write_hdf5(self.recording, path, truth=self.truth)
 
 
 def pivot_reaction(rig: PivotedFollowerRig, alpha, alpha_dot, alpha_ddot, contact_force, friction_force):
@@ -181,14 +168,14 @@ def synth_pivoted(rig: PivotedFollowerRig, cam_speed_hz: float, law: HuntCrossle
         rig=rig if mu == rig.mu else rig.replace(mu=mu),  # the file describes the rig that was simulated
         operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e},
         start_time_s=settle_s,
-        provenance=(f"impactid.synth.synth_pivoted: {type(law).__name__} at {cam_speed_hz} Hz, e/r_c = "
+        provenance=(f"impactid.rigs.pivoted.synth.synth_pivoted: {type(law).__name__} at {cam_speed_hz} Hz, e/r_c = "
                     f"{rig.e / rig.r_c:.6g}, settle {settle_s} s",))
     in_window = (contacts["t_start"] >= t_samples[0]) & (contacts["t_start"] < t_samples[0] + duration)
     window = contacts[in_window]
     apexes = run.apexes[(run.apexes["t"] >= t_samples[0]) & (run.apexes["t"] < t_samples[0] + duration)]
     truth: dict[str, Any] = {
-        "generator": "impactid.synth.synth_pivoted",
-        "impactid_version": impactid.__version__,
+        "generator": "impactid.rigs.pivoted.synth.synth_pivoted",
+        "impactid_version": __version__,
         "model": "S2" if isinstance(law, HuntCrossley) else "S3",
         "cam_speed_hz": float(cam_speed_hz),
         "e_over_rc": rig.e / rig.r_c,

@@ -21,11 +21,13 @@ import os
 from pathlib import Path
 
 from impactid.contact import HuntCrossley
+from impactid.io import Recording, read_recording
 from impactid.rigs.pivoted import SUNDAR2016
-from impactid.synth.pivoted import synth_pivoted
+from impactid.rigs.pivoted.synth import synth_pivoted
 from impactid.synth.sensors import SensorModel
 
-__all__ = ["EXAMPLE_POINTS", "EXAMPLE_RECIPE", "cache_dir", "example_recording_path", "example_recording_paths"]
+__all__ = ["EXAMPLE_POINTS", "EXAMPLE_RECIPE", "cache_dir", "example_recording", "example_recording_path",
+           "example_recording_paths"]
 
 #: What the two example recordings share; its hash and each point name the cached files.
 EXAMPLE_RECIPE = {
@@ -52,6 +54,11 @@ def example_recording_paths(refresh: bool = False) -> list[Path]:
 def example_recording_path(refresh: bool = False) -> Path:
     """Path of the first example recording (e/r_c = 0.05, 16 Hz)."""
     return _example_path(0, refresh)
+
+
+def example_recording() -> Recording:
+    """The first example recording, read like any user file (its ``/truth`` is not loaded)."""
+    return read_recording(example_recording_path())
 
 
 def _example_path(k: int, refresh: bool) -> Path:

@@ -16,7 +16,7 @@ changes more sharply). This module measures that claim on rig F.
 
 Profiles are callables with the protocol ``profile(theta_c, derivatives=k)`` (``k = 0`` returns the
 angle, ``k = 1, 2`` a tuple up to that derivative), e.g. ``FlatFollowerRig.contact_angle`` (the
-eccentric cam, A-17) and :class:`impactid.camprofile.GaussianSumProfile`; they must be
+eccentric cam, A-17) and :class:`impactid.rigs.flat.camprofile.GaussianSumProfile`; they must be
 ``2 pi``-periodic.
 
 Errors are relative, as Lee (2005) defines them: the error divided by the largest magnitude of the
@@ -44,8 +44,8 @@ import pandas as pd
 from scipy import optimize
 from scipy.interpolate import CubicSpline
 
-from impactid.camprofile import GaussianSumProfile
 from impactid.rigs.flat import ALZATE2007, FlatFollowerRig
+from impactid.rigs.flat.camprofile import GaussianSumProfile
 
 __all__ = [
     "DEFAULT_NODES",

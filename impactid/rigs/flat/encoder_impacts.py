@@ -6,7 +6,7 @@ from impacting runs between 130 and 155 rpm. This module measures it from encode
 
 Relative motion
     ``d(t) = theta_f(t) - theta_hat(theta_c(t) + offset)`` with ``theta_hat`` a cam profile: a
-    fitted :class:`~impactid.camprofile.GaussianSumProfile` (``impactid cam-fit``) or the rig's
+    fitted :class:`~impactid.rigs.flat.camprofile.GaussianSumProfile` (``impactid cam-fit``) or the rig's
     analytic contact angle (A-17). The follower can never be inside the cam, so ``d >= 0`` and
     ``d = 0`` while it rides the cam; ``offset`` (the cam-encoder zero relative to the profile's
     convention) is the value that puts the riding samples on ``d = 0`` (:func:`align_profile`).
@@ -44,11 +44,11 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from impactid.camprofile import encoder_step
 from impactid.errors import ImpactidError
 from impactid.io import Recording
 from impactid.results import FitResult, Parameter
 from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
+from impactid.rigs.flat.camprofile import encoder_step
 
 __all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
            "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
@@ -78,7 +78,7 @@ class EncoderImpactWarning(UserWarning):
 
 
 def _count(angle) -> float:
-    """Encoder count of a channel [rad] (:func:`impactid.camprofile.encoder_step`), 0 if not quantised."""
+    """Encoder count of a channel [rad] (:func:`impactid.rigs.flat.camprofile.encoder_step`), 0 if not quantised."""
     step = encoder_step(angle)
     return 0.0 if step is None else float(step)
 
@@ -155,7 +155,7 @@ def relative_motion(recording: Recording, profile=None, offset: float | None = N
     """Relative motion ``theta_f - theta_hat(theta_c + offset)`` of a rig F encoder recording.
 
     ``profile`` is any callable ``theta_hat(theta_c, derivatives=0|1|2)`` (a fitted
-    :class:`~impactid.camprofile.GaussianSumProfile`); default the rig's analytic A-17.
+    :class:`~impactid.rigs.flat.camprofile.GaussianSumProfile`); default the rig's analytic A-17.
     ``offset`` [rad] defaults to the fitted alignment (:func:`align_profile`).
     """
     raw_c = np.asarray(recording.channels.get("cam_angle", np.empty(0)), dtype=float)

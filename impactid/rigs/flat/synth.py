@@ -13,11 +13,11 @@ import math
 
 import numpy as np
 
-import impactid
+from impactid._version import __version__
 from impactid.errors import SimulationInputError
 from impactid.io import CHANNEL_UNITS, Recording
 from impactid.rigs.flat import FlatFollowerRig
-from impactid.synth.pivoted import SyntheticRecording
+from impactid.synth.recording import SyntheticRecording
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, apply_sensors, encoder_counts
 
 __all__ = ["DEFAULT_CAM_PPR", "DEFAULT_FLAT_SAMPLE_RATE_HZ", "DEFAULT_FOLLOWER_PPR", "synth_flat_encoders"]
@@ -83,11 +83,11 @@ def synth_flat_encoders(rig: FlatFollowerRig, cam_speed_hz: float, duration: flo
     recording = Recording(
         channels=measured, sample_rate_hz=sample_rate_hz, units={k: CHANNEL_UNITS[k] for k in measured},
         rig=rig, operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e},
-        provenance=(f"impactid.synth.synth_flat_encoders: permanent contact at {cam_speed_hz * 60:.6g} rpm"
+        provenance=(f"impactid.rigs.flat.synth.synth_flat_encoders: permanent contact at {cam_speed_hz * 60:.6g} rpm"
                     + (f" after a {spin_up_s:g} s spin-up" if spin_up_s > 0.0 else ""),))
     truth = {
-        "generator": "impactid.synth.synth_flat_encoders",
-        "impactid_version": impactid.__version__,
+        "generator": "impactid.rigs.flat.synth.synth_flat_encoders",
+        "impactid_version": __version__,
         "model": "rig F permanent contact (A-17)",
         "cam_speed_hz": float(cam_speed_hz),
         "spin_up_s": float(spin_up_s),

@@ -1,6 +1,6 @@
 """Residuals between measured impact events and their S1 simulations (docs/rig_p.md).
 
-Every reconstructed event (:mod:`impactid.reconstruct`) is replayed by the compiled simulator
+Every reconstructed event (:mod:`impactid.rigs.pivoted.reconstruct`) is replayed by the compiled simulator
 from its measured onset state ``alpha(0), alpha_dot(0), Theta(0)`` through the contact and the
 free flight to the measured next onset ``t_e``, for each trial law ``(beta, n)`` (S1). The
 residuals per event are
@@ -36,9 +36,9 @@ import numpy as np
 
 from impactid.errors import ImpactidError
 from impactid.io import RecordingError
-from impactid.reconstruct import Reconstruction
 from impactid.rigs.pivoted import PivotedFollowerRig
-from impactid.simulate.runs import DEFAULT_TOLERANCES, BatchResult, Tolerances, simulate_events
+from impactid.rigs.pivoted.reconstruct import Reconstruction
+from impactid.rigs.pivoted.runs import DEFAULT_TOLERANCES, BatchResult, Tolerances, simulate_events
 
 __all__ = ["FAILED_SIMULATION_RESIDUAL", "RESIDUALS", "EventSet", "force_misfit", "loop_area", "residual_name"]
 
@@ -123,7 +123,7 @@ class EventSet:
 
     @classmethod
     def from_reconstruction(cls, recon: Reconstruction, source: str | None = None) -> EventSet:
-        """Collect the events of a :class:`~impactid.reconstruct.Reconstruction` with finite onset states."""
+        """Collect the events of a :class:`~impactid.rigs.pivoted.reconstruct.Reconstruction` with finite onset states."""
         tab = recon.table
         source = source or (recon._recording.source if recon._recording is not None else None) or "recording"
         states = tab[["alpha_onset", "alpha_dot_onset", "theta_onset"]].to_numpy(dtype=float)
@@ -178,7 +178,7 @@ class EventSet:
 
     def scale_alpha_m(self, factor: float) -> EventSet:
         """The same events with the measured ``alpha_m`` multiplied by ``factor`` (a bias correction,
-        :mod:`impactid.calibration`)."""
+        :mod:`impactid.rigs.pivoted.calibration`)."""
         from dataclasses import replace
 
         return replace(self, alpha_m=self.alpha_m * float(factor))
@@ -235,7 +235,7 @@ class EventSet:
         shapes ``(k, m)``, ``(k, m, 2)`` and ``(k, m)`` for ``k`` trials and ``m`` events; a failed run
         has the penalty residual and a zero derivative, an event without a residual NaN in both, and
         a run whose sliding velocity reversed during a contact NaN derivatives (see
-        :func:`~impactid.simulate.runs.simulate_events`).
+        :func:`~impactid.rigs.pivoted.runs.simulate_events`).
         """
         return self._evaluate(trials, residual, tolerances, sensitivities=True)
 

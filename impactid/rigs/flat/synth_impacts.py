@@ -4,7 +4,7 @@ The rig F simulator (:func:`impactid.rigs.flat.simulate.simulate_flat`) runs fro
 ``theta_c = 0``; the first ``settle_revolutions`` cam revolutions are discarded and the exact dense
 output is sampled at ``t_k = settle + k / sample_rate_hz`` (the recording keeps the simulation
 clock, so the impact times in ``/truth`` are on the recording's time axis). The encoders count whole
-pulses as in :func:`impactid.synth.flat.synth_flat_encoders`, the cam encoder from an unknown zero.
+pulses as in :func:`impactid.rigs.flat.synth.synth_flat_encoders`, the cam encoder from an unknown zero.
 """
 
 from __future__ import annotations
@@ -13,13 +13,13 @@ import math
 
 import numpy as np
 
-import impactid
+from impactid._version import __version__
 from impactid.errors import SimulationInputError
 from impactid.io import CHANNEL_UNITS, Recording
 from impactid.rigs.flat import FlatFollowerRig
 from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, SpeedRestitution, simulate_flat
-from impactid.synth.flat import DEFAULT_CAM_PPR, DEFAULT_FLAT_SAMPLE_RATE_HZ, DEFAULT_FOLLOWER_PPR
-from impactid.synth.pivoted import SyntheticRecording
+from impactid.rigs.flat.synth import DEFAULT_CAM_PPR, DEFAULT_FLAT_SAMPLE_RATE_HZ, DEFAULT_FOLLOWER_PPR
+from impactid.synth.recording import SyntheticRecording
 from impactid.synth.sensors import NO_SENSOR_ERRORS, SensorModel, apply_sensors, encoder_counts
 
 __all__ = ["DEFAULT_SETTLE_REVOLUTIONS", "synth_flat_impacting"]
@@ -68,11 +68,11 @@ def synth_flat_impacting(rig: FlatFollowerRig, cam_speed_hz: float, duration: fl
     recording = Recording(
         channels=measured, sample_rate_hz=sample_rate_hz, units={k: CHANNEL_UNITS[k] for k in measured},
         rig=rig, operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e}, start_time_s=settle,
-        provenance=(f"impactid.synth.synth_flat_impacting: {cam_speed_hz * 60:.6g} rpm, r = {run.restitution:.6g}",))
+        provenance=(f"impactid.rigs.flat.synth_impacts.synth_flat_impacting: {cam_speed_hz * 60:.6g} rpm, r = {run.restitution:.6g}",))
     events = run.events[run.events["t"] >= settle]
     truth = {
-        "generator": "impactid.synth.synth_flat_impacting",
-        "impactid_version": impactid.__version__,
+        "generator": "impactid.rigs.flat.synth_impacts.synth_flat_impacting",
+        "impactid_version": __version__,
         "model": "rig F impacting, restitution law (A-10..A-17)",
         "cam_speed_hz": float(cam_speed_hz),
         "restitution": float(run.restitution),

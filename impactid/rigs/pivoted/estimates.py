@@ -3,7 +3,7 @@
 Contact damping
 ---------------
 The estimate minimises the paper's objective, the **mean residual over events** ``J(beta, n)``
-(``|lambda1|`` by default; :mod:`impactid.residuals`), pooling the events of every recording
+(``|lambda1|`` by default; :mod:`impactid.rigs.pivoted.residuals`), pooling the events of every recording
 given (a joint fit over operating points).
 
 Search coordinates. ``beta`` and ``n`` trade off along a long curved valley: a change of ``n``
@@ -63,12 +63,12 @@ import pandas as pd
 from scipy import interpolate, optimize
 
 from impactid.errors import ImpactidError, SimulationError
-from impactid.residuals import EventSet, residual_name
 from impactid.results import FitResult, Parameter
+from impactid.rigs.pivoted.residuals import EventSet, residual_name
 
 __all__ = ["ALIKE_SPREAD", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "CALIBRATION_THRESHOLD", "C_BOUNDS", "METHODS",
            "N_BOUNDS", "RESIDUAL_FLOOR", "SEPARABILITY_WIDTH", "ContactDampingResult", "DampingEstimate", "Estimate",
-           "EstimationWarning", "Landscape", "Progress", "RestitutionEstimate", "RestitutionResult", "estimate",
+           "EstimationWarning", "Landscape", "Progress", "RestitutionEstimate", "RestitutionResult",
            "fit_contact_damping", "fit_restitution", "objective_landscape", "reference_indentation"]
 
 #: Default search bounds: damping at the reference indentation ``c`` [N s/m] and exponent ``n``.
@@ -389,7 +389,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     landscape : also compute the 41 x 41 objective landscape over the bounds (for plots).
     progress : callback ``(stage, fraction)`` for a progress display.
     systematic : a known systematic uncertainty of the residual (e.g. half a calibrated pipeline
-        bias, :mod:`impactid.calibration`): the indifference level of the intervals is at least this.
+        bias, :mod:`impactid.rigs.pivoted.calibration`): the indifference level of the intervals is at least this.
     residual_floor : the residual's noise floor (default :data:`RESIDUAL_FLOOR` of the residual); the
         indifference level of the intervals is at least this.
     separability_width : widest interval of ``n`` with which ``beta, n`` count as separable.
@@ -568,7 +568,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
 def _failure_note(obj: _Objective, notes: list[str]) -> None:
     """Say how many S1 runs with trial laws could not be simulated (penalised, not fatal)."""
     if obj.n_failed:
-        from impactid.residuals import FAILED_SIMULATION_RESIDUAL
+        from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL
 
         notes.append(f"{obj.n_failed} of {obj.n_simulations} S1 runs with trial laws could not be simulated "
                      f"(step budget or step-size underflow); each counted as a residual of "
@@ -933,7 +933,7 @@ class Estimate:
     warnings: tuple[str, ...] = ()
     provenance: tuple[str, ...] = ()
     #: per recording, the pipeline's alpha_m bias measured on the model's own recording
-    #: (:mod:`impactid.calibration`), when the estimate was calibrated
+    #: (:mod:`impactid.rigs.pivoted.calibration`), when the estimate was calibrated
     calibration: tuple[dict, ...] = ()
     #: the options of the :class:`~impactid.pipeline.Pipeline` that made the estimate
     pipeline: dict = field(default_factory=dict)
@@ -992,33 +992,3 @@ class Estimate:
 #: Calibrated pipeline biases of alpha_m below this are left uncorrected (the noise-free pipeline's
 #: own level at 204.8 kHz, a few 1e-6; half the lambda1 residual floor).
 CALIBRATION_THRESHOLD = 0.5 * RESIDUAL_FLOOR["lambda1"]
-
-
-def estimate(recordings, *, residual: str = "lambda1", fix_n: float | None = None, method: str = "least-squares",
-             grid: tuple[int, int] = (41, 21), rig=None, integration: str = "rk", anchor: str = "cam-phase",
-             c_bounds=C_BOUNDS, n_bounds=N_BOUNDS, landscape: bool = False,
-             progress: Progress | None = None, calibrate: bool = True) -> Estimate:
-    """Read, segment and reconstruct recordings, then estimate ``beta, n`` and the restitution laws.
-
-    A thin call on :class:`impactid.pipeline.Pipeline` (which holds every option of the job and is
-    recorded in the result's provenance): ``estimate(recs, **options)`` is
-    ``Pipeline(**options).run(recs, rig=rig, progress=progress)``.
-
-    Parameters
-    ----------
-    recordings : one or several :class:`~impactid.io.Recording` objects or paths (several: joint fit).
-    residual, fix_n, method, grid, c_bounds, n_bounds, landscape : see :func:`fit_contact_damping`.
-    rig : overrides the recordings' rig: rig parameters (e.g. :data:`~impactid.rigs.SUNDAR2016`), or the path of
-        a TOML rig file, whose ``[operating]`` table also supplies or overrides the operating point.
-    integration, anchor : per-event kinematics methods (:func:`impactid.reconstruct.reconstruct`).
-    progress : callback ``(stage, fraction)`` for a progress display.
-    calibrate : measure the pipeline's bias of alpha_m on the model's own recording at the first
-        estimate and, where it matters, correct it and fit again (:mod:`impactid.calibration`;
-        lambda1 only).
-    """
-    from impactid.pipeline import Pipeline
-
-    pipeline = Pipeline(residual=residual, fix_n=fix_n, method=method, grid=tuple(grid), integration=integration,
-                        anchor=anchor, c_bounds=tuple(c_bounds), n_bounds=tuple(n_bounds), landscape=landscape,
-                        calibrate=calibrate)
-    return pipeline.run(recordings, rig=rig, progress=progress)
