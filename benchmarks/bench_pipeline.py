@@ -23,9 +23,9 @@ import numpy as np
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import find_events
 from impactid.rigs.pivoted.reconstruct import ANCHORS, reconstruct
+from impactid.rigs.pivoted.synth import synth_pivoted
 from impactid.signal import INTEGRATORS
 from impactid.synth import SensorModel
-from impactid.rigs.pivoted.synth import synth_pivoted
 
 LAW = HuntCrossley(24.7e9, 1.5)
 

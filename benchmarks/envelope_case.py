@@ -90,8 +90,8 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from impactid.rigs.pivoted.estimates import C_BOUNDS, _Objective, fit_contact_damping, reference_indentation  # noqa: E402
 from impactid.pipeline import estimate  # noqa: E402
+from impactid.rigs.pivoted.estimates import C_BOUNDS, _Objective, fit_contact_damping, reference_indentation  # noqa: E402
 from impactid.rigs.pivoted.reconstruct import reconstruct  # noqa: E402
 from impactid.rigs.pivoted.residuals import EventSet  # noqa: E402
 from impactid.synth.sensors import SensorModel, apply_sensors  # noqa: E402
@@ -381,7 +381,8 @@ def main(argv=None) -> int:
     parser.add_argument("--scales", type=float, nargs="+", default=[1.0, 0.5, 0.25])
     parser.add_argument("--keep-all", action="store_true")
     parser.add_argument("--calibration", action="store_true",
-                        help="the pipeline bias impactid.rigs.pivoted.calibration measures at the true law, per recording, "
+                        help="the pipeline bias impactid.rigs.pivoted.calibration measures at the true law, per "
+                             "recording, "
                              "against the actual mean alpha_m error")
     parser.add_argument("--joint-oracle", nargs="+", default=[], metavar="SET",
                         help="joint fits (uncalibrated) on oracle event sets of both recordings: measured, "
@@ -394,11 +395,13 @@ def main(argv=None) -> int:
     parser.add_argument("--anchor-margin", type=int, default=None, metavar="SAMPLES",
                         help="experiment: start the return-time anchor's free flight this many samples after the "
                              "detected separation and end it this many samples before the next onset "
-                             "(impactid.rigs.pivoted.reconstruct.ANCHOR_MARGIN, default 8; the start is the later of this and "
+                             "(impactid.rigs.pivoted.reconstruct.ANCHOR_MARGIN, default 8; the start is the later of "
+                             "this and "
                              "--anchor-delay)")
     parser.add_argument("--anchor-delay", type=float, default=None, metavar="SECONDS",
                         help="experiment: the return-time anchor's free flight starts this long after the detected "
-                             "separation (impactid.rigs.pivoted.reconstruct.ANCHOR_SEPARATION_DELAY, default 1.2e-3; 0 gives "
+                             "separation (impactid.rigs.pivoted.reconstruct.ANCHOR_SEPARATION_DELAY, default 1.2e-3; "
+                             "0 gives "
                              "the anchoring of the validation runs before the fix, 8 samples)")
     parser.add_argument("--anchor", default="cam-phase", help="anchor of the reconstructions and fits (experiment)")
     parser.add_argument("--residual", default="lambda1", help="residual of the --fit/--joint/--seeds fits (experiment)")
@@ -491,8 +494,8 @@ def main(argv=None) -> int:
             if args.joint_oracle:
                 oracles.append(oracle_sets(es, tr))
             if args.calibration:
-                from impactid.rigs.pivoted.calibration import pipeline_bias
                 from impactid.contact import HuntCrossley
+                from impactid.rigs.pivoted.calibration import pipeline_bias
 
                 bias, _ = _quiet(pipeline_bias, r, HuntCrossley(case.beta, case.n))
                 actual = event_table(recon, tr)["alpha_m_err"]

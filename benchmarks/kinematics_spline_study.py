@@ -25,17 +25,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from impactid.reports import save_figure_atomic, write_csv_atomic
+from impactid.rigs.flat import ALZATE2007
 from impactid.rigs.flat.cam_kinematics import (
     DEFAULT_NODES,
+    analytic_follower_kinematics,
     convergence_order,
-    follower_kinematics,
     revised_nose_profile,
     spline_error_study,
     spline_follower_kinematics,
 )
-from impactid.reports import save_figure_atomic, write_csv_atomic
 from impactid.rigs.pivoted.figures import plot_kinematics_spline_study
-from impactid.rigs.flat import ALZATE2007
 
 COLUMNS = ["nodes", "node_spacing_deg", "max_rel_error_velocity", "rms_rel_error_velocity",
            "max_rel_error_acceleration", "rms_rel_error_acceleration", "theta_c_max_error_acceleration"]
@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> None:
     omega = 130.0 * 2.0 * math.pi / 60.0
     tc = 1.0
     for label, p in profiles.items():
-        t_an = _best(lambda p=p: follower_kinematics(p, tc, omega))
+        t_an = _best(lambda p=p: analytic_follower_kinematics(p, tc, omega))
         print(f"  {label:30s} analytic {t_an * 1e6:9.1f} us")
         for nodes in (1000, 10_000):
             t_sp = _best(lambda p=p, nodes=nodes: spline_follower_kinematics(p, tc, omega, nodes))

@@ -23,11 +23,11 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from impactid import SUNDAR2016, HuntCrossley, Restitution  # noqa: E402
-from impactid.rigs.pivoted.estimates import fit_restitution  # noqa: E402
 from impactid.pipeline import estimate  # noqa: E402
+from impactid.rigs.pivoted.estimates import fit_restitution  # noqa: E402
 from impactid.rigs.pivoted.reconstruct import reconstruct  # noqa: E402
-from impactid.rigs.pivoted.residuals import EventSet  # noqa: E402
 from impactid.rigs.pivoted.regimes import classify_regime  # noqa: E402
+from impactid.rigs.pivoted.residuals import EventSet  # noqa: E402
 from impactid.synth import SensorModel, synth_pivoted  # noqa: E402
 
 BETA, N = 24.7e9, 1.5

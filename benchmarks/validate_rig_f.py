@@ -22,10 +22,10 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+from impactid.rigs.flat import ALZATE2007 as RIG  # noqa: E402
 from impactid.rigs.flat.cam_kinematics import revised_nose_profile, spline_error_study  # noqa: E402
 from impactid.rigs.flat.camprofile import ALZATE2007_CAM, compare_profiles, fit_cam_profile  # noqa: E402
 from impactid.rigs.flat.encoder_impacts import fit_speed_law, restitution_at_speed  # noqa: E402
-from impactid.rigs.flat import ALZATE2007 as RIG  # noqa: E402
 from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
 from impactid.rigs.flat.synth import synth_flat_encoders  # noqa: E402
 from impactid.rigs.flat.synth_impacts import synth_flat_impacting  # noqa: E402

@@ -5,8 +5,8 @@ recording fitted alone and the recordings of one rig fitted jointly. :func:`run_
 job on a ``dask.distributed`` cluster (or serially in this process) and keeps every finished part:
 
 * **The task graph.** Per recording, one *prepare* task reads the file, finds the impacts and
-  reconstructs them (:meth:`impactid.pipeline.Pipeline.prepare`); its product (the event set and
-  reconstruction without the samples: a few kB per impact, picklable) feeds the recording's own fit
+  measures them (:meth:`impactid.pipeline.Pipeline.prepare`; rig P: the event set and reconstruction);
+  its product (without the samples: a few kB per impact, picklable) feeds the recording's own fit
   and every joint fit of a group that holds the recording, so that no reconstruction is computed
   twice. Per recording one *single* fit (n fixed at 1.5 unless the campaign says otherwise), per
   group one *joint* fit of its recordings.
@@ -15,8 +15,8 @@ job on a ``dask.distributed`` cluster (or serially in this process) and keeps ev
   impactid version. File digests are cached in the output folder by (path, size, modification time),
   so that a rerun does not read large files again.
 * **Outputs**, all written atomically (a temporary file renamed into place, permissions from the
-  umask): ``fits/<key>.json`` per fit as soon as it finishes (status, reason, the estimate of
-  :meth:`impactid.rigs.pivoted.estimates.Estimate.to_dict`); ``prepared/<key>.pkl`` per prepared recording (the
+  umask): ``fits/<key>.json`` per fit as soon as it finishes (status, reason, the estimate as the
+  rig's :attr:`~impactid.rigs.base.Estimator.to_dict` writes it); ``prepared/<key>.pkl`` per prepared recording (the
   cache of the joint fits; delete it freely); at the end the summary table ``campaign.parquet`` and
   ``campaign.csv`` (one row per fit; rebuilt from the JSON files by :func:`summary_table`).
 * **Reruns.** A fit whose ``fits/<key>.json`` holds a finished estimate is not run again (reported
@@ -31,6 +31,10 @@ job on a ``dask.distributed`` cluster (or serially in this process) and keeps ev
   files of identical content: its impacts would count twice) or recordings of different rigs.
 * **Folders.** A folder's recordings are grouped by rig (:func:`rig_groups`): the recordings whose
   headers name the same rig model and parameters (but the eccentricity) are fitted jointly.
+* **Rigs.** A campaign runs the estimate of one rig model (:attr:`CampaignSpec.model`: the campaign
+  file's ``[campaign] model``, a folder's recordings' model, else the registry's default): its
+  options are checked against that rig's estimate (:attr:`impactid.rigs.base.Estimator.options`),
+  and a recording of another rig is a failed part known without a task.
 
 The campaign file and the folder form: :data:`FORMAT_HELP` (docs/formats.md).
 """
@@ -49,7 +53,7 @@ import tomllib
 import traceback
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -59,7 +63,9 @@ from impactid._files import StagedFiles, atomic_write, same_file
 from impactid._version import __version__
 from impactid.commandline import json_text
 from impactid.errors import ImpactidError
-from impactid.pipeline import Pipeline, PreparedRecording, _estimable
+from impactid.pipeline import Pipeline, PreparedRecording, _estimable, rig_estimator
+from impactid.rigs.base import OptionError
+from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, PLUGINS, estimable_models
 
 __all__ = ["FORMAT_HELP", "OPERATING_RIG_PARAMETERS", "CampaignError", "CampaignResult", "CampaignSpec", "FitJob",
            "FitOutcome", "PrepareJob", "PrepareOutcome", "RecordingSpec", "RigHeader", "fit_task", "load_campaign",
@@ -77,13 +83,12 @@ SINGLE_DEFAULTS = {"fix_n": 1.5}
 HASH_CHUNK = 1 << 22
 HASH_CACHE = ".impactid-hashes.json"
 TABLE_NAME = "campaign"
+#: The rig model whose estimate a campaign runs when neither its file nor its folder's recordings say.
+DEFAULT_MODEL = DEFAULT_EXAMPLE_MODEL
 
 _RECORDING_KEYS = {"path", "name", "group", "rig", "cam_speed_hz", "e_over_rc"}
 _TOP_KEYS = {"campaign", "options", "single", "joint", "recording"}
-_CAMPAIGN_KEYS = {"name", "out", "single_fits"}
-_PIPELINE_KEYS = {f.name for f in fields(Pipeline)}
-#: Options that change the prepared product (the others change only the fits).
-_PREPARE_OPTIONS = ("integration", "anchor")
+_CAMPAIGN_KEYS = {"name", "out", "single_fits", "model"}
 
 
 #: The campaign file, as ``impactid campaign --help`` shows it.
@@ -103,10 +108,12 @@ The campaign file (TOML; paths relative to its folder):
     name = "rig P, March 2026"
     out = "results"          # output folder (--out overrides)
     single_fits = true       # fit every recording alone (default true)
+    model = "pivoted-follower"   # the rig model whose estimate the fits run (the
+                             # default; e.g. "drop-impact": its options below)
 
-    [options]                # options of every fit (impactid.Pipeline: residual,
-    residual = "lambda1"     # method, integration, anchor, n_bounds, calibrate, ...)
-    method = "least-squares"
+    [options]                # options of every fit: the rig's estimate options
+    residual = "lambda1"     # (impactid.Pipeline; rig P: residual, method, integration,
+    method = "least-squares" # anchor, n_bounds, calibrate, ...)
 
     [single]                 # the per-recording fits, over [options] (default fix_n = 1.5)
     fix_n = 1.5
@@ -128,9 +135,10 @@ The campaign file (TOML; paths relative to its folder):
 A folder instead of a campaign file: every recording in it (*.h5, *.hdf5, *.csv; not in
 sub-folders) is fitted alone, and the recordings of each rig jointly: those whose files name the
 same rig model and parameters (but the eccentricity e), two or more to a group (group "all" when
-that is every recording, else the model's name, e.g. "pivoted-follower"). A group that names one
-recording twice (one file, or two files of identical content), or recordings of different rigs,
-is a failed joint fit with the reason, as is a recording whose rig cannot be fitted; the others
+that is every recording, else the model's name, e.g. "pivoted-follower"); the fits run the
+estimate of its recordings' rig model. A group that names one recording twice (one file, or two
+files of identical content), or recordings of different rigs, is a failed joint fit with the
+reason, as is a recording whose rig cannot be fitted or is not the campaign's model; the others
 stand, and these failures cost no preparation.
 """
 
@@ -189,6 +197,8 @@ class CampaignSpec:
     joint : the pipeline of the joint fits.
     source : the campaign file or folder it was read from (None when built in code).
     out : the output folder the campaign file names, or None.
+    model : the rig model whose estimate the fits run; the pipelines hold every option of it
+        (:meth:`impactid.pipeline.Pipeline.bind`).
     """
 
     name: str
@@ -197,8 +207,17 @@ class CampaignSpec:
     joint: Pipeline = field(default_factory=Pipeline)
     source: Path | None = None
     out: Path | None = None
+    model: str = DEFAULT_MODEL
 
     def __post_init__(self) -> None:
+        _check_model(self._where(), self.model)
+        for name in ("single", "joint"):
+            pipeline = getattr(self, name)
+            if pipeline is not None:
+                try:
+                    object.__setattr__(self, name, pipeline.bind(self.model))
+                except OptionError as exc:
+                    raise CampaignError(f"{self._where()}: [{name}]: {exc}") from None
         names = [r.name for r in self.recordings]
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
@@ -230,11 +249,20 @@ class CampaignSpec:
         return files
 
 
-def _pipeline(where: str, table: str, options: dict) -> Pipeline:
-    unknown = sorted(set(options) - _PIPELINE_KEYS)
-    if unknown:
-        raise CampaignError(f"{where}: [{table}]: unknown option(s) {', '.join(unknown)} (known: "
-                            f"{', '.join(sorted(_PIPELINE_KEYS))})")
+def _check_model(where: str, model: Any) -> None:
+    """Refuse a campaign model that is no registered rig model with an estimate."""
+    if not isinstance(model, str) or model not in PLUGINS:
+        raise CampaignError(f"{where}: [campaign]: model must be a rig model name (one of {', '.join(PLUGINS)}), "
+                            f"got {model!r}")
+    able = estimable_models()
+    if model not in able:
+        raise CampaignError(f"{where}: [campaign]: impactid estimates no contact law from {model!r} recordings (model "
+                            f"must be one of {', '.join(able)})")
+
+
+def _pipeline(where: str, table: str, options: dict, model: str) -> Pipeline:
+    """The pipeline of a table of the campaign file: every option of ``model``'s estimate, the table's
+    given (an unknown option or a refused value names the table)."""
     values = dict(options)
     if isinstance(values.get("fix_n"), str):
         if values["fix_n"].strip().lower() != "free":
@@ -244,7 +272,7 @@ def _pipeline(where: str, table: str, options: dict) -> Pipeline:
         if isinstance(values.get(key), list):
             values[key] = tuple(values[key])
     try:
-        pipeline = Pipeline(**values)
+        pipeline = Pipeline(model=model, **values)
     except (TypeError, ValueError) as exc:
         raise CampaignError(f"{where}: [{table}]: {exc}") from None
     if pipeline.fix_n is not None and isinstance(pipeline.fix_n, bool):
@@ -303,13 +331,15 @@ def load_campaign(path: str | os.PathLike[str]) -> CampaignSpec:
         raise CampaignError(f"{where}: [campaign]: unknown key(s) {', '.join(unknown)} (known: "
                             f"{', '.join(sorted(_CAMPAIGN_KEYS))})")
     base = path.parent
+    model = head.get("model", DEFAULT_MODEL)
+    _check_model(where, model)
     options = data.get("options", {})
     single_fits = head.get("single_fits", True)
     if not isinstance(single_fits, bool):
         raise CampaignError(f"{where}: [campaign]: single_fits must be true or false, got {single_fits!r}")
-    single = _pipeline(where, "single", {**SINGLE_DEFAULTS, **options, **data.get("single", {})}) if single_fits \
-        else None
-    joint = _pipeline(where, "joint", {**options, **data.get("joint", {})})
+    single = _pipeline(where, "single", {**SINGLE_DEFAULTS, **options, **data.get("single", {})}, model) \
+        if single_fits else None
+    joint = _pipeline(where, "joint", {**options, **data.get("joint", {})}, model)
     entries = data.get("recording", [])
     if not isinstance(entries, list) or not all(isinstance(e, dict) for e in entries):
         raise CampaignError(f"{where}: recordings are given as [[recording]] tables")
@@ -337,7 +367,7 @@ def load_campaign(path: str | os.PathLike[str]) -> CampaignSpec:
     if out is not None and (not isinstance(out, str) or not out.strip()):
         raise CampaignError(f"{where}: [campaign]: out must be a folder name, got {out!r}")
     return CampaignSpec(name=name, recordings=tuple(recordings), single=single, joint=joint, source=path,
-                        out=(base / out) if out else None)
+                        out=(base / out) if out else None, model=model)
 
 
 def _from_folder(folder: Path) -> CampaignSpec:
@@ -347,8 +377,11 @@ def _from_folder(folder: Path) -> CampaignSpec:
     recordings = [RecordingSpec(name=p.stem, path=p) for p in files]
     groups = rig_groups(recordings)
     member_of = {name: group for group, names in groups.items() for name in names}
+    # the estimate of the folder's rig model (of the one model among its recordings that impactid fits)
+    models = {h.model for h in (read_rig_header(r) for r in recordings) if h is not None and h.estimable}
+    model = next(iter(models)) if len(models) == 1 else DEFAULT_MODEL
     return CampaignSpec(name=folder.name, recordings=tuple(replace(r, group=member_of.get(r.name))
-                                                           for r in recordings), source=folder)
+                                                           for r in recordings), source=folder, model=model)
 
 
 def rig_groups(recordings: Sequence[RecordingSpec]) -> dict[str, tuple[str, ...]]:
@@ -480,12 +513,15 @@ def _hdf5_rig_attributes(path: Path) -> dict[str, Any]:
 
 def _not_estimable(spec: RecordingSpec, header: RigHeader) -> str:
     """Why a recording of this rig cannot be fitted (the reason :mod:`impactid.pipeline` gives)."""
-    from impactid.pipeline import ESTIMATED_LAW
-    from impactid.rigs.registry import MODELS
+    able = " or ".join(repr(m) for m in estimable_models()) or "no"
+    return (f"{spec.path}: needs a {able} rig (impactid estimates no contact law from the recordings of this model), "
+            f"the recording's rig is {header.model!r}")
 
-    able = " or ".join(repr(m.name) for m in MODELS.values() if _estimable(m))
-    return (f"{spec.path}: needs a {able} rig (per-impact kinematics for a {ESTIMATED_LAW} law), the recording's rig "
-            f"is {header.model!r}")
+
+def _other_model(spec: RecordingSpec, header: RigHeader, model: str) -> str:
+    """Why a recording of another rig than the campaign's is not fitted."""
+    return (f"{spec.path}: a {header.model!r} recording in a campaign of the {model!r} rig's estimate (its options "
+            f"are that rig's; set [campaign] model, or run each rig's recordings as a campaign of their own)")
 
 
 # ---- content hashes ---------------------------------------------------------------------------------
@@ -564,14 +600,17 @@ class PrepareJob:
     ----------
     key : the task's key (content hash).
     recording : the recording.
-    integration, anchor : the reconstruction's methods (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`).
+    model : the rig model whose estimator prepares it.
+    options : ``(name, value)`` of the options that change the product (the estimator's
+        :attr:`~impactid.rigs.base.Estimator.prepare_options`; rig P: the reconstruction's
+        ``integration`` and ``anchor``); the others are the estimate's defaults.
     cache : the cached product's file (loaded when it holds this key), or None.
     """
 
     key: str
     recording: RecordingSpec
-    integration: str
-    anchor: str
+    model: str
+    options: tuple[tuple[str, Any], ...] = ()
     cache: Path | None = None
 
 
@@ -678,19 +717,22 @@ def prepare_task(job: PrepareJob) -> PrepareOutcome:
         with contextlib.suppress(Exception):
             with job.cache.open("rb") as fh:
                 stored = pickle.load(fh)
-            if isinstance(stored, dict) and stored.get("key") == job.key:
-                return PrepareOutcome(job.key, job.recording.name, stored["prepared"],
+            product = stored.get("prepared") if isinstance(stored, dict) else None
+            # (a product of an older format is made again)
+            if isinstance(product, PreparedRecording) and stored.get("key") == job.key and \
+                    getattr(product, "model", None) == job.model:
+                return PrepareOutcome(job.key, job.recording.name, product,
                                       seconds=time.perf_counter() - t0, cached=True)
     try:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             rec = read_recording_spec(job.recording)
-            pipeline = Pipeline(integration=job.integration, anchor=job.anchor, calibrate=True)
+            pipeline = Pipeline(model=job.model, **dict(job.options))
             prepared = pipeline.prepare(rec, name=job.recording.name, keep_samples=False)
         # the reader's notes on the data (a clipped channel, ...) go with the product into its fits' results
         notes = tuple(dict.fromkeys(" ".join(str(w.message).split()) for w in caught
                                     if w.category.__module__.startswith("impactid")))
-        prepared = replace(prepared, warnings=notes + tuple(m for m in prepared.warnings if m not in notes))
+        prepared = replace(prepared, notes=notes + tuple(m for m in prepared.notes if m not in notes))
         return PrepareOutcome(job.key, job.recording.name, prepared, seconds=time.perf_counter() - t0)
     except Exception as exc:  # noqa: BLE001 - a part that cannot be done does not take the others with it
         return PrepareOutcome(job.key, job.recording.name, None, error=_reason(exc),
@@ -725,7 +767,7 @@ def fit_task(job: FitJob, *prepared: PrepareOutcome) -> FitOutcome:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the estimate's notes are in its result
             estimate = job.pipeline.fit([p.prepared for p in prepared], warn=False)
-            result = estimate.to_dict()
+            result = rig_estimator(job.pipeline.model or prepared[0].prepared.model).to_dict(estimate)
     except Exception as exc:  # noqa: BLE001 - a part that cannot be done does not take the others with it
         reason = _reason(exc)
         if not isinstance(exc, (ImpactidError, MemoryError)):
@@ -815,9 +857,12 @@ def plan(spec: CampaignSpec, out: Path, digests: Callable[[Path], str]) -> tuple
         headers[r.name] = header = read_rig_header(r)
         if header is not None and not header.estimable:
             reasons[r.name] = _not_estimable(r, header)
+        elif header is not None and header.model != spec.model:
+            reasons[r.name] = _other_model(r, header, spec.model)
+    prepare_options = rig_estimator(spec.model).prepare_options
 
     def prepare_key(r: RecordingSpec, pipeline: Pipeline) -> str:
-        opts = {k: getattr(pipeline, k) for k in _PREPARE_OPTIONS}
+        opts = {k: getattr(pipeline, k) for k in prepare_options}
         if r.name not in file_digests:
             key = _key({"task": "prepare", "unreadable": str(r.path), **opts})
         else:
@@ -825,7 +870,7 @@ def plan(spec: CampaignSpec, out: Path, digests: Callable[[Path], str]) -> tuple
         if r.name in reasons:
             unpreparable[key] = PrepareOutcome(key, r.name, None, error=reasons[r.name])
         else:
-            prepares.setdefault(key, PrepareJob(key, r, pipeline.integration, pipeline.anchor,
+            prepares.setdefault(key, PrepareJob(key, r, spec.model, tuple(opts.items()),
                                                 cache=out / "prepared" / f"{key}.pkl"))
         return key
 
@@ -1091,6 +1136,17 @@ def _row(record: dict) -> dict:
         pair = unc.get(name) or [None, None]
         return num(pair[k]) if len(pair) > k else nan
 
+    params = res.get("params") if isinstance(res.get("params"), dict) else {}
+    if params:  # a rig whose estimate is a FitResult (the drop rig's k, beta, n): its parameters
+
+        def value(name: str, k: int | None = None) -> float:
+            entry = params.get(name) or {}
+            return num(entry.get("value") if k is None else (entry.get("interval") or [None, None])[k])
+
+        res = {**res, "beta": value("beta"), "n": value("n"), "impacts_used": (res.get("statistics") or {}).get(
+            "n_impacts"), "warnings": res.get("notes")}
+        unc = {"beta_interval": [value("beta", 0), value("beta", 1)], "n_interval": [value("n", 0), value("n", 1)],
+               "n_fixed": bool((params.get("n") or {}).get("fixed", False))}
     single = record.get("kind") == "single" and len(recs) == 1
     json_path = Path("fits") / f"{record.get('key', '')}.json"
     return {

@@ -1,9 +1,11 @@
 """The ``impactid`` command line. Thin: parses arguments, calls the public API, prints results.
 
 This module builds the parser from the rig registry and holds the environment every command runs
-in (errors, warnings, Ctrl-C and SIGTERM), ``impactid info`` and ``impactid campaign``
-(:mod:`impactid.campaign`). Each registered rig contributes
-its commands (:class:`~impactid.rigs.base.CommandSpec`: rig P's ``estimate``, ``events``,
+in (errors, warnings, Ctrl-C and SIGTERM), ``impactid info``, ``impactid estimate`` (generic: it
+runs :class:`impactid.pipeline.Pipeline` with the estimator of the recordings' rig model, its
+arguments the union of the rigs' :attr:`~impactid.rigs.base.Estimator.arguments`) and ``impactid
+campaign`` (:mod:`impactid.campaign`). Each registered rig contributes
+its commands (:class:`~impactid.rigs.base.CommandSpec`: rig P's ``events``,
 ``regime``, ... in :mod:`impactid.rigs.pivoted.commands`, rig F's in
 :mod:`impactid.rigs.flat.commands`, ...); a command several rigs contribute runs the implementation
 of the rig ``--rig`` names (:func:`impactid.rigs.registry.resolve_rig`: a model name, a preset name
@@ -39,14 +41,21 @@ from impactid._signals import stopping_handler
 from impactid._version import __version__
 from impactid.commandline import (
     UsageError,
+    check_outputs,
+    command_inputs,
+    deliver,
     end_progress_line,
     print_json,
+    progress_bar,
     recording_arguments,
     recording_paths,
     recording_rig,
     rig_help,
+    say_written,
 )
 from impactid.errors import ImpactidError
+from impactid.pipeline import Pipeline, read_recordings, recordings_model, rig_estimator
+from impactid.rigs.registry import estimable_models, estimator
 
 __all__ = ["UsageError", "build_parser", "main"]
 
@@ -129,6 +138,71 @@ def cmd_campaign(args) -> int:
     return 0 if result.ok else 1
 
 
+#: Arguments of ``impactid estimate`` that are no rig's estimate option.
+_ESTIMATE_ARGUMENTS = frozenset({"recordings", "example", "rig", "out", "plots", "json", "progress", "command", "func",
+                                 "option_defaults"})
+
+
+def cmd_estimate(args) -> int:
+    """``impactid estimate``: the estimate of the recordings' rig (:class:`impactid.pipeline.Pipeline`)."""
+    paths = recording_paths(args, several=True)
+    inputs = command_inputs(args, paths)
+    check_outputs(args, inputs)
+    recordings = read_recordings(paths, rig=recording_rig(args))  # sizes checked before anything is read
+    model = recordings_model(recordings)
+    est = rig_estimator(model, recordings[0].source)
+    _refuse_foreign_estimate_options(args, model, est)
+    pipeline = Pipeline(model=model, **est.options_from_arguments(args))
+    progress = progress_bar(args.progress if args.progress is not None else sys.stderr.isatty())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", est.warning)  # the result's notes, printed below
+        result = pipeline.run(recordings, progress=progress)
+    data = est.to_dict(result)
+    data["recordings_read"] = [str(p) for p in paths]
+    deliver(args, data, inputs, est.figures(result, args) if est.figures is not None else None)
+    if args.json:
+        return 0
+    for line in est.summary(result):
+        print(line)
+    say_written(args)
+    return 0
+
+
+def _refuse_foreign_estimate_options(args, model: str, est) -> None:
+    """Refuse an option of another rig's estimate (argparse takes the union of the rigs' options; this
+    rig's estimate would silently ignore it): a value that differs from its default."""
+    own = set(est.argument_dests())
+    defaults = getattr(args, "option_defaults", {})
+    for dest, value in sorted(vars(args).items()):
+        if dest in own or dest in _ESTIMATE_ARGUMENTS or dest not in defaults or value == defaults[dest]:
+            continue
+        owners = [name for name in estimable_models() if dest in estimator(name).argument_dests()]
+        raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'estimate' for the {model!r} rig "
+                         f"(it is an option of the {' and '.join(repr(o) for o in owners)} rig's estimate)")
+
+
+def _add_estimate_command(sub) -> None:
+    """``impactid estimate``: the generic arguments and the union of the rigs' estimate arguments."""
+    estimators = {name: estimator(name) for name in estimable_models()}
+    titles = "; ".join(e.title for e in estimators.values() if e.title)
+    p = sub.add_parser("estimate", help=f"estimate a contact law from recordings of one rig ({titles})",
+                       description="Estimate the contact law of the recordings' rig (their /rig model picks the "
+                                   f"estimate: {', '.join(estimators)}); several recordings: a joint fit. Options of "
+                                   "one rig's estimate are refused for another rig's recordings.")
+    for argument in recording_arguments(several=True):
+        argument.add_to(p)
+    for est in estimators.values():
+        for argument in est.arguments:
+            argument.add_to(p)
+    p.add_argument("--out", metavar="RESULT.json", help="write the result as JSON (atomically)")
+    p.add_argument("--plots", metavar="DIR", help="write figures (rig P: hysteresis, restitution, landscape, "
+                                                  "residuals)")
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="progress bar on stderr (default: when stderr is a terminal)")
+    p.set_defaults(func=cmd_estimate, option_defaults=types.MappingProxyType({a.dest: a.default for a in p._actions}))
+
+
 def _add_campaign_command(sub) -> None:
     from impactid.campaign import FORMAT_HELP
     from impactid.distributed import add_scheduler_arguments
@@ -163,6 +237,7 @@ def build_parser() -> argparse.ArgumentParser:
         argument.add_to(p)
     p.add_argument("--json", action="store_true", help="print JSON")
     p.set_defaults(func=cmd_info)
+    _add_estimate_command(sub)
     _add_campaign_command(sub)
     _add_rig_commands(sub)
     return parser

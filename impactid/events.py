@@ -5,10 +5,11 @@ smooth free-flight acceleration. :func:`find_events` finds the pulses, then refi
 against a local free-flight baseline:
 
 1. **noise floor**: ``sigma`` from the median absolute second difference of the channel
-   (``var(d2) = 6 sigma^2`` for white noise; the smooth free-flight signal contributes almost
-   nothing to a second difference at 204.8 kHz, and contacts are under 1 % of the samples);
-2. **pulse cores**: samples more than ``threshold`` above the channel median (default
-   ``max(10 sigma, 2 % of the largest excursion)``);
+   (:func:`impactid.signal.noise_floor`: ``var(d2) = 6 sigma^2`` for white noise; the smooth
+   free-flight signal contributes almost nothing to a second difference at 204.8 kHz, and contacts
+   are under 1 % of the samples);
+2. **pulse cores**: runs of samples more than ``threshold`` above the channel median (default
+   ``max(10 sigma, 2 % of the largest excursion)``), merged across gaps of up to :data:`CORE_GAP` samples;
 3. **onset** of each pulse: a quadratic free-flight baseline is fitted to the 64 samples that end
    16 samples before the core; the first contact sample is the first of the samples from which
    the deviation stays above ``onset_threshold`` (default ``max(5 sigma, 1e-6 x peak)``). The
@@ -42,10 +43,11 @@ from scipy import optimize
 
 from impactid._scan import extreme_stats
 from impactid.io import CLIP_RUN, Recording, RecordingError
+from impactid.signal import noise_floor, true_runs
 
-__all__ = ["BASELINE_GAP", "BASELINE_LENGTH", "INVERTED_RATIO", "MAX_BASELINE_MOVES", "MIN_SAMPLES", "NOISY_ONSET",
-           "PEAK_TOLERANCE", "PERIOD_TOLERANCE", "EventTable", "EventWarning", "NoImpactsError",
-           "find_events", "noise_floor", "quantisation_step"]
+__all__ = ["BASELINE_GAP", "BASELINE_LENGTH", "CORE_GAP", "INVERTED_RATIO", "MAX_BASELINE_MOVES", "MIN_SAMPLES",
+           "NOISY_ONSET", "PEAK_TOLERANCE", "PERIOD_TOLERANCE", "EventTable", "EventWarning", "NoImpactsError",
+           "find_events"]
 
 #: Samples skipped between a baseline window and the pulse, and the baseline window length.
 BASELINE_GAP = 16
@@ -59,6 +61,8 @@ PEAK_TOLERANCE = 0.03
 NOISY_ONSET = 1e-4
 
 
+#: Pulse cores separated by at most this many samples below the threshold are one pulse.
+CORE_GAP = 3
 #: Fewest samples in which a pulse and its two baseline windows can be found.
 MIN_SAMPLES = 2 * (BASELINE_GAP + BASELINE_LENGTH) + 8
 #: A channel whose largest negative excursion from the median exceeds this many times its largest
@@ -110,40 +114,6 @@ class EventTable:
     def usable(self) -> pd.DataFrame:
         """Rows of the events the per-event kinematics can process."""
         return self.table[self.table["usable"]]
-
-
-def noise_floor(x: np.ndarray) -> float:
-    """Noise standard deviation of a channel: the larger of the white-noise estimate from the median
-    absolute second difference and the quantisation noise ``lsb / sqrt(12)`` of its ADC.
-
-    A quantised channel whose noise is below one code (a 16-24 bit ADC on a clean signal) has most
-    second differences exactly zero, so their median says 0; the code size (the smallest non-zero
-    step between samples) then sets the floor, and a smooth signal is not mistaken for a pulse
-    edge where it merely changes code.
-    """
-    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    white = float(1.4826 * np.median(np.abs(d2)) / math.sqrt(6.0))
-    return max(white, quantisation_step(x) / math.sqrt(12.0))
-
-
-def quantisation_step(x: np.ndarray, sample: int = 200_000) -> float:
-    """Code size of a quantised channel [its units]: the smallest non-zero step between consecutive
-    samples when every step is a whole multiple of it (0 for an unquantised channel)."""
-    steps = np.abs(np.diff(x[: min(x.size, sample)]))
-    steps = steps[steps > 0.0]
-    if steps.size < 16:
-        return 0.0
-    lsb = float(np.min(steps))
-    multiples = steps / lsb
-    if np.max(np.abs(multiples - np.round(multiples))) > 1e-6 * max(1.0, float(np.max(multiples))):
-        return 0.0
-    return lsb
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    padded = np.concatenate(([False], mask, [False])).astype(np.int8)
-    edges = np.flatnonzero(np.diff(padded))
-    return edges[0::2], edges[1::2]  # start (inclusive), end (exclusive)
 
 
 def _baseline(x: np.ndarray, lo: int, hi: int):
@@ -293,12 +263,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     thr = float(threshold) if threshold is not None else max(10.0 * sigma, 0.02 * excursion)
     if not (math.isfinite(thr) and thr > 0.0):
         raise ValueError(f"threshold must be positive and finite, got {threshold!r}")
-    starts, ends = _runs(x - level > thr)
-    # merge cores split by a few noisy samples (one pulse), never across a real free flight
-    if starts.size > 1:
-        keep = np.concatenate(([True], starts[1:] - ends[:-1] > 3))
-        ends = np.concatenate((ends[:-1][keep[1:]], ends[-1:]))
-        starts = starts[keep]
+    # cores split by a few noisy samples are one pulse; never merged across a real free flight
+    starts, ends = true_runs(x - level > thr, max_gap=CORE_GAP)
     saturated = _saturated_extremes(x, lo_x, hi_x)
     rows = []
     for cs, ce in zip(starts, ends):

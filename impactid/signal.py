@@ -1,6 +1,15 @@
-"""Detrending and double integration of sampled acceleration (section 5.1 of Sundar, Dreyer & Singh (2016)).
+"""Signal processing of sampled channels: their noise, quantisation and runs, and the detrending and double
+integration of acceleration (section 5.1 of Sundar, Dreyer & Singh (2016)).
 
-Pure functions on arrays with the sample spacing ``dt`` [s] passed explicitly. The integration
+Pure functions on arrays. Every rig's measurement uses the same three channel statistics:
+
+* :func:`noise_floor`: white-noise standard deviation from the median absolute second difference
+  (and at least the quantisation noise of the channel's code size);
+* :func:`quantisation_step`: the code size of a quantised channel (an ADC's least significant bit,
+  an encoder's count), 0 for a continuous one;
+* :func:`true_runs`: the stretches of a boolean mask (samples above a threshold).
+
+The integrals take the sample spacing ``dt`` [s] explicitly. The integration
 method is chosen by name from :data:`INTEGRATORS` (or given as a callable ``f(y, dt) -> cumulative
 integral`` with the same length as ``y`` and a zero first value); an unknown name raises a
 ValueError listing the valid ones.
@@ -32,9 +41,148 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import integrate
 
-__all__ = ["EDGE_SPAN_SAMPLES", "INTEGRATORS", "EventSpan", "PowerLawEdge", "cumulative_rk4", "cumulative_simpson",
+__all__ = ["EDGE_SPAN_SAMPLES", "INTEGRATORS", "MAD_TO_SIGMA", "MIN_NOISE_SAMPLES", "QUANTISATION_SAMPLES",
+           "QUANTISATION_TOLERANCE", "ZERO_STEP", "EventSpan", "PowerLawEdge", "cumulative_rk4", "cumulative_simpson",
            "cumulative_spectral", "cumulative_trapezoid", "detrend_integrate", "edge_correction",
-           "get_integrator"]
+           "get_integrator", "noise_floor", "quantisation_step", "true_runs"]
+
+# --------------------------------------------------------------------------------------------
+# Channel statistics: quantisation, noise, runs
+# --------------------------------------------------------------------------------------------
+
+#: Samples a channel's code size is looked for in by default (the first ones; enough steps).
+QUANTISATION_SAMPLES = 200_000
+#: Relative tolerance of the quantisation tests: how far (in codes) a step, or a sample, may lie from
+#: the grid, and how far ``period / step`` may lie from a whole number of codes.
+QUANTISATION_TOLERANCE = 1e-6
+#: A step smaller than this fraction of the channel's magnitude (at least 1) is rounding, not a code.
+ZERO_STEP = 1e-12
+#: Median absolute deviation to the standard deviation of a Gaussian.
+MAD_TO_SIGMA = 1.4826
+#: Fewest samples a noise floor is estimated from (below: 0).
+MIN_NOISE_SAMPLES = 5
+
+
+def quantisation_step(x: np.ndarray, *, max_samples: int | None = QUANTISATION_SAMPLES, min_steps: int = 16,
+                      on_grid: bool = False, reject_uniform_motion: bool = False,
+                      period: float | None = None) -> float:
+    """Code size of a quantised channel [the channel's unit]: 0 when the channel is not quantised.
+
+    The candidate code is the smallest non-zero step between consecutive samples (steps below
+    :data:`ZERO_STEP` times the channel's largest magnitude, at least 1, are rounding and count
+    as zero). The channel is quantised when
+
+    * it has at least ``min_steps`` non-zero steps, and
+    * every non-zero step is a whole number of codes, to :data:`QUANTISATION_TOLERANCE` times the
+      largest number of codes (at least 1); or, with ``on_grid``, every *sample* lies within
+      :data:`QUANTISATION_TOLERANCE` codes of the grid ``x[0] + k code`` (stricter: no drift over
+      a long record), and
+    * with ``reject_uniform_motion``, the steps (zero ones included) take at least two different
+      numbers of codes: an encoder sampled faster than it counts stands still between its edges,
+      whereas exact motion at a uniform speed also lies on a grid but moves by the same amount
+      every sample.
+
+    Parameters
+    ----------
+    x : samples of the channel [any unit].
+    max_samples : look only at the first ``max_samples`` samples (None: all of them).
+    min_steps : fewest non-zero steps that can show a code size.
+    on_grid : test every sample's position on the grid instead of every step's size.
+    reject_uniform_motion : return 0 when every step is the same number of codes.
+    period : the channel's period (``2 pi`` [rad] for an angle encoder): when ``period / code`` is
+        within :data:`QUANTISATION_TOLERANCE` (relative) of a whole number ``ppr`` of counts per
+        period, the code is taken as exactly ``period / ppr`` (before the grid test).
+
+    Returns
+    -------
+    float : the code size [the channel's unit], or 0.0 for an unquantised channel.
+    """
+    x = np.asarray(x, dtype=float)
+    if max_samples is not None:
+        x = x[:max_samples]
+    if x.size < 2:
+        return 0.0
+    steps = np.abs(np.diff(x))
+    zero = ZERO_STEP * max(float(np.max(np.abs(x))), 1.0)
+    nonzero = steps[steps > zero]
+    if nonzero.size < max(int(min_steps), 1):
+        return 0.0
+    code = float(np.min(nonzero))
+    if period is not None:
+        per_period = period / code
+        if abs(per_period - round(per_period)) <= QUANTISATION_TOLERANCE * per_period:
+            code = period / round(per_period)
+    if on_grid:
+        position = (x - x[0]) / code
+        if float(np.max(np.abs(position - np.round(position)))) > QUANTISATION_TOLERANCE:
+            return 0.0
+    else:
+        codes = nonzero / code
+        if np.max(np.abs(codes - np.round(codes))) > QUANTISATION_TOLERANCE * max(1.0, float(np.max(codes))):
+            return 0.0
+    if reject_uniform_motion and np.unique(np.rint(steps / code)).size < 2:
+        return 0.0
+    return code
+
+
+def noise_floor(x: np.ndarray, *, subtract_curvature: bool = False, include_quantisation: bool = True) -> float:
+    """White-noise standard deviation of a channel [the channel's unit], from its second differences.
+
+    For white noise of standard deviation ``sigma`` the second difference ``x[k+1] - 2 x[k] + x[k-1]``
+    has variance ``6 sigma^2``, while a signal that is smooth over three samples contributes almost
+    nothing to it; the median absolute second difference (times :data:`MAD_TO_SIGMA`, divided by
+    ``sqrt(6)``) is then ``sigma``, robust to the few samples of a pulse or an edge.
+
+    Parameters
+    ----------
+    x : samples of the channel [any unit].
+    subtract_curvature : take the absolute deviations from the median second difference (the median
+        absolute deviation) instead of from zero: a signal whose curvature over three samples is not
+        negligible against the noise (a slowly sampled swing) does not then count as noise.
+    include_quantisation : return at least the quantisation noise ``code / sqrt(12)`` of the
+        channel's code size (:func:`quantisation_step` with its defaults). A quantised channel
+        whose noise is below one code (a 16-24 bit ADC on a clean signal) has most second
+        differences exactly zero, so their median says 0; the code size then sets the floor, and a
+        smooth signal is not mistaken for a pulse edge where it merely changes code.
+
+    Returns
+    -------
+    float : the noise standard deviation [the channel's unit]; 0.0 with fewer than
+    :data:`MIN_NOISE_SAMPLES` samples.
+    """
+    x = np.asarray(x, dtype=float)
+    if x.size < MIN_NOISE_SAMPLES:
+        return 0.0
+    second = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    centre = np.median(second) if subtract_curvature else 0.0
+    white = float(MAD_TO_SIGMA * np.median(np.abs(second - centre)) / math.sqrt(6.0))
+    if not include_quantisation:
+        return white
+    return max(white, quantisation_step(x) / math.sqrt(12.0))
+
+
+def true_runs(mask: np.ndarray, *, max_gap: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The stretches of True in a boolean mask, as start (inclusive) and stop (exclusive) indices.
+
+    Parameters
+    ----------
+    mask : 1-D boolean array (e.g. the samples above a threshold).
+    max_gap : stretches separated by at most ``max_gap`` False samples are merged into one (0: none
+        are merged), e.g. a pulse split by a few noisy samples.
+
+    Returns
+    -------
+    starts, stops : int64 arrays of equal length, ascending: ``mask[starts[i]:stops[i]]`` is all
+    True (up to the merged gaps) and the samples just outside it are False.
+    """
+    padded = np.concatenate(([0], np.asarray(mask, dtype=bool).astype(np.int8), [0]))
+    edges = np.diff(padded)
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    if max_gap > 0 and starts.size > 1:
+        separate = starts[1:] - stops[:-1] > max_gap  # a stretch that starts a run of its own
+        starts, stops = starts[np.concatenate(([True], separate))], stops[np.concatenate((separate, [True]))]
+    return starts, stops
+
 
 def cumulative_trapezoid(y: np.ndarray, dt: float) -> np.ndarray:
     """Cumulative trapezoidal integral of ``y`` sampled every ``dt`` [s]; first value 0."""

@@ -71,8 +71,8 @@ def s2_second_point():
 def s2_noisy():
     """S2 at e/r_c 0.2, 16 Hz, 4 s, with 0.5 % noise on every channel (seed 3)."""
     from impactid import SUNDAR2016
-    from impactid.synth import SensorModel
     from impactid.rigs.pivoted.synth import synth_pivoted
+    from impactid.synth import SensorModel
 
     return synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 16.0, seed_law_s2(), 4.0,
                          sensors=SensorModel(noise=0.005, seed=3))

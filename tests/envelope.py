@@ -31,8 +31,8 @@ import numpy as np
 
 from impactid import SUNDAR2016, HuntCrossley, Restitution
 from impactid.errors import ImpactidError
-from impactid.synth import SensorModel
 from impactid.rigs.pivoted.synth import synth_pivoted
+from impactid.synth import SensorModel
 
 try:
     from . import reference_recordings as RR

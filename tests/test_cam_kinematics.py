@@ -8,19 +8,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.cam_kinematics import (
     DEFAULT_NODES,
     ProfileSum,
+    analytic_follower_kinematics,
     convergence_order,
     displacement_spline,
     flat_follower_cam_curvature_radius,
-    follower_kinematics,
     revised_nose_profile,
     spline_error_study,
     spline_follower_kinematics,
 )
 from impactid.rigs.flat.camprofile import GaussianSumProfile
-from impactid.rigs.flat import ALZATE2007 as RIG
 
 OMEGA = 130.0 * 2.0 * math.pi / 60.0  # [rad/s]
 ANGLES = np.linspace(0.0, 2.0 * math.pi, 97)
@@ -64,7 +64,7 @@ def test_analytic_derivatives_match_complex_step(profile, reference, step):
     cs2 = _central8(lambda x: _complex_step(reference, x), ANGLES, step)
     np.testing.assert_allclose(t2, cs2, rtol=0, atol=1e-10 * np.abs(cs2).max())
     # the kinematics at constant cam speed are the chain rule of these
-    f, fd, fdd = follower_kinematics(profile, ANGLES, OMEGA)
+    f, fd, fdd = analytic_follower_kinematics(profile, ANGLES, OMEGA)
     np.testing.assert_array_equal(f, th)
     np.testing.assert_allclose(fd, OMEGA * cs1, rtol=0, atol=1e-13 * OMEGA * np.abs(cs1).max())
     np.testing.assert_allclose(fdd, OMEGA**2 * cs2, rtol=0, atol=1e-10 * OMEGA**2 * np.abs(cs2).max())
@@ -129,9 +129,9 @@ def test_study_matches_the_definition_and_is_independent_of_cam_speed():
     frame = spline_error_study(RIG.contact_angle, nodes=[n], points_per_interval=m)
     grid = 2.0 * math.pi * np.arange(n * m) / (n * m)
     fine = np.linspace(0.0, 2.0 * math.pi, 400_001)
-    _, v_ref, a_ref = follower_kinematics(RIG.contact_angle, fine, OMEGA)
+    _, v_ref, a_ref = analytic_follower_kinematics(RIG.contact_angle, fine, OMEGA)
     _, v_s, a_s = spline_follower_kinematics(RIG.contact_angle, grid, OMEGA, n)
-    _, v_a, a_a = follower_kinematics(RIG.contact_angle, grid, OMEGA)
+    _, v_a, a_a = analytic_follower_kinematics(RIG.contact_angle, grid, OMEGA)
     row = frame.iloc[0]
     err_a = np.abs(a_s - a_a) / np.abs(a_ref).max()
     err_v = np.abs(v_s - v_a) / np.abs(v_ref).max()

@@ -35,8 +35,8 @@ OPTIONS = '[options]\ncalibrate = false\n'
 @pytest.fixture(scope="session")
 def recordings(tmp_path_factory) -> dict[str, Path]:
     """Two 0.3 s recordings of rig P at two operating points (0.2 % noise) and a corrupt file."""
-    from impactid.synth import SensorModel
     from impactid.rigs.pivoted.synth import synth_pivoted
+    from impactid.synth import SensorModel
 
     folder = tmp_path_factory.mktemp("campaign_recordings")
     paths = {}

@@ -1,5 +1,7 @@
 """Gaussian-sum cam profiles (Alzate et al. 2007, eq. 1): model, data selection, fit, validation and CLI.
 
+The encoder signal handling the selection builds on is tested in tests/rigs/flat/test_encoders.py.
+
 Tolerances and why (rig F of Alzate et al. (2007) at 110 rpm, encoders 5000 / 10 000 counts per revolution,
 20 kHz sampling):
 
@@ -20,6 +22,12 @@ import math
 import numpy as np
 import pytest
 
+from impactid.cli import main
+from impactid.covariance import CONDITION_LIMIT
+from impactid.errors import ImpactidError
+from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
+from impactid.results import FitResult
+from impactid.rigs.flat import ALZATE2007
 from impactid.rigs.flat.camprofile import (
     ALZATE2007_CAM,
     C_MAX,
@@ -27,19 +35,11 @@ from impactid.rigs.flat.camprofile import (
     CamProfileResult,
     GaussianSumProfile,
     compare_profiles,
-    encoder_edges,
-    encoder_step,
     fit_cam_profile,
     gaussian_sum,
     load_profile_json,
     select_cam_profile_data,
 )
-from impactid.cli import main
-from impactid.covariance import CONDITION_LIMIT
-from impactid.errors import ImpactidError
-from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
-from impactid.results import FitResult
-from impactid.rigs.flat import ALZATE2007
 from impactid.rigs.flat.synth import synth_flat_encoders
 from tests.golden import assert_matches_golden
 
@@ -116,28 +116,6 @@ def test_gaussian_sum_matches_the_formula():
     # periodic: the images over every revolution near theta (the far ones are below 1e-300)
     images = 2 * math.pi * np.arange(-12, 13)
     np.testing.assert_allclose(gaussian_sum(theta, a, b, c), direct(images), rtol=1e-14)
-
-
-# ---- encoders -----------------------------------------------------------------------------------
-
-
-def test_encoder_step_and_edges_are_exact():
-    q = 2 * math.pi / 1000
-    t = np.arange(400) / 1000.0
-    angle = 0.003 + 1.7 * t + 0.4 * t * t  # smooth, forward
-    floor = np.floor(angle / q) * q
-    assert encoder_step(floor) == pytest.approx(q, rel=1e-12)
-    assert encoder_step(floor + np.random.default_rng(1).normal(0, 1e-4, t.size)) is None
-    assert encoder_step(0.3 + 1e-3 * np.arange(100)) is None  # exact uniform motion is on a grid, not counts
-    times, values, index = encoder_edges(floor, t, q, "floor")
-    # each edge is a count boundary crossed between the samples before and after it
-    np.testing.assert_allclose(values / q, np.round(values / q), atol=1e-9)
-    crossing = np.interp(values, angle, t)  # the exact crossing times
-    assert np.all((crossing > t[index - 1]) & (crossing <= t[index]))
-    assert np.max(np.abs(times - crossing)) <= 0.5 / 1000.0 + 1e-12
-    rounded = np.round(angle / q) * q
-    _, values_r, _ = encoder_edges(rounded, t, q, "round")
-    np.testing.assert_allclose(np.mod(values_r / q, 1.0), 0.5, atol=1e-9)
 
 
 # ---- the fit -----------------------------------------------------------------------------------

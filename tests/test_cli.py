@@ -139,6 +139,20 @@ def test_estimate_bad_input_exits_2(tmp_path, capsys):
     assert "missing.h5" in capsys.readouterr().err
 
 
+def test_estimate_is_the_applications_and_refuses_another_rigs_options(s2_file, tmp_path, capsys):
+    """``impactid estimate`` takes the union of the rigs' estimate options; the recordings' rig model
+    picks the estimate, and an option of another rig's estimate is refused before any fit."""
+    from impactid.rigs.registry import MODELS
+
+    assert all(c.name != "estimate" for model in MODELS.values() for c in model.commands)
+    out = tmp_path / "r.json"
+    assert main(["estimate", str(s2_file), "--speeds", "measured", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("impactid: error: argument --speeds: not an option of 'estimate' for the "
+                          "'pivoted-follower' rig") and "'drop-impact'" in err and err.count("\n") == 1
+    assert not out.exists()
+
+
 def test_estimate_refuses_to_overwrite_its_input(s2_file, capsys):
     before = s2_file.read_bytes()
     assert main(["estimate", str(s2_file), "--fix-n", "1.5", "--out", str(s2_file)]) == 2

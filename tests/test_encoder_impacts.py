@@ -11,6 +11,8 @@ import math
 import numpy as np
 import pytest
 
+from impactid.results import FitResult
+from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.encoder_impacts import (
     EncoderImpactError,
     SpeedLawResult,
@@ -18,8 +20,6 @@ from impactid.rigs.flat.encoder_impacts import (
     relative_motion,
     restitution_at_speed,
 )
-from impactid.results import FitResult
-from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.simulate import SpeedRestitution
 from impactid.rigs.flat.synth import synth_flat_encoders
 from impactid.rigs.flat.synth_impacts import synth_flat_impacting

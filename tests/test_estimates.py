@@ -15,12 +15,18 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from impactid.rigs.pivoted.estimates import ContactDampingResult, EstimationWarning, RestitutionResult, fit_contact_damping, fit_restitution
-from impactid.pipeline import estimate
 from impactid.io import RecordingError
+from impactid.pipeline import estimate
+from impactid.results import FitResult
+from impactid.rigs.pivoted.estimates import (
+    ContactDampingResult,
+    EstimationWarning,
+    RestitutionResult,
+    fit_contact_damping,
+    fit_restitution,
+)
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.residuals import EventSet, loop_area, residual_name
-from impactid.results import FitResult
 
 BETA, N = 24.7e9, 1.5
 

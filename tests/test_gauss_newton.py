@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from impactid.rigs.pivoted.estimates import EstimationWarning, fit_contact_damping
 from impactid.gauss_newton import JACOBIAN_STEP, fit_least_squares, jacobian
+from impactid.rigs.pivoted.estimates import EstimationWarning, fit_contact_damping
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.residuals import EventSet
 

@@ -16,9 +16,9 @@ from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import EventWarning, find_events
 from impactid.io import RecordingError
 from impactid.rigs.pivoted.reconstruct import ANCHORS, reconstruct
+from impactid.rigs.pivoted.synth import synth_pivoted
 from impactid.signal import INTEGRATORS
 from impactid.synth import SensorModel
-from impactid.rigs.pivoted.synth import synth_pivoted
 
 COMBOS = list(itertools.product(INTEGRATORS, ANCHORS))
 

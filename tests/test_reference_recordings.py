@@ -16,8 +16,8 @@ import pytest
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.events import find_events
 from impactid.io import read_recording, read_truth
-from impactid.synth import SensorModel
 from impactid.rigs.pivoted.synth import synth_pivoted
+from impactid.synth import SensorModel
 from tests import reference_recordings as RR
 from tests import reference_rigp as R
 

@@ -1,4 +1,5 @@
-"""Integration methods of the per-impact pipeline against closed-form integrals."""
+"""Signal processing of the core: channel statistics (quantisation, noise, runs) and the integration methods of
+the per-impact pipeline against closed-form integrals."""
 
 from __future__ import annotations
 
@@ -6,7 +7,88 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from impactid.signal import INTEGRATORS, EventSpan, PowerLawEdge, detrend_integrate, edge_correction, get_integrator
+from impactid.signal import (
+    INTEGRATORS,
+    EventSpan,
+    PowerLawEdge,
+    detrend_integrate,
+    edge_correction,
+    get_integrator,
+    noise_floor,
+    quantisation_step,
+    true_runs,
+)
+
+# ---- channel statistics -------------------------------------------------------------------------
+
+LSB = 0.01  # code size of a test ADC
+
+
+def test_quantisation_step_finds_the_code_of_an_adc_and_zero_for_continuous_data():
+    rng = np.random.default_rng(3)
+    continuous = np.sin(np.linspace(0.0, 20.0, 5000)) + rng.normal(0.0, 0.05, 5000)
+    codes = np.round(continuous / LSB) * LSB
+    assert quantisation_step(codes) == pytest.approx(LSB)
+    assert quantisation_step(continuous) == 0.0
+    assert quantisation_step(codes[:10]) == 0.0  # fewer than min_steps changes: no evidence
+    assert quantisation_step(codes[:10], min_steps=2) == pytest.approx(LSB)
+    assert quantisation_step(np.array([1.0])) == 0.0
+    # only the first max_samples are looked at: a continuous tail does not matter
+    assert quantisation_step(np.concatenate((codes, continuous)), max_samples=codes.size) == pytest.approx(LSB)
+    assert quantisation_step(np.concatenate((codes, continuous)), max_samples=None) == 0.0
+
+
+def test_quantisation_step_options_of_an_encoder():
+    q = 2 * np.pi / 1000
+    t = np.arange(400) / 1000.0
+    counts = np.floor((0.003 + 1.7 * t) / q) * q
+    step = quantisation_step(counts, min_steps=2, on_grid=True, reject_uniform_motion=True, period=2 * np.pi)
+    assert step == 2 * np.pi / 1000  # exactly 2 pi / ppr
+    uniform = 0.3 + 1e-3 * np.arange(100)  # exact uniform motion lies on a grid but is not counted
+    assert quantisation_step(uniform, min_steps=2) == pytest.approx(1e-3)
+    assert quantisation_step(uniform, min_steps=2, reject_uniform_motion=True) == 0.0
+    # steps that are whole codes but samples that drift off the grid
+    changes = np.diff(np.rint(counts / q)) * q * (1.0 + 5e-7)  # each change 5e-7 code long...
+    changes[np.flatnonzero(changes)[0]] = q  # ...but the smallest one, which sets the code
+    drifting = counts[0] + np.concatenate(([0.0], np.cumsum(changes)))
+    assert quantisation_step(drifting, min_steps=2) == pytest.approx(q)
+    assert quantisation_step(drifting, min_steps=2, on_grid=True) == 0.0
+
+
+def test_noise_floor_of_white_noise_quantised_and_curved_channels():
+    rng = np.random.default_rng(4)
+    sigma = 0.02
+    noise = rng.normal(0.0, sigma, 200_000)
+    assert noise_floor(noise) == pytest.approx(sigma, rel=0.02)
+    # a clean quantised ramp: no white noise, but the code's quantisation noise lsb / sqrt(12)
+    ramp = np.round(np.linspace(0.0, 5.0, 20_000) / LSB) * LSB
+    assert noise_floor(ramp) == pytest.approx(LSB / np.sqrt(12.0))
+    assert noise_floor(ramp, include_quantisation=False) == 0.0
+    # a steady curvature: every second difference is the same, so only the median absolute deviation
+    # (subtract_curvature) sees no noise
+    parabola = 0.5 * 1e-3 * np.arange(1000.0) ** 2
+    assert noise_floor(parabola, include_quantisation=False) > 1e-4
+    assert noise_floor(parabola, subtract_curvature=True, include_quantisation=False) == pytest.approx(0.0, abs=1e-12)
+    assert noise_floor(np.array([1.0, 2.0, 0.0, 5.0])) == 0.0  # too few samples
+
+
+def test_true_runs_and_merging_across_short_gaps():
+    mask = np.array([1, 1, 0, 0, 1, 0, 0, 0, 0, 1, 1, 1], dtype=bool)
+    starts, stops = true_runs(mask)
+    np.testing.assert_array_equal(starts, [0, 4, 9])
+    np.testing.assert_array_equal(stops, [2, 5, 12])
+    starts, stops = true_runs(mask, max_gap=2)
+    np.testing.assert_array_equal(starts, [0, 9])
+    np.testing.assert_array_equal(stops, [5, 12])
+    starts, stops = true_runs(mask, max_gap=4)
+    np.testing.assert_array_equal(starts, [0])
+    np.testing.assert_array_equal(stops, [12])
+    empty = true_runs(np.zeros(5, dtype=bool))
+    assert empty[0].size == 0 and empty[1].size == 0
+    assert [a.tolist() for a in true_runs(np.ones(3, dtype=bool))] == [[0], [3]]
+
+
+# ---- integration ---------------------------------------------------------------------------------
 
 
 def periodic_case(n):

@@ -9,16 +9,28 @@ A rig model is a frozen record of functions and tables rather than a class hiera
 are pure functions in the rig's modules, and the record says which of them play which role.
 Capabilities a rig does not have are ``None`` (a bouncing ball has no cam to detach from), and
 callers say so to the user instead of failing.
+
+A rig that identifies a contact law from its recordings names its estimation module
+(:attr:`RigModel.estimation`), whose ``ESTIMATOR`` (an :class:`Estimator`) is what the generic
+``impactid estimate`` and :class:`impactid.pipeline.Pipeline` run: the rig's options, their
+command-line arguments, ``prepare`` (one recording) and ``fit`` (the prepared recordings of one
+rig, jointly), and how a result is written and told. :func:`estimate_options` checks a rig's
+options (an unknown one is an :class:`OptionError` naming it and the rig).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-__all__ = ["Argument", "ChannelSpec", "CommandSpec", "ContactLaw", "RigModel"]
+from impactid._version import __version__
+from impactid.errors import ImpactidError
+
+__all__ = ["Argument", "ChannelSpec", "CommandSpec", "ContactLaw", "Estimator", "OptionError", "PreparedRecording",
+           "RigModel", "estimate_options", "options_record", "pipeline_provenance"]
 
 
 @dataclass(frozen=True)
@@ -147,6 +159,10 @@ class RigModel:
     example : ``example(refresh=False)`` -> the paths of the rig's built-in example recordings
         (generated on first use and cached), or None.
     commands : what the rig adds to the command line.
+    estimation : import path of the rig's estimation module, whose ``ESTIMATOR`` (an
+        :class:`Estimator`) identifies the contact law from the rig's recordings (``impactid
+        estimate``, :class:`impactid.pipeline.Pipeline`); a string, as :attr:`kernel`, so that reading
+        a rig file does not load it. None: impactid estimates nothing from this rig's recordings.
     """
 
     name: str
@@ -166,6 +182,7 @@ class RigModel:
     measure: Callable | None = None
     example: Callable | None = None
     commands: Sequence[CommandSpec] = ()
+    estimation: str | None = None
 
     @property
     def default(self):
@@ -178,3 +195,149 @@ class RigModel:
             return self.presets[name]
         except KeyError:
             raise KeyError(f"no preset {name!r} for rig {self.name!r}; presets: {', '.join(self.presets)}") from None
+
+
+# ---- estimation -------------------------------------------------------------------------------------
+
+
+class OptionError(ImpactidError, ValueError):
+    """An estimate option a rig does not have, or a value it does not take (the message names both)."""
+
+
+@dataclass(frozen=True)
+class PreparedRecording:
+    """One recording as a rig's estimator prepared it (:attr:`Estimator.prepare`): what its fits take.
+
+    Attributes
+    ----------
+    model : the rig model of the recording (docs/formats.md model name).
+    source : the recording's name in messages and results (its file, or ``"recording k"``).
+    data : the rig's own product (per-impact kinematics, event sets, observations ...): picklable,
+        so that a campaign can send it to the workers of its fits and cache it.
+    notes : what qualifies the recording, gathered while it was read (a clipped channel, ...),
+        carried into the fits' results ahead of the fits' own notes.
+    """
+
+    model: str
+    source: str
+    data: Any
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class Estimator:
+    """What a rig gives the generic estimate (``impactid estimate``, :class:`impactid.pipeline.Pipeline`,
+    :mod:`impactid.campaign`): its options, the two stages of the job and how a result is delivered.
+
+    The job has two stages so that a campaign can prepare its recordings in parallel, each once, and
+    feed each product to several fits: ``prepare`` one recording, then ``fit`` the prepared
+    recordings of one rig jointly.
+
+    Attributes
+    ----------
+    options : every option of the rig's estimate and its default (name -> default; tuples for pairs,
+        never lists); the options a user gives are checked against these names
+        (:func:`estimate_options`) and recorded in the result.
+    arguments : the command-line arguments of these options for ``impactid estimate`` (their ``dest``
+        need not be the option names: :attr:`from_arguments` maps them). Arguments of several rigs
+        that share a flag are declared alike (the first registered rig's declaration is used).
+    prepare : ``prepare(recording, options, source) -> data``: read and measure one
+        :class:`~impactid.io.Recording` (events, per-impact kinematics, observations) with the full
+        ``options``; ``source`` is the recording's name in messages and results. ``data`` becomes
+        the :attr:`PreparedRecording.data` of the recording.
+    fit : ``fit(prepared, options, progress) -> result``: the estimate from one or several
+        :class:`PreparedRecording` of this rig (several: a joint fit); ``progress`` is None or a
+        callback ``(stage, fraction)``. It never warns: its notes are in the result (:attr:`notes`),
+        including the prepared recordings' :attr:`PreparedRecording.notes`.
+    to_dict : ``to_dict(result) -> dict``: the result as JSON-ready data (SI units), what
+        ``impactid estimate --out/--json`` writes.
+    summary : ``summary(result) -> list of str``: the lines ``impactid estimate`` prints.
+    notes : ``notes(result) -> sequence of str``: the result's notes, issued as :attr:`warning` by
+        :meth:`impactid.pipeline.Pipeline.fit` (each once).
+    warning : the warning category of the notes.
+    figures : ``figures(result, args) -> (names, write)`` or None: the file names of the figures of
+        ``--plots`` and ``write(staged)``, which writes them into ``args.plots`` (a
+        :class:`~impactid._files.StagedFiles` transaction); None: the rig draws no figure.
+    from_arguments : ``from_arguments(args) -> dict``: the options the command line gives (an
+        :class:`argparse.Namespace` holding :attr:`arguments`); raises
+        :class:`~impactid.commandline.UsageError` naming an argument it cannot take. None: every
+        option whose name is an argument's ``dest``.
+    check : ``check(options) -> options``: check (raising ``ValueError`` naming the option) and
+        normalise the values of the full options (e.g. a residual's alias to its name), or None.
+    compact : ``compact(data) -> data``: the prepared data without what only figures need (the
+        samples), small enough to pickle and cache (a campaign's products); None: ``data`` as it is.
+    prepare_options : the options that change what ``prepare`` makes (the others change the fit
+        only): a campaign keys its prepared products by them.
+    title : what the estimate identifies, one line (``--help``).
+    """
+
+    options: Mapping[str, Any]
+    arguments: Sequence[Argument]
+    prepare: Callable[[Any, Mapping[str, Any], str], Any]
+    fit: Callable[[Sequence[PreparedRecording], Mapping[str, Any], Callable[[str, float], None] | None], Any]
+    to_dict: Callable[[Any], dict]
+    summary: Callable[[Any], list[str]]
+    notes: Callable[[Any], Sequence[str]]
+    warning: type[Warning] = UserWarning
+    figures: Callable[[Any, argparse.Namespace], tuple[Sequence[str], Callable[[Any], object]] | None] | None = None
+    from_arguments: Callable[[argparse.Namespace], Mapping[str, Any]] | None = None
+    check: Callable[[Mapping[str, Any]], Mapping[str, Any]] | None = None
+    compact: Callable[[Any], Any] | None = None
+    prepare_options: tuple[str, ...] = ()
+    title: str = ""
+
+    def argument_dests(self) -> tuple[str, ...]:
+        """The ``dest`` of each of :attr:`arguments` (what they set in an :class:`argparse.Namespace`)."""
+        out = []
+        for argument in self.arguments:
+            options = argument.options() if callable(argument.options) else argument.options
+            flag = argument.flags[0]
+            out.append(options.get("dest") or (flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag))
+        return tuple(out)
+
+    def options_from_arguments(self, args: argparse.Namespace) -> dict[str, Any]:
+        """The options ``args`` gives (:attr:`from_arguments`, or the arguments named as options)."""
+        if self.from_arguments is not None:
+            return dict(self.from_arguments(args))
+        return {dest: getattr(args, dest) for dest in self.argument_dests()
+                if dest in self.options and hasattr(args, dest)}
+
+
+def _frozen_value(value: Any) -> Any:
+    """An option's value as the options hold it: lists (from TOML or JSON) as tuples."""
+    return tuple(_frozen_value(v) for v in value) if isinstance(value, list) else value
+
+
+def estimate_options(estimator: Estimator, model: str, given: Mapping[str, Any]) -> dict[str, Any]:
+    """The full options of a rig's estimate: its defaults (:attr:`Estimator.options`) updated by ``given``,
+    checked and normalised (:attr:`Estimator.check`).
+
+    Raises
+    ------
+    OptionError
+        naming the option and the rig ``model``: an option the rig's estimate does not have (with
+        the ones it has), or a value :attr:`Estimator.check` refuses.
+    """
+    unknown = sorted(set(given) - set(estimator.options))
+    if unknown:
+        raise OptionError(f"unknown option(s) {', '.join(unknown)} of the {model!r} rig's estimate (known: "
+                          f"{', '.join(sorted(estimator.options))})")
+    options = {name: _frozen_value(given.get(name, default)) for name, default in estimator.options.items()}
+    if estimator.check is not None:
+        try:
+            options = {name: _frozen_value(value) for name, value in estimator.check(options).items()}
+        except OptionError:
+            raise
+        except (TypeError, ValueError) as exc:
+            raise OptionError(str(exc)) from None
+    return options
+
+
+def options_record(options: Mapping[str, Any]) -> dict[str, Any]:
+    """The options as JSON-ready data (tuples as lists), as results record them."""
+    return {name: (list(value) if isinstance(value, tuple) else value) for name, value in options.items()}
+
+
+def pipeline_provenance(options: Mapping[str, Any]) -> str:
+    """The provenance line of an estimate made with ``options``: the impactid version and the options."""
+    return f"impactid {__version__} pipeline {json.dumps(options_record(options), sort_keys=True)}"

@@ -12,10 +12,11 @@ from typing import Any
 
 from impactid.errors import RigParameterError
 from impactid.rigs._toml import read_toml, write_text_atomic
-from impactid.rigs.base import RigModel
+from impactid.rigs.base import Estimator, RigModel
 
-__all__ = ["DEFAULT_EXAMPLE_MODEL", "MODELS", "PLUGINS", "RIG_MODELS", "ResolvedRig", "is_rig_parameters", "load_rig_toml", "register",
-           "resolve_rig", "rig_by_name", "rig_from_mapping", "rig_model", "save_rig_toml"]
+__all__ = ["DEFAULT_EXAMPLE_MODEL", "MODELS", "PLUGINS", "RIG_MODELS", "ResolvedRig", "estimable_models", "estimator",
+           "is_rig_parameters", "load_rig_toml", "register", "resolve_rig", "rig_by_name", "rig_from_mapping",
+           "rig_model", "save_rig_toml"]
 
 #: The built-in rigs, one line per rig: the docs/formats.md model name, the package whose ``MODEL``
 #: (a :class:`~impactid.rigs.base.RigModel`) it is, and whether the rig is described by TOML rig
@@ -111,6 +112,25 @@ def rig_model(name: str) -> RigModel:
     if name not in PLUGINS:
         raise KeyError(f"unknown rig model {name!r} (known: {', '.join(PLUGINS) or 'none'})")
     return _load(name)
+
+
+def estimator(name: str) -> Estimator | None:
+    """The :class:`~impactid.rigs.base.Estimator` of the rig model ``name`` (the ``ESTIMATOR`` of its
+    :attr:`~impactid.rigs.base.RigModel.estimation` module, imported on first use), or None when
+    impactid estimates nothing from that rig's recordings. Unknown names raise ``KeyError``."""
+    model = rig_model(name)
+    if model.estimation is None:
+        return None
+    found = getattr(importlib.import_module(model.estimation), "ESTIMATOR", None)
+    if not isinstance(found, Estimator):
+        raise RuntimeError(f"{model.estimation}.ESTIMATOR of rig {name!r} is not an Estimator")
+    return found
+
+
+def estimable_models() -> tuple[str, ...]:
+    """The names of the registered rig models with an estimation (loads each rig's package, not its
+    estimation module)."""
+    return tuple(name for name in PLUGINS if rig_model(name).estimation is not None)
 
 
 def is_rig_parameters(value: Any) -> bool:

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from impactid import SUNDAR2016, HuntCrossley
+from impactid.rigs.pivoted import kernel as K
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.residuals import EventSet
-from impactid.rigs.pivoted import kernel as K
 from impactid.rigs.pivoted.runs import Tolerances, pack_law, pack_rig, simulate_events
 
 #: Tight tolerances for the difference quotients: with rtol 1e-12 and a step of 1e-5 in ln beta and

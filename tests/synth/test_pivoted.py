@@ -9,8 +9,8 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley, simulate
 from impactid.rigs.pivoted import spring_force
-from impactid.synth import SensorModel
 from impactid.rigs.pivoted.synth import synth_pivoted
+from impactid.synth import SensorModel
 
 RIG = SUNDAR2016.with_eccentricity_ratio(0.2)
 

@@ -9,8 +9,8 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.io import RecordingWarning
-from impactid.synth import SensorModel
 from impactid.rigs.pivoted.synth import synth_pivoted
+from impactid.synth import SensorModel
 from impactid.synth.sensors import antialias_decimate, apply_sensors, encoder_counts, quantise
 
 RIG = SUNDAR2016.with_eccentricity_ratio(0.25)

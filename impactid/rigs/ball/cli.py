@@ -12,20 +12,26 @@ from __future__ import annotations
 
 import argparse
 import math
+from pathlib import Path
 
+from impactid._files import StagedFiles, check_output
 from impactid.commandline import UsageError
 from impactid.commandline import json_text as _json_text
 from impactid.commandline import nonnegative as _nonnegative
 from impactid.commandline import positive as _positive
 from impactid.commandline import print_json as _print_json
+from impactid.rigs.ball.analysis import analyse_bounces
+from impactid.rigs.ball.figures import figure_names, write_figures
+from impactid.rigs.ball.flight import flight_constants
+from impactid.rigs.ball.laws import LAWS
+from impactid.rigs.ball.parameters import AIR_DENSITY, STANDARD_GRAVITY, Ball, BallParameterError, ball_preset
+from impactid.rigs.ball.readers import check_files, read_bounces
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["command", "run"]
 
 
 def _ball_name(text: str) -> str:
-    from impactid.rigs.ball.parameters import ball_preset
-
     try:
         return ball_preset(text).name
     except ValueError as exc:
@@ -41,8 +47,6 @@ def _drag_coefficient(text: str) -> float:
 
 def _arguments() -> tuple[Argument, ...]:
     """The arguments of ``impactid bounces``."""
-    from impactid.rigs.ball.laws import LAWS
-
     return (
         Argument(("files",), dict(metavar="FILE", nargs="+", help="one drop per file")),
         Argument(("--ball",), dict(type=_ball_name, default=None, metavar="NAME",
@@ -82,8 +86,6 @@ def command() -> CommandSpec:
 
 def _ball(args):
     """The ball of the arguments (None when unknown); usage errors for inconsistent ones."""
-    from impactid.rigs.ball.parameters import AIR_DENSITY, STANDARD_GRAVITY, Ball, BallParameterError, ball_preset
-
     custom = args.mass is not None or args.diameter is not None
     if args.ball is not None and custom:
         raise UsageError("argument --ball: give either --ball or --mass with --diameter, not both")
@@ -117,14 +119,28 @@ def _num(value, fmt=".5g") -> str:
     return "undetermined" if value is None or not math.isfinite(float(value)) else format(float(value), fmt)
 
 
+def _document(result, args, ball: Ball | None) -> dict:
+    """The command's JSON document (``docs/formats.md``, ``docs/bounces.md``): the command's
+    context (``command``, ``files``, ``ball``, ``drag``, ``flight``), the headline numbers of
+    :meth:`~impactid.rigs.ball.analysis.BounceAnalysis.summary` (``constant``, ``linear``,
+    ``viscoelastic``, ``selected``, ``selection``, ``chained``, ``no_drag``, ``bounces``), the
+    result's ``notes``, ``statistics`` and ``provenance``, and under ``result`` the
+    :class:`~impactid.rigs.ball.analysis.BounceAnalysis` itself in the
+    :class:`~impactid.results.FitResult` schema (``FitResult.from_dict(data["result"])`` rebuilds it)."""
+    constants = flight_constants(ball, not args.no_drag, args.gravity)
+    data = {"command": "bounces", "files": [str(f) for f in args.files],
+            "ball": ball.to_dict() if ball is not None else None, "drag": constants.drag,
+            "flight": constants.to_dict()}
+    data.update(result.summary())
+    data["notes"] = list(result.notes)
+    data["statistics"] = dict(result.statistics)
+    data["provenance"] = list(result.provenance)
+    data["result"] = result.to_dict()
+    return data
+
+
 def run(args) -> int:
     """Run ``impactid bounces``; returns the exit code."""
-    from impactid._files import StagedFiles, check_output
-    from impactid.rigs.ball.analysis import analyse_bounces
-    from impactid.rigs.ball.figures import figure_names, write_figures
-    from impactid.rigs.ball.flight import flight_constants
-    from impactid.rigs.ball.readers import check_files, read_bounces
-
     ball = _ball(args)
     inputs = list(args.files)
     check_files(inputs)  # before anything is opened: a named pipe would block the job forever
@@ -135,18 +151,8 @@ def run(args) -> int:
     recordings = [read_bounces(f) for f in args.files]
     result = analyse_bounces(recordings, ball=ball, drag=not args.no_drag, gravity=args.gravity, law=args.law,
                              criterion=args.criterion, chained=not args.no_chained)
-    constants = flight_constants(ball, not args.no_drag, args.gravity)
-    data = {"command": "bounces", "files": [str(f) for f in args.files],
-            "ball": ball.to_dict() if ball is not None else None, "drag": constants.drag,
-            "flight": constants.to_dict()}
-    data.update(result.summary())
-    data["notes"] = list(result.notes)
-    data["statistics"] = dict(result.statistics)
-    data["provenance"] = list(result.provenance)
-    data["result"] = result.to_dict()
+    data = _document(result, args, ball)
     if args.plots:
-        from pathlib import Path
-
         data["plots"] = [str(Path(args.plots) / n) for n in figure_names(result, recordings)]
     if args.out:
         with StagedFiles(protect=inputs) as staged:

@@ -35,6 +35,15 @@ with the full noise covariance ``tau^2 I + sigma_t^2 J J^T`` (``J = de/dt``, whi
 intervals exactly). With fewer than :data:`MIN_CLUSTERS` drops the errors come from a Newey-West
 sandwich within each drop (lag 2), again never below the model-based ones, and a note says so.
 
+The bread ``(X^T W X)^-1`` of every sandwich (and the chained fit's ``(J^T J)^-1``) comes from the
+shared covariance rule, :func:`impactid.covariance.covariance_from_jacobian`: its condition number is
+reported, and beyond :data:`~impactid.covariance.CONDITION_LIMIT` (speeds too close together to tell
+``e0`` from ``gamma``, say) the standard errors are undetermined and a note says why.
+
+Model check: a law that describes ``e(v)`` leaves residuals whose signs, in the order of the impact
+speed, change as often as in a random order; the Wald-Wolfowitz runs test (:func:`runs_check`) flags
+too few runs (:data:`RUNS_Z_LIMIT`) as a lack of fit in the fit's notes.
+
 Model selection by the Gaussian likelihood with the fitted variances: AIC and BIC (the scale
 counted as a parameter); the law with the smallest criterion is selected, except that a simpler
 law within 2 of the best is preferred ("not worth more parameters").
@@ -53,12 +62,17 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
+from scipy.optimize import least_squares, nnls
+from scipy.sparse import lil_matrix
+from scipy.stats import t as student
 
+from impactid.covariance import Covariance, covariance_from_jacobian
 from impactid.results import FitResult, Parameter
-from impactid.rigs.ball.flight import FlightConstants, flight_time, landing_speed
+from impactid.rigs.ball.flight import FlightConstants, flight_time, landing_speed, launch_speed
 
-__all__ = ["LAWS", "MIN_CLUSTERS", "ChainedFit", "Law", "LawFit", "TimingNoise", "fit_chained", "fit_law", "get_law",
-           "law_table", "select_law", "variance_model"]
+__all__ = ["LACK_OF_FIT_FACTOR", "LAWS", "MIN_CLUSTERS", "RUNS_Z_LIMIT", "ChainedFit", "Law", "LawFit", "RunsCheck",
+           "TimingNoise", "fit_chained", "fit_law", "get_law", "law_table", "runs_check", "select_law",
+           "variance_model"]
 
 #: Fewest drops for cluster-robust standard errors.
 MIN_CLUSTERS = 4
@@ -130,7 +144,11 @@ class LawFit(FitResult):
     cluster-robust by drop).
 
     ``details`` holds ``law`` (name), ``formula``, ``covariance`` (of the parameters, as used for
-    the errors), ``covariance_method``, ``dof`` (of the t intervals) and ``speed_range`` [m/s].
+    the errors), ``correlation`` (its correlation matrix), ``covariance_model`` (the model-based
+    one), ``covariance_method``, ``dof`` (of the t intervals) and ``speed_range`` [m/s].
+    ``statistics`` holds the counts, ``scale``, ``loglik``, ``aic``, ``bic``, ``condition_number``
+    (of the column-scaled ``X^T W X``), the runs test (``runs``, ``runs_expected``, ``runs_z``, where
+    it applies) and the speed range.
     """
 
     kind = "restitution-law"
@@ -150,8 +168,6 @@ class LawFit(FitResult):
 
     def predict(self, v, confidence: float | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``e(v)`` and the lower and upper limits of its confidence band (of the mean law)."""
-        from scipy.stats import t as student
-
         law = self.law
         v = np.asarray(v, dtype=float)
         X = law.design(v)
@@ -215,8 +231,6 @@ def variance_model(residuals, gains, *, floor: float = 1e-300) -> tuple[float, f
     restitution (``tau``, the same for every impact) plus the timing noise (``sigma_t`` [s], one per
     event, reaching ``e_k`` through its gain ``g_k = |de_k/dt|^2`` [s^-2]). Fitted to the squared
     residuals by non-negative least squares. Returns ``(tau, sigma_t)``."""
-    from scipy.optimize import nnls
-
     r2 = np.asarray(residuals, dtype=float) ** 2
     g = np.asarray(gains, dtype=float)
     if not (np.all(np.isfinite(r2)) and np.all(np.isfinite(g))):  # never hand NaN or inf to the solver
@@ -230,7 +244,282 @@ def variance_model(residuals, gains, *, floor: float = 1e-300) -> tuple[float, f
     return math.sqrt(tau2), math.sqrt(s2)
 
 
-def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | None = None,
+# ---- per-impact fit: one job each ----------------------------------------------------------------
+
+#: A law whose residuals, ordered by impact speed, change sign so rarely that the number of runs lies
+#: this many standard deviations below the number expected for residuals in random order (the
+#: Wald-Wolfowitz runs test) does not follow ``e(v)``: a one-sided 3-sigma level (0.13 % of fits of a
+#: law that describes the data are flagged by chance).
+RUNS_Z_LIMIT = 3.0
+#: Fewest coefficients for the runs test (below, its normal approximation does not hold).
+RUNS_MIN_DATA = 10
+#: The chained fit's residual scale above this many times the timing noise of the events is
+#: reported as a lack of fit (the rule of the other rigs' fits, e.g. the drop rig's).
+LACK_OF_FIT_FACTOR = 1.5
+
+
+@dataclass(frozen=True)
+class LawData:
+    """Checked inputs of a per-impact fit.
+
+    Attributes
+    ----------
+    v : (n,) impact speeds [m/s].
+    e : (n,) coefficients of restitution [-].
+    weights : (n,) inverse relative variances of the coefficients [-].
+    groups : (n,) the drop of each coefficient (the clusters).
+    """
+
+    v: np.ndarray
+    e: np.ndarray
+    weights: np.ndarray
+    groups: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return int(self.v.size)
+
+
+@dataclass(frozen=True)
+class LeastSquares:
+    """The weighted least-squares solution of a linear law.
+
+    Attributes
+    ----------
+    beta : (p,) the law's parameters [their units].
+    design : (n, p) the weighted design matrix ``sqrt(w) X`` [-, per parameter unit].
+    residuals : (n,) weighted residuals ``sqrt(w) (e - e_fit)`` [-].
+    bread : the covariance ``(X^T W X)^-1`` and its condition
+        (:func:`impactid.covariance.covariance_from_jacobian` of the weighted design).
+    """
+
+    beta: np.ndarray
+    design: np.ndarray
+    residuals: np.ndarray
+    bread: Covariance
+
+    @property
+    def rss(self) -> float:
+        """The weighted residual sum of squares [-]."""
+        return float(self.residuals @ self.residuals)
+
+
+@dataclass(frozen=True)
+class Sandwich:
+    """A sandwich covariance of the law's parameters and how it was formed.
+
+    Attributes
+    ----------
+    matrix : (p, p) covariance [parameter units squared].
+    dof : degrees of freedom of the Student-t intervals.
+    method : how the errors were formed, for the details and the provenance.
+    notes : what qualifies it.
+    """
+
+    matrix: np.ndarray
+    dof: int
+    method: str
+    notes: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class RunsCheck:
+    """The Wald-Wolfowitz runs test of residuals ordered by impact speed.
+
+    Attributes
+    ----------
+    runs : number of runs of equal sign.
+    expected : their expected number for residuals in random order.
+    sd : its standard deviation.
+    """
+
+    runs: int
+    expected: float
+    sd: float
+
+    @property
+    def z(self) -> float:
+        """``(runs - expected) / sd`` (NaN when the test does not apply)."""
+        return (self.runs - self.expected) / self.sd if self.sd > 0 else math.nan
+
+    @property
+    def fails(self) -> bool:
+        """Whether there are too few runs: the law misses a systematic trend of ``e(v)``."""
+        return bool(self.z < -RUNS_Z_LIMIT)
+
+
+def _law_data(spec: Law, v, e, weights, groups) -> LawData:
+    """The inputs of :func:`fit_law`, checked (enough, finite, weights not negative)."""
+    v = np.asarray(v, dtype=float)
+    e = np.asarray(e, dtype=float)
+    n, p = v.size, spec.n_params
+    if n <= p:
+        raise ValueError(f"law {spec.name!r} has {p} parameter(s) and needs more than {p} coefficients, got {n}")
+    groups = np.zeros(n, dtype=int) if groups is None else np.asarray(groups)
+    w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
+    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(e)) and np.all(np.isfinite(w)) and np.all(w >= 0)):
+        # checked here because LAPACK's least squares can loop forever on NaN or inf, beyond Ctrl-C
+        raise ValueError("speeds, coefficients and weights must be finite (weights not negative)")
+    return LawData(v, e, w, groups)
+
+
+def _weighted_least_squares(spec: Law, data: LawData) -> LeastSquares:
+    """The law fitted by weighted least squares; its bread ``(X^T W X)^-1`` from the shared
+    covariance rule (undetermined, NaN, when the design's condition is beyond
+    :data:`~impactid.covariance.CONDITION_LIMIT`)."""
+    sw = np.sqrt(data.weights)
+    Xw = spec.design(data.v) * sw[:, None]
+    yw = (data.e - spec.offset) * sw
+    beta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
+    bread = covariance_from_jacobian(Xw, 1.0, names=spec.names)
+    return LeastSquares(beta, Xw, yw - Xw @ beta, bread)
+
+
+def _model_covariance(spec: Law, data: LawData, fit: LeastSquares, noise_cov) -> np.ndarray:
+    """The covariance of the parameters under the noise model (``A C A^T`` with ``beta = A e``), or,
+    without one, ``s^2 (X^T W X)^-1`` with the residual scale ``s^2 = rss / (n - p)``."""
+    if noise_cov is None:
+        return fit.rss / (data.n - spec.n_params) * fit.bread.matrix
+    A = fit.bread.matrix @ (spec.design(data.v) * data.weights[:, None]).T  # beta = A y
+    if isinstance(noise_cov, TimingNoise):
+        return noise_cov.sandwich(A)
+    return A @ np.asarray(noise_cov, dtype=float) @ A.T
+
+
+def _cluster_robust(fit: LeastSquares, index: np.ndarray, G: int) -> Sandwich:
+    """The cluster-robust sandwich by drop (CR1; Liang & Zeger 1986), ``G - 1`` dof."""
+    n, p = fit.design.shape
+    scores = fit.design * fit.residuals[:, None]
+    meat = np.zeros((p, p))
+    for g in range(G):
+        sg = scores[index == g].sum(axis=0)
+        meat += np.outer(sg, sg)
+    bread = fit.bread.matrix
+    dof = G - 1
+    return Sandwich(bread @ meat @ bread * (G / (G - 1)) * ((n - 1) / (n - p)), dof,
+                    f"cluster-robust by drop (CR1, {G} drops, t with {dof} dof)")
+
+
+def _newey_west(fit: LeastSquares, index: np.ndarray, G: int, hac_lag: int) -> Sandwich:
+    """The Newey-West sandwich within each drop (Bartlett weights up to ``hac_lag``), ``n - p`` dof."""
+    n, p = fit.design.shape
+    scores = fit.design * fit.residuals[:, None]
+    meat = scores.T @ scores
+    for lag in range(1, hac_lag + 1):
+        weight = 1.0 - lag / (hac_lag + 1.0)
+        for g in range(G):
+            sg = scores[index == g]
+            if sg.shape[0] > lag:
+                cross = sg[lag:].T @ sg[:-lag]
+                meat += weight * (cross + cross.T)
+    bread = fit.bread.matrix
+    dof = n - p
+    note = (f"{G} drop(s): fewer than {MIN_CLUSTERS} for errors clustered by drop; the errors allow for "
+            f"correlation between neighbouring impacts only, not for drop-to-drop variation")
+    return Sandwich(bread @ meat @ bread * (n / (n - p)), dof,
+                    f"Newey-West within each drop (lag {hac_lag}, {G} drop(s), t with {dof} dof)", (note,))
+
+
+def _robust_covariance(fit: LeastSquares, groups: np.ndarray, hac_lag: int) -> Sandwich:
+    """Cluster-robust by drop with at least :data:`MIN_CLUSTERS` drops, else Newey-West within each."""
+    labels, index = np.unique(groups, return_inverse=True)
+    G = labels.size
+    return _cluster_robust(fit, index, G) if G >= MIN_CLUSTERS else _newey_west(fit, index, G, hac_lag)
+
+
+def _never_below_model(robust: Sandwich, cov_model: np.ndarray, names: Sequence[str]) -> Sandwich:
+    """``robust`` with each standard error raised, where smaller, to the model-based one (a robust
+    variance from few clusters is itself noisy and tends to be too small)."""
+    raise_to = np.sqrt(np.maximum(np.diag(cov_model), 1e-300) / np.maximum(np.diag(robust.matrix), 1e-300))
+    D = np.diag(np.maximum(raise_to, 1.0))
+    raised = [names[i] for i in range(len(names)) if raise_to[i] > 1.0]
+    method = robust.method + (f"; raised to the model-based error for {', '.join(raised)}" if raised else "")
+    return Sandwich(D @ robust.matrix @ D, robust.dof, method, robust.notes)
+
+
+def _law_parameters(spec: Law, beta, cov: np.ndarray, dof: float, confidence: float,
+                    reason: str = "") -> list[Parameter]:
+    """The law's parameters with Student-t intervals (``dof``) from the covariance ``cov``; a
+    standard error that is not a number is undetermined (its note says why: ``reason``)."""
+    q = float(student.ppf(0.5 + confidence / 2.0, dof))
+    params = []
+    for i, (name, unit) in enumerate(zip(spec.names, spec.units)):
+        var = float(cov[i, i])
+        se = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
+        value = float(beta[i])
+        interval = (value - q * se, value + q * se) if math.isfinite(se) else (math.nan, math.nan)
+        note = "" if math.isfinite(se) else f"undetermined: {reason or 'the covariance is not finite'}"
+        params.append(Parameter(name, value, se, interval, confidence, unit=unit, note=note))
+    return params
+
+
+def _correlation(cov: np.ndarray) -> np.ndarray:
+    """The correlation matrix of a covariance (NaN where a variance is not a positive number)."""
+    sd = np.sqrt(np.where(np.diag(cov) > 0, np.diag(cov), np.nan))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return cov / np.outer(sd, sd)
+
+
+def runs_check(v, residuals) -> RunsCheck:
+    """The Wald-Wolfowitz runs test of ``residuals`` ordered by the speeds ``v`` [m/s].
+
+    A law that describes ``e(v)`` leaves residuals whose signs, in the order of the impact speed,
+    change as often as in a random order; a law that misses a trend or a bend leaves long runs of
+    one sign. Exact zeros count as positive.
+
+    Parameters
+    ----------
+    v : (n,) impact speeds [m/s], the order of the test.
+    residuals : (n,) residuals of the law's fit [-] (weighted or not: only their signs count).
+
+    Returns
+    -------
+    RunsCheck
+        the runs, their expected number and its standard deviation; with fewer than
+        :data:`RUNS_MIN_DATA` residuals, or residuals of one sign only, ``sd`` is 0 and the test
+        does not apply (``z`` is NaN, ``fails`` False).
+    """
+    r = np.asarray(residuals, dtype=float)[np.argsort(np.asarray(v, dtype=float), kind="stable")]
+    signs = r >= 0
+    n = r.size
+    n_pos = int(signs.sum())
+    n_neg = n - n_pos
+    runs = 1 + int(np.count_nonzero(signs[1:] != signs[:-1])) if n else 0
+    if n < RUNS_MIN_DATA or n_pos == 0 or n_neg == 0:
+        return RunsCheck(runs, math.nan, 0.0)
+    expected = 1.0 + 2.0 * n_pos * n_neg / n
+    var = 2.0 * n_pos * n_neg * (2.0 * n_pos * n_neg - n) / (n * n * (n - 1.0))
+    return RunsCheck(runs, expected, math.sqrt(max(var, 0.0)))
+
+
+def _lack_of_fit_note(spec: Law, check: RunsCheck, v: np.ndarray) -> str:
+    """The note of a failed runs test ("" when it passes or does not apply)."""
+    if not check.fails:
+        return ""
+    return (f"lack of fit: ordered by impact speed, the residuals form {check.runs} runs of one sign where "
+            f"{check.expected:.1f} +/- {check.sd:.1f} are expected (z = {check.z:.1f}, below -{RUNS_Z_LIMIT:g}): "
+            f"the {spec.name} law ({spec.formula}) does not follow e(v) over {float(v.min()):.3g}-"
+            f"{float(v.max()):.3g} m/s, and its intervals assume that it does")
+
+
+def _law_statistics(spec: Law, data: LawData, fit: LeastSquares, sandwich: Sandwich, check: RunsCheck,
+                    n_drops: int) -> dict:
+    """Fit statistics: counts, the residual scale, the Gaussian likelihood with the relative
+    variances ``1/w`` and a free scale (ML), AIC and BIC (the scale counted), the condition of the
+    design, the runs test (where it applies) and the speed range."""
+    n, p = data.n, spec.n_params
+    rss = fit.rss
+    loglik = (-0.5 * n * (math.log(2.0 * math.pi * rss / n) + 1.0) + 0.5 * float(np.sum(np.log(data.weights)))
+              if rss > 0 else math.inf)
+    k = p + 1
+    return {"n_impacts": n, "n_drops": n_drops, "n_params": p, "dof": sandwich.dof,
+            "scale": math.sqrt(rss / (n - p)), "loglik": loglik, "aic": 2 * k - 2 * loglik,
+            "bic": k * math.log(n) - 2 * loglik, "condition_number": fit.bread.condition,
+            **({"runs": check.runs, "runs_expected": check.expected, "runs_z": check.z} if check.sd > 0 else {}),
+            "speed_min_m_s": float(data.v.min()), "speed_max_m_s": float(data.v.max())}
+
+
+def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | TimingNoise | None = None,
             groups: Sequence | None = None, confidence: float = 0.95, hac_lag: int = 2, label: str = "") -> LawFit:
     """Fit a restitution law to per-impact coefficients by weighted least squares.
 
@@ -253,89 +542,36 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | None 
     Returns
     -------
     LawFit
-    """
-    from scipy.stats import t as student
+        the one :class:`~impactid.results.FitResult` of the fit: the parameters (value, stderr,
+        Student-t interval, unit; undetermined, with the reason, when the design's condition is
+        beyond :data:`~impactid.covariance.CONDITION_LIMIT`), statistics (AIC, BIC, the condition
+        number, the runs test), notes (a lack of fit, few drops) and in ``details`` the covariance,
+        the correlation matrix and how the errors were formed.
 
+    Raises
+    ------
+    ValueError
+        too few coefficients for the law's parameters, or a non-finite input.
+    """
     spec = get_law(law)
-    v = np.asarray(v, dtype=float)
-    e = np.asarray(e, dtype=float)
-    n, p = v.size, spec.n_params
-    if n <= p:
-        raise ValueError(f"law {spec.name!r} has {p} parameter(s) and needs more than {p} coefficients, got {n}")
-    groups = np.zeros(n, dtype=int) if groups is None else np.asarray(groups)
-    w = np.ones(n) if weights is None else np.asarray(weights, dtype=float)
-    if not (np.all(np.isfinite(v)) and np.all(np.isfinite(e)) and np.all(np.isfinite(w)) and np.all(w >= 0)):
-        # checked here because LAPACK's least squares can loop forever on NaN or inf, beyond Ctrl-C
-        raise ValueError("speeds, coefficients and weights must be finite (weights not negative)")
-    X = spec.design(v)
-    y = e - spec.offset
-    sw = np.sqrt(w)
-    Xw, yw = X * sw[:, None], y * sw
-    beta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
-    r = yw - Xw @ beta  # weighted residuals
-    rss = float(r @ r)
-    sigma2 = rss / (n - p)
-    bread = np.linalg.inv(Xw.T @ Xw)
-    if noise_cov is None:
-        cov_model = sigma2 * bread
-    else:
-        A = bread @ (X * w[:, None]).T  # beta = A y
-        if isinstance(noise_cov, TimingNoise):
-            cov_model = noise_cov.sandwich(A)
-        else:
-            cov_model = A @ np.asarray(noise_cov, dtype=float) @ A.T
-    labels, index = np.unique(groups, return_inverse=True)
-    G = labels.size
-    notes = []
-    scores = Xw * r[:, None]
-    if G >= MIN_CLUSTERS:
-        meat = np.zeros((p, p))
-        for g in range(G):
-            sg = scores[index == g].sum(axis=0)
-            meat += np.outer(sg, sg)
-        cov_robust = bread @ meat @ bread * (G / (G - 1)) * ((n - 1) / (n - p))
-        dof = G - 1
-        method = f"cluster-robust by drop (CR1, {G} drops, t with {dof} dof)"
-    else:
-        meat = scores.T @ scores
-        for lag in range(1, hac_lag + 1):
-            weight = 1.0 - lag / (hac_lag + 1.0)
-            for g in range(G):
-                sg = scores[index == g]
-                if sg.shape[0] > lag:
-                    cross = sg[lag:].T @ sg[:-lag]
-                    meat += weight * (cross + cross.T)
-        cov_robust = bread @ meat @ bread * (n / (n - p))
-        dof = n - p
-        method = f"Newey-West within each drop (lag {hac_lag}, {G} drop(s), t with {dof} dof)"
-        notes.append(f"{G} drop(s): fewer than {MIN_CLUSTERS} for errors clustered by drop; the errors allow for "
-                     f"correlation between neighbouring impacts only, not for drop-to-drop variation")
-    raise_to = np.sqrt(np.maximum(np.diag(cov_model), 1e-300) / np.maximum(np.diag(cov_robust), 1e-300))
-    D = np.diag(np.maximum(raise_to, 1.0))
-    cov = D @ cov_robust @ D
-    raised = [spec.names[i] for i in range(p) if raise_to[i] > 1.0]
-    if raised:
-        method += f"; raised to the model-based error for {', '.join(raised)}"
-    q = student.ppf(0.5 + confidence / 2.0, dof)
-    params = []
-    for i, (name, unit) in enumerate(zip(spec.names, spec.units)):
-        se = math.sqrt(max(cov[i, i], 0.0))
-        params.append(Parameter(name, float(beta[i]), se, (beta[i] - q * se, beta[i] + q * se), confidence,
-                                unit=unit))
-    # Gaussian likelihood with the given relative variances 1/w and a free scale (ML)
-    loglik = (-0.5 * n * (math.log(2.0 * math.pi * rss / n) + 1.0) + 0.5 * float(np.sum(np.log(w)))
-              if rss > 0 else math.inf)
-    k = p + 1
-    statistics = {"n_impacts": n, "n_drops": G, "n_params": p, "dof": dof,
-                  "scale": math.sqrt(sigma2), "loglik": loglik, "aic": 2 * k - 2 * loglik,
-                  "bic": k * math.log(n) - 2 * loglik,
-                  "speed_min_m_s": float(v.min()), "speed_max_m_s": float(v.max())}
-    details = {"law": spec.name, "formula": spec.formula, "covariance": cov.tolist(),
-               "covariance_model": cov_model.tolist(), "covariance_method": method, "dof": dof,
-               "speed_range": [float(v.min()), float(v.max())]}
-    return LawFit(params=params, statistics=statistics, notes=tuple(notes), details=details,
-                  provenance=(f"fit {spec.name} law ({spec.formula}) to {n} coefficients from {G} drop(s)"
-                              + (f" [{label}]" if label else "") + f": weighted least squares; errors {method}",))
+    data = _law_data(spec, v, e, weights, groups)
+    fit = _weighted_least_squares(spec, data)
+    cov_model = _model_covariance(spec, data, fit, noise_cov)
+    sandwich = _never_below_model(_robust_covariance(fit, data.groups, hac_lag), cov_model, spec.names)
+    check = runs_check(data.v, fit.residuals)
+    notes = [note for note in (fit.bread.reason, _lack_of_fit_note(spec, check, data.v)) if note]
+    notes += sandwich.notes
+    n_drops = int(np.unique(data.groups).size)
+    details = {"law": spec.name, "formula": spec.formula, "covariance": sandwich.matrix.tolist(),
+               "correlation": _correlation(sandwich.matrix).tolist(), "covariance_model": cov_model.tolist(),
+               "covariance_method": sandwich.method, "dof": sandwich.dof,
+               "speed_range": [float(data.v.min()), float(data.v.max())]}
+    return LawFit(params=_law_parameters(spec, fit.beta, sandwich.matrix, sandwich.dof, confidence, fit.bread.reason),
+                  statistics=_law_statistics(spec, data, fit, sandwich, check, n_drops), notes=tuple(notes),
+                  details=details,
+                  provenance=(f"fit {spec.name} law ({spec.formula}) to {data.n} coefficients from {n_drops} drop(s)"
+                              + (f" [{label}]" if label else "")
+                              + f": weighted least squares; errors {sandwich.method}",))
 
 
 def select_law(fits: Mapping[str, LawFit], criterion: str = "bic", margin: float = 2.0) -> tuple[str, str]:
@@ -363,8 +599,12 @@ def select_law(fits: Mapping[str, LawFit], criterion: str = "bic", margin: float
 class ChainedFit(FitResult):
     """A law fitted to every accepted event time of every drop by chaining flights.
 
-    ``details`` holds ``law``, ``formula``, ``covariance`` (of the law parameters), ``drops`` (per
-    drop: name, fitted first impact time [s] and launch speed [m/s]) and ``residuals_s``.
+    ``details`` holds ``law``, ``formula``, ``covariance`` (of the law parameters), ``correlation``,
+    ``covariance_method``, ``drops`` (per drop: name, fitted first impact time [s] and launch speed
+    [m/s]) and ``residuals_s``; ``statistics`` the counts, ``timing_sigma_s`` (the residual scale
+    [s]), with a measured timing noise ``timing_noise_s`` [s] and ``residual_over_timing_noise``
+    (the model check), ``loglik``, ``aic``, ``bic``, ``condition_number`` (of the column-scaled ``J^T J``, the
+    drops' starts included), ``success`` and ``nfev``.
     """
 
     kind = "restitution-chained"
@@ -399,49 +639,36 @@ def _chain_times(law: Law, beta, t0: np.ndarray, u0: np.ndarray, numbers: np.nda
     return np.take_along_axis(times, np.where(mask, numbers, 0), axis=1)
 
 
-def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConstants, *,
-                start: Sequence[float] | None = None, confidence: float = 0.95) -> ChainedFit:
-    """Fit ``law`` to the accepted event times of several drops, flight by flight.
+@dataclass(frozen=True)
+class ChainData:
+    """The accepted event times of several drops, stacked for the chained fit.
 
-    Parameters
+    Attributes
     ----------
-    drops : per drop a mapping with ``name``, ``times`` (accepted impact times [s]) and ``numbers``
-        (their impact numbers, 0 for the first; a gap of 2 is a missed bounce).
-    law : the law.
-    constants : the flight (:func:`~impactid.rigs.ball.flight.flight_constants`).
-    start : starting law parameters (default: a constant 0.9 or its analogue).
-    confidence : coverage of the intervals.
-
-    Returns
-    -------
-    ChainedFit, with model-based errors (independent event-time errors; the scale from the residuals).
+    observed : (D, K) event times [s] (zero where ``mask`` is False).
+    numbers : (D, K) impact numbers, 0 for a drop's first (a gap of 2 is a missed bounce).
+    mask : (D, K) which entries exist.
+    sizes : events of each drop.
+    clusters : the cluster (drop of origin) of each row: segments of one drop split at odd
+        bounces share one.
+    names : each row's name.
     """
-    from scipy.optimize import least_squares
-    from scipy.sparse import lil_matrix
-    from scipy.stats import t as student
 
-    from impactid.rigs.ball.flight import launch_speed
+    observed: np.ndarray
+    numbers: np.ndarray
+    mask: np.ndarray
+    sizes: tuple[int, ...]
+    clusters: tuple[str, ...]
+    names: tuple[str, ...]
 
-    spec = get_law(law)
-    p = spec.n_params
-    beta0 = np.asarray(start, dtype=float) if start is not None else {
-        "constant": np.array([0.9]), "linear": np.array([0.9, 0.0]), "viscoelastic": np.array([0.1])}.get(
-        spec.name, np.full(p, 0.1))
-    x0 = list(beta0)
-    sizes = []
-    for d in drops:
-        t, num = np.asarray(d["times"], float), np.asarray(d["numbers"], int)
-        k = int(np.argmax(np.diff(num) == 1)) if np.any(np.diff(num) == 1) else 0
-        T0 = (t[k + 1] - t[k]) / max(num[k + 1] - num[k], 1)
-        u = float(launch_speed(T0, constants))
-        for _ in range(k if num[k] > 0 else 0):  # step back to the first impact with the starting law
-            u = u / max(float(spec.evaluate(beta0, u)), 0.3)
-        x0 += [t[0], u]
-        sizes.append(t.size)
-    x0 = np.array(x0)
-    total = sum(sizes)
-    if total <= p + 2 * len(drops):
-        raise ValueError("too few event times for the chained fit")
+    @property
+    def n_events(self) -> int:
+        return int(sum(self.sizes))
+
+
+def _chain_data(drops: Sequence[Mapping]) -> ChainData:
+    """The drops' accepted times and impact numbers as (D, K) arrays."""
+    sizes = tuple(int(np.asarray(d["times"]).size) for d in drops)
     D, K = len(drops), max(sizes)
     numbers = np.zeros((D, K), dtype=int)
     observed = np.zeros((D, K))
@@ -451,73 +678,183 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
         numbers[j, :size] = np.asarray(d["numbers"], int)
         observed[j, :size] = np.asarray(d["times"], float)
         mask[j, :size] = True
+    return ChainData(observed, numbers, mask, sizes,
+                     tuple(str(d.get("cluster", d.get("name", j))) for j, d in enumerate(drops)),
+                     tuple(str(d.get("name", str(j))) for j, d in enumerate(drops)))
 
-    def residuals(x):
-        pred = _chain_times(spec, x[:p], x[p::2], x[p + 1::2], numbers, mask, constants)
-        return (observed - pred)[mask]
 
-    sparsity = lil_matrix((total, x0.size), dtype=int)
+def _chain_start(spec: Law, drops: Sequence[Mapping], constants: FlightConstants, start) -> np.ndarray:
+    """Starting values: the law's parameters (``start``, or a constant 0.9 and its analogues),
+    then per drop its first impact time [s] and its launch speed [m/s] from its first single
+    flight, stepped back to the first impact with the starting law."""
+    beta0 = np.asarray(start, dtype=float) if start is not None else {
+        "constant": np.array([0.9]), "linear": np.array([0.9, 0.0]), "viscoelastic": np.array([0.1])}.get(
+        spec.name, np.full(spec.n_params, 0.1))
+    x0 = list(beta0)
+    for d in drops:
+        t, num = np.asarray(d["times"], float), np.asarray(d["numbers"], int)
+        k = int(np.argmax(np.diff(num) == 1)) if np.any(np.diff(num) == 1) else 0
+        T0 = (t[k + 1] - t[k]) / max(num[k + 1] - num[k], 1)
+        u = float(launch_speed(T0, constants))
+        for _ in range(k if num[k] > 0 else 0):  # step back to the first impact with the starting law
+            u = u / max(float(spec.evaluate(beta0, u)), 0.3)
+        x0 += [t[0], u]
+    return np.array(x0)
+
+
+def _chain_sparsity(sizes: Sequence[int], p: int):
+    """The Jacobian's pattern: every event depends on the law and on its own drop's two starts."""
+    sparsity = lil_matrix((int(sum(sizes)), p + 2 * len(sizes)), dtype=int)
     pos = 0
     for j, size in enumerate(sizes):
         sparsity[pos:pos + size, :p] = 1
         sparsity[pos:pos + size, p + 2 * j:p + 2 * j + 2] = 1
         pos += size
-    sol = least_squares(residuals, x0, jac_sparsity=sparsity, x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                        max_nfev=500)
-    r = sol.fun
-    N, P = total, x0.size
+    return sparsity
+
+
+def _normal_root(jacobian) -> np.ndarray:
+    """A (P, P) matrix ``R`` with ``R^T R = J^T J`` for a sparse (N, P) Jacobian ``J``, so that the
+    shared covariance rule (:func:`~impactid.covariance.covariance_from_jacobian`, which needs the
+    Jacobian only through ``J^T J``: column norms and singular values) applies without forming the
+    dense N x P matrix. From the eigen-decomposition of the column-scaled ``J^T J``; a negative
+    rounding of an eigenvalue is a zero one (an undetermined direction)."""
+    JTJ = jacobian.T @ jacobian
+    JTJ = JTJ.toarray() if hasattr(JTJ, "toarray") else np.asarray(JTJ, dtype=float)
+    if not np.all(np.isfinite(JTJ)):
+        return np.full(JTJ.shape, np.nan)
+    norms = np.sqrt(np.clip(np.diag(JTJ), 0.0, None))
+    safe = np.where(norms > 0.0, norms, 1.0)
+    lam, V = np.linalg.eigh(JTJ / np.outer(safe, safe))
+    return (np.sqrt(np.clip(lam, 0.0, None))[:, None] * V.T) * np.where(norms > 0.0, norms, 0.0)[None, :]
+
+
+def _chained_covariance(J, r: np.ndarray, data: ChainData, spec: Law) -> tuple[Sandwich, Covariance]:
+    """The covariance of the law's parameters in the chained fit: cluster-robust by drop (CR1)
+    never below the model-based one with at least :data:`MIN_CLUSTERS` drops, else model-based
+    (independent event-time errors, scale from the residuals). Returns it and the full bread
+    (with its condition)."""
+    N, P = J.shape
+    p = spec.n_params
     rss = float(r @ r)
     sigma2 = rss / max(N - P, 1)
-    J = sol.jac  # sparse (events x parameters, two drop columns a row): never made dense
-    notes = [] if sol.success else [f"the optimiser stopped without converging: {sol.message}"]
-    JTJ = J.T @ J
-    JTJ = JTJ.toarray() if hasattr(JTJ, "toarray") else np.asarray(JTJ)
-    try:
-        bread = np.linalg.inv(JTJ) if np.all(np.isfinite(JTJ)) else np.full((P, P), np.nan)
-    except np.linalg.LinAlgError:
-        bread = np.full((P, P), np.nan)
-    cov_model = (sigma2 * bread)[:p, :p]
-    clusters = [str(d.get("cluster", d.get("name", j))) for j, d in enumerate(drops)]
-    labels = sorted(set(clusters))
+    names = tuple(spec.names) + tuple(f"{q}[{name}]" for name in data.names for q in ("t0", "u0"))
+    bread = covariance_from_jacobian(_normal_root(J), 1.0, names=names)
+    B = bread.matrix
+    cov_model = (sigma2 * B)[:p, :p]
+    labels = sorted(set(data.clusters))
     G = len(labels)
-    if G >= MIN_CLUSTERS:
-        meat = np.zeros((P, P))
-        pos = 0
-        rows_of = {c: [] for c in labels}
-        for j, size in enumerate(sizes):
-            rows_of[clusters[j]].extend(range(pos, pos + size))
-            pos += size
-        for c in labels:
-            rows = np.array(rows_of[c])
-            sg = np.asarray(J[rows].T @ r[rows]).ravel()
-            meat += np.outer(sg, sg)
-        cov_robust = (bread @ meat @ bread)[:p, :p] * (G / (G - 1)) * ((N - 1) / max(N - P, 1))
-        raise_to = np.sqrt(np.maximum(np.diag(cov_model), 1e-300) / np.maximum(np.diag(cov_robust), 1e-300))
-        D_ = np.diag(np.maximum(raise_to, 1.0))
-        cov = D_ @ cov_robust @ D_
-        dof = G - 1
-        method = f"cluster-robust by drop (CR1, {G} drops, t with {dof} dof), never below model-based"
-    else:
-        cov = cov_model
+    if G < MIN_CLUSTERS:
         dof = max(N - P, 1)
-        method = f"model-based (independent event-time errors), t with {dof} dof"
-        notes.append(f"{G} drop(s): model-based errors, which assume independent event-time errors; a bounce-to-"
-                     "bounce scatter of e accumulates along a drop and makes them too small")
-    q = student.ppf(0.5 + confidence / 2.0, dof)
-    params = []
-    for i, (name, unit) in enumerate(zip(spec.names, spec.units)):
-        se = math.sqrt(cov[i, i]) if math.isfinite(cov[i, i]) and cov[i, i] >= 0 else math.nan
-        params.append(Parameter(name, float(sol.x[i]), se, (sol.x[i] - q * se, sol.x[i] + q * se), confidence,
-                                unit=unit))
+        note = (f"{G} drop(s): model-based errors, which assume independent event-time errors; a bounce-to-"
+                "bounce scatter of e accumulates along a drop and makes them too small")
+        return Sandwich(cov_model, dof, f"model-based (independent event-time errors), t with {dof} dof",
+                        (note,)), bread
+    rows_of: dict[str, list[int]] = {c: [] for c in labels}
+    pos = 0
+    for j, size in enumerate(data.sizes):
+        rows_of[data.clusters[j]].extend(range(pos, pos + size))
+        pos += size
+    meat = np.zeros((P, P))
+    for c in labels:
+        rows = np.array(rows_of[c])
+        sg = np.asarray(J[rows].T @ r[rows]).ravel()
+        meat += np.outer(sg, sg)
+    cov_robust = (B @ meat @ B)[:p, :p] * (G / (G - 1)) * ((N - 1) / max(N - P, 1))
+    raise_to = np.sqrt(np.maximum(np.diag(cov_model), 1e-300) / np.maximum(np.diag(cov_robust), 1e-300))
+    D = np.diag(np.maximum(raise_to, 1.0))
+    dof = G - 1
+    return Sandwich(D @ cov_robust @ D, dof,
+                    f"cluster-robust by drop (CR1, {G} drops, t with {dof} dof), never below model-based"), bread
+
+
+def _chained_lack_of_fit(spec: Law, timing_sigma: float, timing_noise: float | None) -> tuple[dict, tuple[str, ...]]:
+    """The chained fit's model check: its residual scale ``timing_sigma`` [s] against the timing
+    noise of the events ``timing_noise`` [s] (measured independently, e.g. from the per-impact
+    coefficients); statistics and, above :data:`LACK_OF_FIT_FACTOR`, a note."""
+    if timing_noise is None or not (math.isfinite(timing_noise) and timing_noise > 0):
+        return {}, ()
+    ratio = timing_sigma / timing_noise
+    statistics = {"timing_noise_s": float(timing_noise), "residual_over_timing_noise": ratio}
+    if not ratio > LACK_OF_FIT_FACTOR:
+        return statistics, ()
+    return statistics, (f"lack of fit: the event times' residual scale ({1e3 * timing_sigma:.3g} ms) is {ratio:.3g} "
+                        f"times the timing noise of the events ({1e3 * timing_noise:.3g} ms, more than "
+                        f"{LACK_OF_FIT_FACTOR:g}): the {spec.name} law, one e per impact speed, does not describe "
+                        "whole drops (a bounce-to-bounce scatter of e accumulates along a drop, or the flight "
+                        "model misses something); the intervals are widened by the residual scale and still "
+                        "assume the model",)
+
+
+def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConstants, *,
+                start: Sequence[float] | None = None, confidence: float = 0.95,
+                timing_noise: float | None = None) -> ChainedFit:
+    """Fit ``law`` to the accepted event times of several drops, flight by flight.
+
+    Parameters
+    ----------
+    drops : per drop a mapping with ``name``, ``times`` (accepted impact times [s]) and ``numbers``
+        (their impact numbers, 0 for the first; a gap of 2 is a missed bounce); optionally
+        ``cluster`` (segments of one drop share one).
+    law : the law.
+    constants : the flight (:func:`~impactid.rigs.ball.flight.flight_constants`).
+    start : starting law parameters (default: a constant 0.9 or its analogue).
+    confidence : coverage of the intervals.
+    timing_noise : the timing noise of one event [s], measured independently (the analysis gives
+        the per-impact fits' ``sigma_t``), for the model check; None: no check.
+
+    Returns
+    -------
+    ChainedFit
+        the one :class:`~impactid.results.FitResult` of the fit: the law's parameters with
+        cluster-robust errors by drop (never below the model-based ones; model-based with fewer
+        than :data:`MIN_CLUSTERS` drops), undetermined with the reason when the Jacobian's
+        condition is beyond :data:`~impactid.covariance.CONDITION_LIMIT`; statistics (the timing
+        scatter of the residuals, AIC, BIC, the condition number and, with ``timing_noise``, the
+        residual scale over it: above :data:`LACK_OF_FIT_FACTOR` a note reports a lack of fit); in
+        ``details`` the covariance,
+        the correlation matrix, each drop's fitted start and the residuals.
+
+    Raises
+    ------
+    ValueError
+        too few event times for the parameters.
+    """
+    spec = get_law(law)
+    p = spec.n_params
+    x0 = _chain_start(spec, drops, constants, start)
+    data = _chain_data(drops)
+    if data.n_events <= p + 2 * len(drops):
+        raise ValueError("too few event times for the chained fit")
+
+    def residuals(x):
+        pred = _chain_times(spec, x[:p], x[p::2], x[p + 1::2], data.numbers, data.mask, constants)
+        return (data.observed - pred)[data.mask]
+
+    sol = least_squares(residuals, x0, jac_sparsity=_chain_sparsity(data.sizes, p), x_scale="jac", xtol=1e-12,
+                        ftol=1e-12, gtol=1e-12, max_nfev=500)
+    r = sol.fun
+    N, P = data.n_events, x0.size
+    rss = float(r @ r)
+    sandwich, bread = _chained_covariance(sol.jac, r, data, spec)  # the Jacobian stays sparse
+    notes = [] if sol.success else [f"the optimiser stopped without converging: {sol.message}"]
+    notes += [bread.reason] if bread.reason else []
+    timing_sigma = math.sqrt(rss / max(N - P, 1))
+    check, lack = _chained_lack_of_fit(spec, timing_sigma, timing_noise)
+    notes += lack
+    notes += sandwich.notes
     loglik = -0.5 * N * (math.log(2.0 * math.pi * rss / N) + 1.0) if rss > 0 else math.inf
-    statistics = {"n_events": N, "n_drops": len(drops), "n_params": P, "dof": dof,
-                  "timing_sigma_s": math.sqrt(sigma2), "loglik": loglik, "aic": 2 * (P + 1) - 2 * loglik,
-                  "bic": (P + 1) * math.log(N) - 2 * loglik, "success": bool(sol.success), "nfev": int(sol.nfev)}
-    details = {"law": spec.name, "formula": spec.formula, "covariance": cov.tolist(), "covariance_method": method,
-               "drops": [{"name": d.get("name", str(j)), "t0_s": float(sol.x[p + 2 * j]),
-                          "u0_m_s": float(sol.x[p + 2 * j + 1])} for j, d in enumerate(drops)],
+    statistics = {"n_events": N, "n_drops": len(drops), "n_params": P, "dof": sandwich.dof,
+                  "timing_sigma_s": timing_sigma, **check, "loglik": loglik,
+                  "aic": 2 * (P + 1) - 2 * loglik, "bic": (P + 1) * math.log(N) - 2 * loglik,
+                  "condition_number": bread.condition, "success": bool(sol.success), "nfev": int(sol.nfev)}
+    details = {"law": spec.name, "formula": spec.formula, "covariance": sandwich.matrix.tolist(),
+               "correlation": _correlation(sandwich.matrix).tolist(), "covariance_method": sandwich.method,
+               "drops": [{"name": name, "t0_s": float(sol.x[p + 2 * j]), "u0_m_s": float(sol.x[p + 2 * j + 1])}
+                         for j, name in enumerate(data.names)],
                "residuals_s": r.tolist()}
-    return ChainedFit(params=params, statistics=statistics, notes=tuple(notes), details=details,
+    return ChainedFit(params=_law_parameters(spec, sol.x, sandwich.matrix, sandwich.dof, confidence, bread.reason),
+                      statistics=statistics, notes=tuple(notes), details=details,
                       provenance=(f"chained trajectory fit of the {spec.name} law to {N} event times of "
                                   f"{len(drops)} drop(s) ({constants.label})",))
 

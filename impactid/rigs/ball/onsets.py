@@ -59,6 +59,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import butter, sosfiltfilt
 
 __all__ = ["BLOCK_FRAMES", "DEFAULT_BAND", "Onsets", "detect_onsets", "envelope", "memory_needed", "min_sample_rate"]
 
@@ -147,8 +149,6 @@ def _transient_frames(band: tuple[float, float], sample_rate: float, width: int)
     """Samples after which a transient of the band-pass has decayed below 1e-13 (from its slowest
     pole), plus the averaging window: the margin each block is filtered with (at most a block: a
     band so narrow that its transients outlast a block still decays by e^-30 within one)."""
-    from scipy.signal import butter
-
     _, poles, _ = butter(4, band, btype="bandpass", fs=sample_rate, output="zpk")
     slowest = float(np.max(np.abs(poles))) if poles.size else 0.0
     decay = math.ceil(math.log(1e-13) / math.log(slowest)) if 0.0 < slowest < 1.0 else BLOCK_FRAMES
@@ -165,9 +165,6 @@ def envelope(samples: np.ndarray, sample_rate: float, band: tuple[float, float],
     a margin in which the filter's transients decay (module notes), so memory does not grow with
     the recording beyond the envelope itself.
     """
-    from scipy.ndimage import uniform_filter1d
-    from scipy.signal import butter, sosfiltfilt
-
     x = samples if getattr(samples, "ndim", 0) else np.asarray(samples)
     if x.ndim == 1:
         x = x[:, None]

@@ -58,9 +58,14 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
+from scipy.io import wavfile
 
+from impactid._files import check_distinct_inputs
 from impactid.errors import ImpactidError
+from impactid.rigs.ball.onsets import DEFAULT_BAND, detect_onsets, memory_needed, min_sample_rate
 from impactid.rigs.ball.sequence import MAX_EVENTS
+from impactid.units import UnitError, si_factor
 
 __all__ = ["Audio", "BounceFileError", "BounceRecording", "MAX_EVENTS", "MAX_EVENT_SPAN", "MAX_MEMORY",
            "MAX_TABLE_BYTES", "MAX_TIME_MAGNITUDE", "MAX_TYPICAL_FLIGHT", "MIN_EVENTS", "MIN_TYPICAL_FLIGHT",
@@ -298,8 +303,6 @@ def check_files(paths: Sequence[str | os.PathLike[str]]) -> None:
     DuplicateInputError
         one recording given twice.
     """
-    from impactid._files import check_distinct_inputs
-
     sizes = [check_file(p).st_size for p in paths]
     shared = [p for p, size in zip(paths, sizes) if sizes.count(size) > 1]
     check_distinct_inputs(shared, what="recording")
@@ -448,8 +451,6 @@ def read_phyphox(path: str | os.PathLike[str]) -> BounceRecording:
 
 
 def _xlsx_sheet(path: Path, name: str):
-    import pandas as pd
-
     try:
         with zipfile.ZipFile(path) as archive:
             unpacked = sum(info.file_size for info in archive.infolist())
@@ -637,8 +638,6 @@ def _parse_number(text: str, decimal_comma: bool) -> float | str:
 
 def _time_column(header: list[str]) -> tuple[int, float] | None:
     """Index of the time column and the factor to seconds, from the header."""
-    from impactid.units import UnitError, si_factor
-
     candidates = []
     for j, name in enumerate(header):
         text = name.strip().lower()
@@ -886,10 +885,6 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
     BounceFileError
         naming the file and the problem.
     """
-    from scipy.io import wavfile
-
-    from impactid.rigs.ball.onsets import memory_needed
-
     path = Path(path)
     head = _head(path, 12)
     if not (head[:4] == b"RIFF" and head[8:12] == b"WAVE"):
@@ -984,8 +979,6 @@ def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
         the file cannot be read (:func:`read_audio`), is sampled too slowly for the detector, or
         holds fewer than three clicks or more than one drop can.
     """
-    from impactid.rigs.ball.onsets import DEFAULT_BAND, detect_onsets, min_sample_rate
-
     path = Path(path)
     audio = read_audio(path)
     band = onset_options.get("band")

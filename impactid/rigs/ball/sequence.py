@@ -78,10 +78,12 @@ more than :data:`MAX_RELATIVE_SCATTER` of a flight around the smooth sequence (r
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
+from scipy.stats import siegelslopes
 
 __all__ = ["CleanedSequence", "INTERVAL_FLAGS", "MAX_EVENTS", "clean_sequence"]
 
@@ -110,6 +112,8 @@ MAX_RELATIVE_SCATTER = 0.1
 #: run a few dozen times) and memory (the robust starting line is a repeated median over all pairs
 #: of ratios, quadratic in their number) bounded: more events are not one drop of a ball.
 MAX_EVENTS = 2000
+#: Columns of :attr:`CleanedSequence.intervals`.
+_INTERVAL_COLUMNS = ["index", "start_s", "end_s", "interval_s", "flights", "predicted_s", "z", "flag", "reason"]
 #: Ratios of consecutive intervals are summed into a density on this many grid points per block of
 #: ratios (bounds the memory of the cluster search: grid points x block x 8 bytes, ~3 MB).
 _DENSITY_BLOCK = 1024
@@ -336,8 +340,6 @@ def clean_sequence(times, *, resolution: float = math.nan, z_reject: float = 4.0
     -------
     CleanedSequence (with ``refused`` set when no bouncing sequence is found).
     """
-    from scipy.stats import siegelslopes
-
     t = np.asarray(times, dtype=float)
     if t.ndim != 1 or t.size < 3 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
         raise ValueError("times must be a 1-D strictly increasing finite array of at least 3 events")
@@ -428,29 +430,127 @@ def _empty_flights() -> pd.DataFrame:
                                  "anomalous"])
 
 
-def _result(t, chain, model, sigma, iterations, name) -> CleanedSequence:
-    where = f"{name}: " if name else ""
-    if len(chain) < 3:
-        d = np.diff(t)
-        ratio = float(np.polyval(np.asarray(model, dtype=float), np.median(d))) if len(model) else math.nan
-        if math.isfinite(ratio) and not ratio < 1.0:
-            # the ratio fitted to the triggers predicts no shorter flight, so no chain of flights can
-            # form: the reason is that they do not shrink, not that too few triggers were found
-            return _refusal(t, f"{where}the flights do not shrink: the ratio of consecutive intervals fitted to the "
-                               f"triggers is {ratio:.6g}, not below 1: not a ball bouncing on a floor")
-        return _refusal(t, f"{where}no bouncing sequence: fewer than three triggers form one")
+@dataclass(frozen=True)
+class Link:
+    """One accepted impact of the chain the labelling found.
+
+    Attributes
+    ----------
+    event : its event index.
+    flights : flights from the previous accepted impact (0 for the first; 2 spans a missed bounce).
+    anomalous : whether the impact before it had an odd restitution (its flight is anomalous).
+    """
+
+    event: int
+    flights: int
+    anomalous: bool
+
+
+@dataclass(frozen=True)
+class IntervalRow:
+    """One row of :attr:`CleanedSequence.intervals` (see there)."""
+
+    index: int
+    start_s: float
+    end_s: float
+    interval_s: float
+    flights: int = 0
+    predicted_s: float = math.nan
+    z: float = math.nan
+    flag: str = ""
+    reason: str = ""
+
+
+@dataclass(frozen=True)
+class FlightSpan:
+    """One row of :attr:`CleanedSequence.flights` (see there)."""
+
+    start_event: int
+    end_event: int
+    start_s: float
+    duration_s: float
+    flights: int
+    predicted_s: float
+    z: float
+    anomalous: bool
+
+
+@dataclass(frozen=True)
+class EventLabels:
+    """Per event: its status, the reason, and its impact number (-1 when it is not an impact)."""
+
+    status: tuple[str, ...]
+    reasons: tuple[str, ...]
+    number: np.ndarray
+
+
+def _too_short(t: np.ndarray, model, where: str) -> CleanedSequence:
+    """The refusal when fewer than three triggers form a chain: either the fitted ratio predicts
+    no shorter flight (the triggers do not shrink), or too few triggers were found."""
+    ratio = float(np.polyval(np.asarray(model, dtype=float), np.median(np.diff(t)))) if len(model) else math.nan
+    if math.isfinite(ratio) and not ratio < 1.0:
+        # the ratio fitted to the triggers predicts no shorter flight, so no chain of flights can
+        # form: the reason is that they do not shrink, not that too few triggers were found
+        return _refusal(t, f"{where}the flights do not shrink: the ratio of consecutive intervals fitted to the "
+                           f"triggers is {ratio:.6g}, not below 1: not a ball bouncing on a floor")
+    return _refusal(t, f"{where}no bouncing sequence: fewer than three triggers form one")
+
+
+def _last_flights(t: np.ndarray, links: Sequence[Link], model) -> dict[int, float]:
+    """The last flight [s] of the span that ends at each accepted impact (its predecessor flight)."""
+    return {b.event: _last_of_span(model, t[b.event] - t[a.event], b.flights) for a, b in zip(links, links[1:])}
+
+
+def _span_prediction(model, prev: float, k: int, k_prev: int, gap: float, sigma: float) -> tuple[float, float]:
+    """The predicted span [s] of ``k`` flights after a flight ``prev`` [s], and the measured ``gap``'s
+    residual [sigma]; its spread grows with the flights spanned, and by one more when the span
+    before it held several (NaN without a predecessor)."""
+    total = _predict(model, prev, k)[0] if math.isfinite(prev) else math.nan
+    z = (gap - total) / (sigma * math.sqrt(k + (1 if k_prev > 1 else 0))) if math.isfinite(total) else math.nan
+    return total, z
+
+
+def _rejected_trigger(t: np.ndarray, x: int, i: int, j: int, k: int, prev: float, model,
+                      sigma: float) -> tuple[str, str]:
+    """Status and reason of a trigger ``x`` between the accepted impacts ``i`` and ``j`` (a span of
+    ``k`` flights after a flight ``prev`` [s]): ``displaced`` near a predicted impact, ``echo`` soon
+    after ``i``, else ``spurious``."""
+    f0 = _predict(model, prev, 1)[0] if math.isfinite(prev) else (t[j] - t[i]) / k
+    predicted = [t[i] + _predict(model, prev, q)[0] for q in range(1, k)] if math.isfinite(prev) else [
+        t[i] + q * (t[j] - t[i]) / k for q in range(1, k)]
+    dt = t[x] - t[i]
+    near = min(predicted, key=lambda p: abs(t[x] - p)) if predicted else math.nan
+    if predicted and abs(t[x] - near) < 0.15 * f0:
+        kept = ""
+        if math.isfinite(prev):
+            before = dt
+            z1 = (before - _predict(model, prev, 1)[0]) / sigma
+            z2 = (t[j] - t[x] - _predict(model, before, 1)[0]) / sigma
+            kept = f"; kept, it would put its two flights at {z1:+.1f} and {z2:+.1f} sigma"
+        return "displaced", (f"trigger {1e3 * (t[x] - near):+.2f} ms from the predicted impact at {near:.5f} s"
+                             f"{kept}: the impact was heard but its time is unreliable")
+    if dt < 0.25 * f0:
+        return "echo", (f"trigger {1e3 * dt:.2f} ms after the impact at {t[i]:.5f} s, far shorter than "
+                        f"the predicted flight ({1e3 * f0:.1f} ms): echo or ring-down")
+    return "spurious", (f"trigger inside the flight from {t[i]:.5f} s ({1e3 * dt:.1f} ms into a predicted "
+                        f"{1e3 * f0:.1f} ms flight): spurious")
+
+
+def _event_labels(t: np.ndarray, links: Sequence[Link], model, sigma: float,
+                  last_flight: Mapping[int, float]) -> EventLabels:
+    """Every event labelled: the accepted impacts (numbered, missed ones counted), the release
+    before the first, the junk after the last, and each rejected trigger between two impacts."""
     m = t.size
     status = ["?"] * m
     reasons = [""] * m
     number = np.full(m, -1, dtype=int)
-    accepted = [i for i, _, _ in chain]
     n = 0
-    for i, k, _ in chain:
-        n += k
-        number[i] = n
-        status[i] = "impact"
-        reasons[i] = f"impact {n} of the drop"
-    first, last = accepted[0], accepted[-1]
+    for link in links:
+        n += link.flights
+        number[link.event] = n
+        status[link.event] = "impact"
+        reasons[link.event] = f"impact {n} of the drop"
+    first, last = links[0].event, links[-1].event
     for i in range(first):
         status[i] = "release"
         reasons[i] = (f"before the first impact of the bouncing sequence (t = {t[first]:.5f} s): release, "
@@ -458,118 +558,125 @@ def _result(t, chain, model, sigma, iterations, name) -> CleanedSequence:
     for i in range(last + 1, m):
         status[i] = "end"
         reasons[i] = f"after the last impact that continues the sequence (t = {t[last]:.5f} s): junk at the end"
-    last_flight: dict[int, float] = {}
-    for a in range(1, len(chain)):
-        i, j, k = chain[a - 1][0], chain[a][0], chain[a][1]
-        last_flight[j] = _last_of_span(model, t[j] - t[i], k)
-        if j - i <= 1:
-            continue
-        prev = last_flight.get(i, math.nan)
-        f0 = _predict(model, prev, 1)[0] if math.isfinite(prev) else (t[j] - t[i]) / k
-        predicted = [t[i] + _predict(model, prev, q)[0] for q in range(1, k)] if math.isfinite(prev) else [
-            t[i] + q * (t[j] - t[i]) / k for q in range(1, k)]
-        for x in range(i + 1, j):
-            dt = t[x] - t[i]
-            near = min(predicted, key=lambda p: abs(t[x] - p)) if predicted else math.nan
-            if predicted and abs(t[x] - near) < 0.15 * f0:
-                status[x] = "displaced"
-                kept = ""
-                if math.isfinite(prev):
-                    before = dt
-                    z1 = (before - _predict(model, prev, 1)[0]) / sigma
-                    z2 = (t[j] - t[x] - _predict(model, before, 1)[0]) / sigma
-                    kept = f"; kept, it would put its two flights at {z1:+.1f} and {z2:+.1f} sigma"
-                reasons[x] = (f"trigger {1e3 * (t[x] - near):+.2f} ms from the predicted impact at {near:.5f} s"
-                              f"{kept}: the impact was heard but its time is unreliable")
-            elif dt < 0.25 * f0:
-                status[x] = "echo"
-                reasons[x] = (f"trigger {1e3 * dt:.2f} ms after the impact at {t[i]:.5f} s, far shorter than "
-                              f"the predicted flight ({1e3 * f0:.1f} ms): echo or ring-down")
-            else:
-                status[x] = "spurious"
-                reasons[x] = (f"trigger inside the flight from {t[i]:.5f} s ({1e3 * dt:.1f} ms into a predicted "
-                              f"{1e3 * f0:.1f} ms flight): spurious")
-    step = {chain[a - 1][0]: chain[a] for a in range(1, len(chain))}
+    for a, b in zip(links, links[1:]):
+        prev = last_flight.get(a.event, math.nan)
+        for x in range(a.event + 1, b.event):
+            status[x], reasons[x] = _rejected_trigger(t, x, a.event, b.event, b.flights, prev, model, sigma)
+    return EventLabels(tuple(status), tuple(reasons), number)
+
+
+def _flight_row(t: np.ndarray, i: int, link: Link, k_prev: int, first: int, model, sigma: float,
+                prev: float) -> IntervalRow:
+    """The row of an interval between two consecutive accepted impacts: ``ok``, ``first``,
+    ``anomalous`` or ``missed`` (a span of several flights), with its prediction."""
+    gap = t[i + 1] - t[i]
+    k = link.flights
+    total, z = _span_prediction(model, prev, k, k_prev, gap, sigma)
+    row = IntervalRow(i, t[i], t[i + 1], gap, k, total, z)
+    if k > 1:
+        single = _predict(model, prev, 1)[0] if math.isfinite(prev) else math.nan
+        reason = (f"spans {k} flights: {gap / single:.3f} x the predicted single flight ({1e3 * single:.1f} ms; "
+                  f"{k} flights predicted {1e3 * total:.1f} ms, {z:+.1f} sigma): {k - 1} bounce(s) not triggered; "
+                  "not split, kept whole for the chained fit") if math.isfinite(single) else (
+            f"spans {k} flights: {k - 1} bounce(s) not triggered; not split, kept whole for the chained fit")
+        return replace(row, flag="missed", reason=reason)
+    if not math.isfinite(total):
+        return replace(row, flag="first", reason=("first flight of the sequence" if i == first else
+                                                  "first flight after a missed bounce") + ": no measured predecessor")
+    if link.anomalous:
+        return replace(row, flag="anomalous", reason=(
+            f"flight {1e3 * gap:.1f} ms where {1e3 * total:.1f} ms was predicted from the previous one "
+            f"({z:+.1f} sigma) while the next flight continues the sequence: an odd bounce (a floor joint, "
+            "spin or an off-centre hit would do this); its e is kept out of the law fits"))
+    return replace(row, flag="ok", reason=f"one flight, {z:+.1f} sigma from the prediction")
+
+
+def _other_row(t: np.ndarray, i: int, links: Sequence[Link], labels: EventLabels) -> IntervalRow:
+    """The row of an interval that is not a flight between consecutive impacts: release, end, or
+    one that touches a rejected trigger (named, with the span it lies in)."""
+    first, last = links[0].event, links[-1].event
+    row = IntervalRow(i, t[i], t[i + 1], t[i + 1] - t[i])
+    if i < first:
+        return replace(row, flag="release", reason=labels.reasons[i])
+    if i >= last:
+        return replace(row, flag="end", reason=labels.reasons[i + 1])
+    culprit = i if labels.status[i] != "impact" else i + 1
+    reason = f"touches a rejected trigger: {labels.reasons[culprit]}"
+    left = max(link for link in range(len(links)) if links[link].event <= i)
+    span = links[left + 1] if left + 1 < len(links) else None
+    if span is not None and span.flights > 1:
+        reason += (f"; the span from {t[links[left].event]:.5f} s to {t[span.event]:.5f} s holds {span.flights} "
+                   f"flights ({span.flights - 1} bounce(s) not triggered)")
+    return replace(row, flag=labels.status[culprit], reason=reason)
+
+
+def _interval_table(t: np.ndarray, links: Sequence[Link], labels: EventLabels, model, sigma: float,
+                    last_flight: Mapping[int, float]) -> pd.DataFrame:
+    """One row per interval between consecutive events (:attr:`CleanedSequence.intervals`)."""
+    after = {a.event: (b, a.flights) for a, b in zip(links, links[1:])}  # impact -> (next link, flights into it)
     rows = []
-    for i in range(m - 1):
-        gap = t[i + 1] - t[i]
-        row = {"index": i, "start_s": t[i], "end_s": t[i + 1], "interval_s": gap, "flights": 0,
-               "predicted_s": math.nan, "z": math.nan}
-        if status[i] == "impact" and i in step and step[i][0] == i + 1:
-            _, k, anomalous = step[i]
-            prev = last_flight.get(i, math.nan)
-            k_prev = next((kk for (jj, kk, _) in chain if jj == i), 0)
-            total = _predict(model, prev, k)[0] if math.isfinite(prev) else math.nan
-            z = (gap - total) / (sigma * math.sqrt(k + (1 if k_prev > 1 else 0))) if math.isfinite(total) else math.nan
-            row.update(flights=k, predicted_s=total, z=z)
-            if k > 1:
-                single = _predict(model, prev, 1)[0] if math.isfinite(prev) else math.nan
-                row.update(flag="missed", reason=(
-                    f"spans {k} flights: {gap / single:.3f} x the predicted single flight ({1e3 * single:.1f} ms; "
-                    f"{k} flights predicted {1e3 * total:.1f} ms, {z:+.1f} sigma): {k - 1} bounce(s) not triggered; "
-                    "not split, kept whole for the chained fit") if math.isfinite(single) else (
-                    f"spans {k} flights: {k - 1} bounce(s) not triggered; not split, kept whole for the chained fit"))
-            elif not math.isfinite(total):
-                row.update(flag="first", reason=("first flight of the sequence" if i == first else
-                                                 "first flight after a missed bounce") + ": no measured predecessor")
-            elif anomalous:
-                row.update(flag="anomalous", reason=(
-                    f"flight {1e3 * gap:.1f} ms where {1e3 * total:.1f} ms was predicted from the previous one "
-                    f"({z:+.1f} sigma) while the next flight continues the sequence: an odd bounce (a floor joint, "
-                    "spin or an off-centre hit would do this); its e is kept out of the law fits"))
-            else:
-                row.update(flag="ok", reason=f"one flight, {z:+.1f} sigma from the prediction")
-        elif i < first:
-            row.update(flag="release", reason=reasons[i])
-        elif i >= last:
-            row.update(flag="end", reason=reasons[i + 1])
+    for i in range(t.size - 1):
+        nxt = after.get(i) if labels.status[i] == "impact" else None
+        if nxt is not None and nxt[0].event == i + 1:
+            rows.append(_flight_row(t, i, nxt[0], nxt[1], links[0].event, model, sigma,
+                                    last_flight.get(i, math.nan)))
         else:
-            culprit = i if status[i] != "impact" else i + 1
-            reason = f"touches a rejected trigger: {reasons[culprit]}"
-            left = max(a for a in accepted if a <= i)
-            span = step.get(left)
-            if span is not None and span[1] > 1:
-                reason += (f"; the span from {t[left]:.5f} s to {t[span[0]]:.5f} s holds {span[1]} flights "
-                           f"({span[1] - 1} bounce(s) not triggered)")
-            row.update(flag=status[culprit], reason=reason)
-        rows.append(row)
-    table = pd.DataFrame(rows, columns=["index", "start_s", "end_s", "interval_s", "flights", "predicted_s", "z",
-                                        "flag", "reason"])
+            rows.append(_other_row(t, i, links, labels))
+    return pd.DataFrame([vars(r) for r in rows], columns=_INTERVAL_COLUMNS)
+
+
+def _flight_table(t: np.ndarray, links: Sequence[Link], model, sigma: float,
+                  last_flight: Mapping[int, float]) -> pd.DataFrame:
+    """One row per span between consecutive accepted impacts (:attr:`CleanedSequence.flights`)."""
     spans = []
-    for a in range(1, len(chain)):
-        i, (j, k, anomalous) = chain[a - 1][0], chain[a]
-        prev = last_flight.get(i, math.nan)
-        k_prev = chain[a - 1][1]
-        total = _predict(model, prev, k)[0] if math.isfinite(prev) else math.nan
-        z = (t[j] - t[i] - total) / (sigma * math.sqrt(k + (1 if k_prev > 1 else 0))) if math.isfinite(total) \
-            else math.nan
-        spans.append({"start_event": i, "end_event": j, "start_s": t[i], "duration_s": t[j] - t[i], "flights": k,
-                      "predicted_s": total, "z": z, "anomalous": bool(anomalous)})
-    flights = pd.DataFrame(spans) if spans else _empty_flights()
-    refused = ""
+    for a, b in zip(links, links[1:]):
+        gap = t[b.event] - t[a.event]
+        total, z = _span_prediction(model, last_flight.get(a.event, math.nan), b.flights, a.flights, gap, sigma)
+        spans.append(FlightSpan(a.event, b.event, t[a.event], gap, b.flights, total, z, bool(b.anomalous)))
+    return pd.DataFrame([vars(s) for s in spans]) if spans else _empty_flights()
+
+
+def _refusal_reason(table: pd.DataFrame, model, sigma: float, accepted: int, where: str) -> str:
+    """Why the labelled sequence is not a bouncing ball ("" when it is): no two consecutive
+    flights, flights that do not shrink beyond the timing noise, or a scatter beyond
+    :data:`MAX_RELATIVE_SCATTER`."""
     flags = table["flag"].tolist()
     singles = [f in ("ok", "first", "anomalous") for f in flags]
     pairs = sum(a and b for a, b in zip(singles, singles[1:]))
     if pairs < 1:
-        refused = (f"{where}no bouncing sequence: no two consecutive flights between heard impacts "
-                   f"({len(accepted)} impacts accepted); at least two are needed for one coefficient of restitution")
-    else:
-        durations = table.loc[np.array(singles), "interval_s"].to_numpy()
-        r_mean = float(np.polyval(model, np.median(durations)))
-        shrink = float(durations[0] - durations[-1])
-        if not r_mean < 1.0 or shrink < 3.0 * math.sqrt(2.0) * sigma:
-            refused = (f"{where}the flights do not shrink beyond the timing noise (first {1e3 * durations[0]:.1f} "
-                       f"ms, last {1e3 * durations[-1]:.1f} ms, scatter {1e3 * sigma:.2g} ms): not a ball bouncing on "
-                       "a floor")
-        elif sigma > MAX_RELATIVE_SCATTER * float(np.median(durations)):
-            refused = (f"{where}the flights scatter by {100 * sigma / np.median(durations):.0f} % around a smooth "
-                       f"sequence (more than {100 * MAX_RELATIVE_SCATTER:.0f} %): the triggers are not the impacts "
-                       "of a bouncing ball")
+        return (f"{where}no bouncing sequence: no two consecutive flights between heard impacts "
+                f"({accepted} impacts accepted); at least two are needed for one coefficient of restitution")
+    durations = table.loc[np.array(singles), "interval_s"].to_numpy()
+    r_mean = float(np.polyval(model, np.median(durations)))
+    shrink = float(durations[0] - durations[-1])
+    if not r_mean < 1.0 or shrink < 3.0 * math.sqrt(2.0) * sigma:
+        return (f"{where}the flights do not shrink beyond the timing noise (first {1e3 * durations[0]:.1f} "
+                f"ms, last {1e3 * durations[-1]:.1f} ms, scatter {1e3 * sigma:.2g} ms): not a ball bouncing on "
+                "a floor")
+    if sigma > MAX_RELATIVE_SCATTER * float(np.median(durations)):
+        return (f"{where}the flights scatter by {100 * sigma / np.median(durations):.0f} % around a smooth "
+                f"sequence (more than {100 * MAX_RELATIVE_SCATTER:.0f} %): the triggers are not the impacts "
+                "of a bouncing ball")
+    return ""
+
+
+def _result(t, chain, model, sigma, iterations, name) -> CleanedSequence:
+    """The :class:`CleanedSequence` of a labelling ``chain`` (from :func:`_label`) of the events
+    ``t`` [s], with the ratio model and scatter [s] it was found with; refused when it is not a
+    bouncing sequence."""
+    where = f"{name}: " if name else ""
+    if len(chain) < 3:
+        return _too_short(t, model, where)
+    links = tuple(Link(int(i), int(k), bool(anomalous)) for i, k, anomalous in chain)
+    last_flight = _last_flights(t, links, model)
+    labels = _event_labels(t, links, model, sigma, last_flight)
+    table = _interval_table(t, links, labels, model, sigma, last_flight)
+    flights = _flight_table(t, links, model, sigma, last_flight)
+    refused = _refusal_reason(table, model, sigma, len(links), where)
     if refused:
         table["reason"] = [f"not used: {refused} (cleaning said: {flag}, {reason})"
                            for flag, reason in zip(table["flag"], table["reason"])]
         table["flag"] = "refused"
-    return CleanedSequence(times=t, status=tuple(status), impact_number=number, event_reasons=tuple(reasons),
+    return CleanedSequence(times=t, status=labels.status, impact_number=labels.number, event_reasons=labels.reasons,
                            intervals=table, flights=flights, sigma=float(sigma),
-                           ratio_model=tuple(float(c) for c in model),
-                           iterations=iterations, refused=refused)
+                           ratio_model=tuple(float(c) for c in model), iterations=iterations, refused=refused)

@@ -24,14 +24,17 @@ from __future__ import annotations
 import math
 import os
 import struct
+import zipfile
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 
 from impactid._files import atomic_write
 from impactid.rigs.ball.flight import FlightConstants, flight_constants, flight_time, landing_speed
+from impactid.rigs.ball.laws import get_law
 from impactid.rigs.ball.parameters import Ball
 
 __all__ = ["SynthDrop", "inject_faults", "java_scientific", "simulate_drop", "synth_audio", "synth_drop",
@@ -79,8 +82,6 @@ class SynthDrop:
 def _law_function(law: str | Callable, params: Mapping[str, float] | None) -> Callable[[np.ndarray], np.ndarray]:
     if callable(law):
         return law
-    from impactid.rigs.ball.laws import get_law
-
     spec = get_law(law)
     values = np.array([float(params[name]) for name in spec.names]) if params else None
     if values is None:
@@ -251,8 +252,6 @@ def _phyphox_intervals(times: np.ndarray) -> np.ndarray:
 def write_phyphox_xlsx(path: str | os.PathLike[str], times: Sequence[float]) -> Path:
     """Write ``times`` [s] as a phyphox "Acoustic stopwatch" Excel export (sheets ``All`` and
     ``Metadata Device``)."""
-    import pandas as pd
-
     times = np.asarray(times, dtype=float)
     frame = pd.DataFrame({"Event time (s)": times, "Interval (s)": _phyphox_intervals(times)})
     meta = pd.DataFrame({"property": ["version", "model"], "value": ["synthetic", "impactid.rigs.ball.synth"]})
@@ -299,8 +298,6 @@ def write_phyphox_csv(path: str | os.PathLike[str], times: Sequence[float], *, s
         return atomic_write(path, text)
 
     def write(tmp: Path) -> None:
-        import zipfile
-
         with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as archive:
             archive.writestr("All.csv", text)
             archive.writestr("meta/device.csv", f'"property"{separator}"value"\n"model"{separator}"synthetic"\n')

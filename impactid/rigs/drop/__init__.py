@@ -11,7 +11,9 @@ optionally, a load cell under the contact record the impacts. The contact is the
   :mod:`.simulate` - :func:`simulate_drop`, :func:`replay_impacts`;
 * :mod:`.synth` - synthetic recordings; :mod:`.measure` - recording to per-impact observations;
   :mod:`.identify` - :func:`fit_drop`; :mod:`.figures`; :mod:`.commands` (``impactid synth --rig
-  drop-impact``, ``impactid drop simulate``, ``impactid drop fit``).
+  drop-impact``, ``impactid drop simulate``, ``impactid drop fit``);
+* :mod:`.estimation` - what the generic ``impactid estimate DROP1.h5 DROP2.h5`` and
+  :class:`impactid.pipeline.Pipeline` run for this rig's recordings (``MODEL.estimation``).
 
 See ``docs/drop.md``. Importing this package loads no numba: the numerical modules are imported on
 first use.
@@ -104,8 +106,7 @@ MODEL = RigModel(
     parameters=DropRig,
     presets=PRESETS,
     channels=CHANNELS,
-    # named apart from rig P's (unclipped) "hunt-crossley": the estimate pipeline takes a rig whose law is
-    # "hunt-crossley" and feeds its measurement model to rig P's estimators, which this rig's is not made for
+    # named apart from rig P's (unclipped) "hunt-crossley" law: the force is clipped at 0
     laws=(ContactLaw(name=LAW_NAME, law_type=DropLaw,
                      parameters={"k": ("N m^-p", (0.0, math.inf)), "beta": ("N s m^-(n+1)", (0.0, math.inf)),
                                  "n": ("1", N_BOUNDS)}, pack=_pack_law),),
@@ -117,6 +118,7 @@ MODEL = RigModel(
     simulate=_simulate,
     measure=_measure,
     commands=COMMANDS,
+    estimation="impactid.rigs.drop.estimation",
 )
 
 __all__ = ["ACCELERATION_CHANNEL", "CHANNELS", "FORCE_CHANNEL", "LAW_NAME", "MODEL", "MODEL_NAME", "N_BOUNDS",

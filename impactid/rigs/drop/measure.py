@@ -45,6 +45,7 @@ import pandas as pd
 
 from impactid.errors import ImpactidError
 from impactid.rigs.drop.parameters import ACCELERATION_CHANNEL, FORCE_CHANNEL, DropRig
+from impactid.signal import true_runs
 
 __all__ = ["CANDIDATE_LEVEL", "FLIGHT_TOLERANCE", "ImpactObservations", "MeasurementError", "NOISE_FLOOR",
            "measure_impacts"]
@@ -115,12 +116,6 @@ class ImpactObservations:
         :data:`NOISE_FLOOR` times the channel's peak."""
         peak = float(np.max(np.abs(self.signals[channel])))
         return max(self.noise[channel], NOISE_FLOOR * peak)
-
-
-def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Starts and (exclusive) stops of the runs of True in ``mask``."""
-    edges = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
-    return np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
 
 
 def _segments_mask(n: int, starts: np.ndarray, stops: np.ndarray) -> np.ndarray:
@@ -199,7 +194,7 @@ def measure_impacts(recording, *, rig: DropRig | None = None, detect: str | None
     if not peak > 0.0:
         raise MeasurementError(f"{where}: channel {detect!r} is never positive (largest {peak:.6g}): no impact "
                                "(is the sign convention compressive-positive, away from the contact?)")
-    hi_starts, hi_stops = _runs(det > CANDIDATE_LEVEL * peak)
+    hi_starts, hi_stops = true_runs(det > CANDIDATE_LEVEL * peak)
     # ---- 2. baseline and noise from the free flight ------------------------------------------------
     guard = max(8, int((hi_stops - hi_starts).max()))
     seg_starts = np.concatenate([[0], hi_stops[:-1] + guard])  # before the first candidate, and between them
@@ -225,7 +220,7 @@ def measure_impacts(recording, *, rig: DropRig | None = None, detect: str | None
     det = signals[detect] * scale[detect]
     sigma = noise[detect] * scale[detect]
     threshold = max(THRESHOLD_SIGMAS * sigma, THRESHOLD_FRACTION * peak)
-    starts, stops = _runs(det > threshold)
+    starts, stops = true_runs(det > threshold)
     hi_peaks = np.array([a + int(np.argmax(det[a:b])) for a, b in zip(hi_starts, hi_stops)])
     which = np.searchsorted(starts, hi_peaks, side="right") - 1
     which = np.unique(which[(which >= 0) & (hi_peaks < stops[np.clip(which, 0, None)])])
@@ -287,7 +282,7 @@ def measure_impacts(recording, *, rig: DropRig | None = None, detect: str | None
     if rows and not cut:
         # the candidates were all measured: what rises above the noise after them is too small to be one
         last_stop = rows[-1]["stop_sample"]
-        small, _ = _runs(det[last_stop:] > max(threshold, snr_min * sigma))
+        small, _ = true_runs(det[last_stop:] > max(threshold, snr_min * sigma))
         if small.size:
             notes.append(f"{where}: {small.size} contact(s) after t = {recording.start_time_s + last_stop * dt:.6g} s "
                          f"below {100 * CANDIDATE_LEVEL:g} % of the largest peak are not measured (small bounces, the "

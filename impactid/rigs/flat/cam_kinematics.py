@@ -51,10 +51,10 @@ __all__ = [
     "DEFAULT_NODES",
     "Profile",
     "ProfileSum",
+    "analytic_follower_kinematics",
     "convergence_order",
     "displacement_spline",
     "flat_follower_cam_curvature_radius",
-    "follower_kinematics",
     "revised_nose_profile",
     "spline_error_study",
     "spline_follower_kinematics",
@@ -167,8 +167,15 @@ def flat_follower_cam_curvature_radius(profile: Profile, theta_c, x0: float, y0:
 # --------------------------------------------------------------------------------------------
 
 
-def follower_kinematics(profile: Profile, theta_c, omega: float):
-    """Follower angle, angular velocity and acceleration in contact from analytic derivatives.
+def analytic_follower_kinematics(profile: Profile, theta_c, omega: float):
+    """Follower angle, angular velocity and acceleration in permanent contact at constant cam speed,
+    from the profile's analytic derivatives (the chain rule of the module doc).
+
+    ``theta_f = theta_hat(theta_c)``, ``theta_f_dot = omega theta_hat'(theta_c)`` and
+    ``theta_f_ddot = omega^2 theta_hat''(theta_c)``: derivatives with respect to *time*, the
+    reference :func:`spline_follower_kinematics` is compared with. (Rig P's
+    :func:`impactid.rigs.pivoted.regimes.follower_kinematics` gives derivatives with respect to the
+    cam angle instead.)
 
     Parameters
     ----------

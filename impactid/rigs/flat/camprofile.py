@@ -17,33 +17,35 @@ Derivatives with respect to the cam angle are analytic: with ``u = (theta_c - b)
 Fitting a profile to encoder data (:func:`fit_cam_profile`)
 ------------------------------------------------------------
 1. *Data selection* (:func:`select_cam_profile_data`): the recording (or an explicit time window of
-   it) is cut into complete cam revolutions counted from its first sample. A revolution is used
-   when its cam speed is steady (sector speeds within ``speed_tolerance`` of each other and its
-   mean speed within ``speed_tolerance`` of the median revolution), below the detachment speed of
-   the recording's rig (when it has a flat-follower rig), and when its follower angle against the
-   cam angle stays within ``departure_tolerance`` of the common curve (the per-bin median over the
+   it) is cut into complete cam revolutions counted from its first sample
+   (:func:`~impactid.rigs.flat.encoders.complete_revolutions`). A revolution is used when its cam
+   speed is steady (sector speeds within ``speed_tolerance`` of each other and its mean speed
+   within ``speed_tolerance`` of the median revolution), below the detachment speed of the
+   recording's rig (when it has a flat-follower rig), and when its follower angle against the cam
+   angle stays within ``departure_tolerance`` of the common curve (the per-bin median over the
    steady revolutions): a revolution in which the follower leaves the cam departs from that curve.
    Every revolution is reported with the reason it was rejected. A period-1 impacting recording
    repeats the same departure every revolution; without a rig to say it runs above detachment,
    the data alone cannot tell it from a cam profile.
-2. *Encoder quantisation*: the step of each angle channel is detected from the data (its values
-   lie on a grid of its smallest non-zero change). An incremental counter (``counter="floor"``)
+2. *Encoder quantisation* (read with :mod:`impactid.rigs.flat.encoders`): the step of each angle
+   channel is detected from the data (its values lie on a grid of its smallest non-zero change:
+   :func:`~impactid.rigs.flat.encoders.encoder_step`). An incremental counter (``counter="floor"``)
    reports ``floor(angle / step) * step``: a reading is on average half a count *below* the
    angle, a bias of ``pi / ppr`` (0.31 mrad at 10 000 ppr) that no profile shape can absorb, and
    near the profile's extremes the reading stays on one count over a wide cam range (a plateau
    whose error is up to a whole count, not half). Both are avoided by fitting the *edges* of the
-   follower encoder instead of its samples (:func:`encoder_edges`): when the reading changes, the
-   follower angle has just crossed a count boundary whose value is known exactly; the crossing
-   time is known to half a sample interval, and the cam angle at that time comes from a local line
-   through the cam encoder's own edges (:func:`local_linear`, which averages their timing errors
-   away). The fit error then comes from the follower edges' timing only (a uniform error of half a
-   sample of cam motion times the profile slope: about 0.01 mrad RMS at 20 kHz and 110 rpm) instead
-   of the quantisation (0.18 mrad RMS). When the follower
-   channel is not quantised (noisy or exact), the samples are averaged per cam count (or per
-   1/4096 revolution), after adding the counter's half count to a quantised cam. Whether a
-   counter floors or rounds cannot be told from the data (the difference is a constant follower
-   offset plus half a cam count); ``counter="round"`` and ``"none"`` (no correction) exist for
-   encoders that round and for comparison.
+   follower encoder instead of its samples (:func:`~impactid.rigs.flat.encoders.encoder_edges`):
+   when the reading changes, the follower angle has just crossed a count boundary whose value is
+   known exactly; the crossing time is known to half a sample interval, and the cam angle at that
+   time comes from a local line through the cam encoder's own edges
+   (:func:`~impactid.rigs.flat.encoders.local_linear`, which averages their timing errors away).
+   The fit error then comes from the follower edges' timing only (a uniform error of half a sample
+   of cam motion times the profile slope: about 0.01 mrad RMS at 20 kHz and 110 rpm) instead of
+   the quantisation (0.18 mrad RMS). When the follower channel is not quantised (noisy or exact),
+   the samples are averaged per cam count (or per 1/4096 revolution), after adding the counter's
+   half count to a quantised cam. Whether a counter floors or rounds cannot be told from the data
+   (the difference is a constant follower offset plus half a cam count); ``counter="round"`` and
+   ``"none"`` (no correction) exist for encoders that round and for comparison.
 3. *Cam-angle convention*: the recording's cam angle has an arbitrary zero. The profile is fitted
    directly as a function of the recording's cam angle (read through the counter convention, i.e.
    the continuous angle whose floor is the reading), so the centres ``b_i`` are reported in that
@@ -73,6 +75,7 @@ Fitting a profile to encoder data (:func:`fit_cam_profile`)
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import time
@@ -80,19 +83,33 @@ import warnings
 from dataclasses import dataclass, field
 from typing import Any
 
+import lmfit
 import numpy as np
 import pandas as pd
+from scipy.optimize import minimize_scalar, nnls
 
 from impactid.covariance import covariance_from_jacobian
 from impactid.errors import ImpactidError
+from impactid.io import Recording, read_recording
 from impactid.results import FitResult, Parameter
+from impactid.rigs.flat.encoders import (
+    COUNTERS,
+    TWO_PI,
+    CounterReading,
+    complete_revolutions,
+    encoder_edges,
+    local_linear,
+    pulses_per_revolution,
+    read_counter,
+)
+from impactid.signal import noise_floor
 
-__all__ = ["ALZATE2007_CAM", "CAM_EDGE_WINDOW", "COUNTERS", "CRITERIA", "C_MAX", "C_MIN", "DEFAULT_STARTS",
+__all__ = ["ALZATE2007_CAM", "CAM_EDGE_WINDOW", "CRITERIA", "C_MAX", "C_MIN", "DEFAULT_STARTS",
            "DEFAULT_TERMS", "DEPARTURE_BINS", "DEPARTURE_FLOOR", "FIT_BINS", "FIT_TOLERANCE",
            "MAX_NFEV_PER_PARAMETER", "MAX_TERMS", "NEGLIGIBLE_U", "SPEED_SECTORS", "SPEED_TOLERANCE",
-           "TWO_PI", "WRAP_IMAGES", "CamProfileData", "CamProfileError", "CamProfileFit", "CamProfileResult",
-           "GaussianSumProfile", "ProfileComparison", "compare_profiles", "encoder_edges", "encoder_step",
-           "fit_cam_profile", "gaussian_sum", "load_profile_json", "local_linear", "select_cam_profile_data"]
+           "WRAP_IMAGES", "CamProfileData", "CamProfileError", "CamProfileFit", "CamProfileResult",
+           "GaussianSumProfile", "ProfileComparison", "compare_profiles", "fit_cam_profile", "gaussian_sum",
+           "load_profile_json", "select_cam_profile_data"]
 
 #: Images ``b_i + 2 pi k``, ``|k| <= WRAP_IMAGES``, summed for a periodic profile.
 WRAP_IMAGES = 2
@@ -127,7 +144,6 @@ MAX_NFEV_PER_PARAMETER = 100
 #: Order-selection criteria.
 CRITERIA = ("bic", "aic")
 
-TWO_PI = 2.0 * math.pi
 #: ``|u|`` beyond which ``exp(-u^2)`` (< 1e-16) is left out of the fit's basis.
 NEGLIGIBLE_U = 6.1
 
@@ -281,8 +297,6 @@ def load_profile_json(path: str | os.PathLike[str]) -> GaussianSumProfile:
     CamProfileError : the file is missing, is not JSON, or lacks valid coefficients (the message
         names the file and the key).
     """
-    import json
-
     path = os.fspath(path)
     if os.path.exists(path) and not os.path.isfile(path):
         raise CamProfileError(f"{path}: not a regular file (a folder, named pipe or device)")
@@ -318,112 +332,6 @@ ALZATE2007_CAM = GaussianSumProfile(
 # --------------------------------------------------------------------------------------------
 # Data selection
 # --------------------------------------------------------------------------------------------
-
-#: Encoder counters by name: where the angle lies relative to a reading, in counts. ``"floor"``:
-#: an incremental counter, the angle is in ``[reading, reading + step)`` (half a count above the
-#: reading on average); ``"round"``: the nearest count (no bias); ``"none"``: treat the angle
-#: channels as continuous (no edges, no correction; for comparison).
-COUNTERS = {"floor": 0.5, "round": 0.0, "none": None}
-
-
-def encoder_step(x) -> float | None:
-    """The count step [rad] of a quantised angle channel, or None when it is not quantised.
-
-    The channel is quantised when every sample lies (to 1e-6 count) on the grid ``x[0] + k step``
-    with ``step`` its smallest non-zero change, and its changes between samples take at least two
-    different numbers of counts (typically 0 and 1: an encoder sampled faster than it counts);
-    exact motion at a uniform speed also lies on a grid, but changes by the same amount every
-    sample. When ``2 pi / step`` is within 1e-6 of a whole number of pulses per revolution, the
-    step is taken as exactly ``2 pi / ppr``.
-    """
-    x = np.asarray(x, dtype=float)
-    d = np.abs(np.diff(x))
-    scale = max(float(np.max(np.abs(x))), 1.0) if x.size else 1.0
-    nonzero = d[d > 1e-12 * scale]
-    if nonzero.size < 2:
-        return None
-    step = float(np.min(nonzero))
-    ppr = TWO_PI / step
-    if abs(ppr - round(ppr)) <= 1e-6 * ppr:
-        step = TWO_PI / round(ppr)
-    k = (x - x[0]) / step
-    if float(np.max(np.abs(k - np.round(k)))) > 1e-6:
-        return None
-    if np.unique(np.rint(d / step)).size < 2:
-        return None  # uniform motion, not counts
-    return step
-
-
-def encoder_edges(x, time, step: float, counter: str = "floor") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Count transitions of a quantised angle channel: when and at which angle the reading changed.
-
-    Where the reading changes by ``n`` counts between samples ``k - 1`` and ``k``, the angle crossed
-    ``n`` count boundaries inside that sample interval; they are placed at equally spaced times
-    ``t[k-1] + (m - 1/2) / n * dt`` (for one count the middle of the interval, the unbiased guess of
-    a crossing time uniformly distributed in it). With a ``"floor"`` counter the boundary between the
-    readings ``r`` and ``r + step`` is the angle ``r + step`` exactly; with ``"round"``,
-    ``r + step / 2``. The angle at a boundary is therefore known exactly; only its time is uncertain,
-    by at most half a sample interval.
-
-    Parameters
-    ----------
-    x : readings [rad]; time : sample times [s]; step : count step [rad];
-    counter : ``"floor"`` or ``"round"`` (see ``COUNTERS``).
-
-    Returns
-    -------
-    times [s], angles [rad] and the index ``k`` of the sample after each crossing (time ascending).
-    """
-    offset = COUNTERS.get(counter)
-    if offset is None:
-        raise CamProfileError(f"encoder edges need a 'floor' or 'round' counter, got {counter!r}")
-    x = np.asarray(x, dtype=float)
-    time = np.asarray(time, dtype=float)
-    k = np.flatnonzero(np.diff(x) != 0.0) + 1
-    n = np.rint(np.abs(x[k] - x[k - 1]) / step).astype(np.int64)
-    keep = n > 0
-    k, n = k[keep], n[keep]
-    rep = np.repeat(np.arange(k.size), n)
-    m = np.arange(rep.size) - np.repeat(np.cumsum(n) - n, n) + 1  # 1..n within each change
-    forward = (x[k] > x[k - 1])[rep]
-    j = np.where(forward, m, n[rep] + 1 - m)  # boundaries in the order they were crossed
-    lo = np.minimum(x[k], x[k - 1])[rep]
-    angles = lo + (j - 0.5 + offset) * step
-    dt = (time[k] - time[k - 1])[rep]
-    times = time[k - 1][rep] + dt * (m - 0.5) / n[rep]
-    return times, angles, k[rep]
-
-
-def local_linear(times, edge_times, edge_values, half_width: int) -> np.ndarray:
-    """Values at ``times`` of the least-squares line through the ``2 half_width + 1`` edges nearest
-    to each time (a local linear regression of ``edge_values`` on ``edge_times``).
-
-    Used for the cam angle at the follower's edges: each cam edge has an exact angle but a time
-    known to half a sample only, so linear interpolation between two edges errs by up to half a
-    sample of cam motion (0.29 mrad at 110 rpm and 20 kHz, 0.14 mrad RMS); the line through 33
-    edges (16 on each side: about 3.6 ms of cam motion at 110 rpm) brings this down to about
-    1 urad RMS (measured 0.7 urad, at most 9 urad) while following speed changes slower than
-    that window. ``edge_times`` must be ascending and hold at least
-    ``2 half_width + 1`` edges.
-    """
-    times = np.asarray(times, dtype=float)
-    n, width = edge_times.size, 2 * half_width + 1
-    start = np.clip(np.searchsorted(edge_times, times) - half_width, 0, n - width)
-    idx = start[:, None] + np.arange(width)[None, :]
-    dt = edge_times[idx] - times[:, None]  # centred on each query time: no cancellation
-    value = edge_values[idx]
-    dt_mean, value_mean = dt.mean(axis=1), value.mean(axis=1)
-    ddt = dt - dt_mean[:, None]
-    slope = np.sum(ddt * (value - value_mean[:, None]), axis=1) / np.sum(ddt * ddt, axis=1)
-    return value_mean - slope * dt_mean
-
-
-def _noise_sigma(x: np.ndarray) -> float:
-    """Robust white-noise level [rad] from second differences (zero for clean or quantised data)."""
-    if x.size < 5:
-        return 0.0
-    dd = np.diff(x, 2)
-    return float(1.4826 * np.median(np.abs(dd - np.median(dd))) / math.sqrt(6.0))
 
 
 @dataclass(frozen=True)
@@ -498,14 +406,51 @@ class CamProfileData:
         return {int(k): str(r) for k, r in zip(rows["revolution"], rows["reason"], strict=True)}
 
 
-def _ppr(step: float | None) -> int | None:
-    if step is None:
-        return None
-    ppr = TWO_PI / step
-    return int(round(ppr)) if abs(ppr - round(ppr)) <= 1e-6 * ppr else None
+def _check_selection_settings(counter: str, speed_tolerance: float, departure_tolerance: float | None) -> None:
+    """Raise :class:`CamProfileError` for an unknown counter or a tolerance that is not positive."""
+    if counter not in COUNTERS:
+        raise CamProfileError(f"unknown encoder counter {counter!r}; choose one of {', '.join(COUNTERS)}")
+    if not (math.isfinite(speed_tolerance) and speed_tolerance > 0.0):
+        raise CamProfileError(f"speed_tolerance must be positive, got {speed_tolerance!r}")
+    if departure_tolerance is not None and not (math.isfinite(departure_tolerance) and departure_tolerance > 0.0):
+        raise CamProfileError(f"departure_tolerance must be positive, got {departure_tolerance!r}")
+
+
+@dataclass(frozen=True)
+class _TimeWindow:
+    """A recording limited to a time window: the samples, the window [s] (None: all) and a note."""
+
+    recording: Recording
+    window: tuple[float, float] | None
+    note: str | None
+
+    @property
+    def span(self) -> str:
+        """`` in the window [t0, t1) s`` for messages (empty without a window)."""
+        return f" in the window [{self.window[0]:g}, {self.window[1]:g}) s" if self.window else ""
+
+
+def _time_window(recording: Recording, window: tuple[float, float] | None, where: str) -> _TimeWindow:
+    """The samples with ``t0 <= t < t1`` (all of them when ``window`` is None)."""
+    if window is None:
+        return _TimeWindow(recording, None, None)
+    t0, t1 = (float(v) for v in window)
+    if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
+        raise CamProfileError(f"{where}: the time window must be two finite times t0 < t1, got {window!r}")
+    sliced = recording.slice_time(t0, t1)
+    return _TimeWindow(sliced, (t0, t1), f"time window [{t0:g}, {t1:g}) s: {sliced.n_samples} samples")
+
+
+def _rig_detachment_speed(recording: Recording) -> float | None:
+    """Detachment speed [Hz] of the recording's rig when it is a flat-follower rig, else None."""
+    if getattr(recording.rig, "model", None) == "flat-follower":
+        return float(recording.rig.detachment_speed_hz())
+    return None
 
 
 def _revolution_speeds(members, t, travel) -> pd.DataFrame:
+    """One row per revolution: its times and cam speeds over ``SPEED_SECTORS`` sectors, and the
+    deviation of its mean speed from the median revolution (columns of :class:`CamProfileData`)."""
     rows = []
     for k, idx in enumerate(members):
         row = dict(revolution=k, t_start=float(t[idx[0]]) if idx.size else math.nan,
@@ -520,10 +465,181 @@ def _revolution_speeds(members, t, travel) -> pd.DataFrame:
             row.update(speed_hz=mean, speed_min_hz=float(sector.min()), speed_max_hz=float(sector.max()),
                        speed_spread=float((sector.max() - sector.min()) / mean) if mean > 0.0 else math.inf)
         rows.append(row)
-    return pd.DataFrame(rows)
+    table = pd.DataFrame(rows)
+    table["speed_deviation"] = table["speed_hz"] / _median_speed(table) - 1.0
+    return table
 
 
-def select_cam_profile_data(recording, *, window: tuple[float, float] | None = None,
+def _median_speed(table: pd.DataFrame) -> float:
+    """Median of the revolutions' mean cam speeds [Hz] (NaN when none has one)."""
+    finite = table["speed_hz"].notna()
+    return float(np.median(table.loc[finite, "speed_hz"])) if finite.any() else math.nan
+
+
+def _speed_rejections(table: pd.DataFrame, speed_tolerance: float, detachment_speed_hz: float | None) -> list[str]:
+    """Why each revolution of a :func:`_revolution_speeds` table is not steady below detachment
+    (empty string: it is)."""
+    median_speed = _median_speed(table)
+    reasons = []
+    for row in table.itertuples():
+        if not math.isfinite(row.speed_hz) or row.speed_hz <= 0.0:
+            reasons.append("too few samples, or the cam does not turn steadily forward")
+        elif row.speed_spread > speed_tolerance:
+            reasons.append(f"cam speed varies by {row.speed_spread:.1%} within the revolution "
+                           f"({row.speed_min_hz * 60:.4g} to {row.speed_max_hz * 60:.4g} rpm; tolerance "
+                           f"{speed_tolerance:.1%})")
+        elif abs(row.speed_deviation) > speed_tolerance:
+            reasons.append(f"mean cam speed {row.speed_hz * 60:.4g} rpm differs by {row.speed_deviation:+.1%} from "
+                           f"the median revolution ({median_speed * 60:.4g} rpm; tolerance {speed_tolerance:.1%})")
+        elif detachment_speed_hz is not None and row.speed_max_hz >= detachment_speed_hz:
+            reasons.append(f"cam speed {row.speed_max_hz * 60:.4g} rpm reaches the detachment speed "
+                           f"{detachment_speed_hz * 60:.4g} rpm: contact cannot be permanent")
+        else:
+            reasons.append("")
+    return reasons
+
+
+@dataclass(frozen=True)
+class _Departures:
+    """How far each revolution's binned follower angle lies from the common curve.
+
+    Attributes
+    ----------
+    distance : largest distance per revolution [rad] (NaN: no steady revolution, or no sample).
+    angle : cam angle of the bin where it occurs [rad].
+    tolerance : the departure tolerance [rad] (given, or the default of :func:`_departures`).
+    bins : cam-angle bins per revolution.
+    """
+
+    distance: np.ndarray
+    angle: np.ndarray
+    tolerance: float
+    bins: int
+
+    def reason(self, k: int) -> str:
+        """Why revolution ``k`` departs from the common curve (empty string: it does not)."""
+        if self.distance[k] <= self.tolerance:
+            return ""
+        return (f"follower angle departs from the common curve of the steady revolutions by "
+                f"{self.distance[k] * 1e3:.3g} mrad at cam angle {self.angle[k]:.3f} rad (tolerance "
+                f"{self.tolerance * 1e3:.3g} mrad): the follower left the cam?")
+
+
+def _departures(members, phase: np.ndarray, follower: np.ndarray, steady: np.ndarray, follower_step: float | None,
+                tolerance: float | None) -> _Departures:
+    """Distance of each revolution's follower angle (averaged in cam-angle bins, at most
+    ``DEPARTURE_BINS``) from the per-bin median over the ``steady`` revolutions.
+
+    The default tolerance is the largest of ``DEPARTURE_FLOOR``, 1.5 follower counts and 8 times
+    the noise level of a bin mean (the follower channel's :func:`impactid.signal.noise_floor`).
+    """
+    n_rev = len(members)
+    per_rev = max(int(np.median([m.size for m in members])), 1)
+    nbins = int(min(DEPARTURE_BINS, max(8, per_rev // 8)))
+    bin_of = np.minimum((phase * (nbins / TWO_PI)).astype(np.int64), nbins - 1)
+    curves = np.full((n_rev, nbins), np.nan)
+    for k, idx in enumerate(members):
+        counts = np.bincount(bin_of[idx], minlength=nbins)
+        sums = np.bincount(bin_of[idx], weights=follower[idx], minlength=nbins)
+        curves[k] = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+    if tolerance is None:
+        sigma = noise_floor(follower, subtract_curvature=True, include_quantisation=False)
+        tolerance = max(DEPARTURE_FLOOR, 1.5 * (follower_step or 0.0),
+                        8.0 * sigma / math.sqrt(max(per_rev / nbins, 1.0)))
+    distance = np.full(n_rev, np.nan)
+    angle = np.full(n_rev, np.nan)
+    if steady.any():
+        common = np.nanmedian(curves[steady], axis=0)
+        dist = np.abs(curves - common)
+        valid = np.isfinite(dist)
+        j = np.argmax(np.where(valid, dist, -1.0), axis=1)
+        distance = np.where(valid.any(axis=1), dist[np.arange(n_rev), j], np.nan)
+        angle = (j + 0.5) * (TWO_PI / nbins)
+    return _Departures(distance=distance, angle=angle, tolerance=float(tolerance), bins=nbins)
+
+
+def _no_usable_revolution(where: str, reasons: list[str], span: str) -> CamProfileError:
+    """The error for a recording whose every revolution was rejected, with the reasons counted."""
+    kinds: dict[str, int] = {}
+    for r in reasons:
+        key = r.split(" (")[0].split(":")[0].split(" by ")[0].split(" varies")[0]
+        kinds[key] = kinds.get(key, 0) + 1
+    summary = "; ".join(f"{n} x {k}" for k, n in kinds.items())
+    return CamProfileError(
+        f"{where}: no revolution usable for a cam-profile fit: {len(reasons)} complete revolution(s){span}, all "
+        f"rejected ({summary}). The fit needs revolutions at steady cam speed in permanent contact")
+
+
+@dataclass(frozen=True)
+class _FitPoints:
+    """The points a profile is fitted to: cam angle [rad] (ascending), follower angle [rad], weight,
+    which points (``CamProfileData.fit_points``) and a note on how they were made."""
+
+    cam_angle: np.ndarray
+    follower_angle: np.ndarray
+    weight: np.ndarray
+    kind: str
+    note: str
+
+    def ordered(self) -> _FitPoints:
+        """The points by ascending cam angle."""
+        order = np.argsort(self.cam_angle, kind="stable")
+        return _FitPoints(self.cam_angle[order], self.follower_angle[order], self.weight[order], self.kind,
+                          self.note)
+
+
+def _follower_edge_points(cam: CounterReading, follower: CounterReading, raw_cam: np.ndarray,
+                          raw_follower: np.ndarray, t: np.ndarray, in_use: np.ndarray) -> _FitPoints | None:
+    """The follower encoder's edges inside the used samples, at the cam angle of their times (module
+    doc, step 2); None when the follower is not quantised or too few edges are left."""
+    if follower.step is None:
+        return None
+    tf, vf, kf = encoder_edges(raw_follower, t, follower.step, follower.counter)
+    keep = in_use[kf] & in_use[kf - 1]
+    if cam.step is not None:
+        tc, vc, _ = encoder_edges(raw_cam, t, cam.step, cam.counter)
+        if tc.size < 2 * CAM_EDGE_WINDOW + 1:
+            return None
+        keep &= (tf >= tc[0]) & (tf <= tc[-1])
+        cam_at = local_linear(tf, tc, vc, CAM_EDGE_WINDOW)
+        how = f"a line through the nearest {2 * CAM_EDGE_WINDOW + 1} cam-encoder edges"
+    else:
+        cam_at = np.interp(tf, t, raw_cam)
+        how = "interpolated in the cam samples"
+    if int(keep.sum()) < 2 * (3 * MAX_TERMS + 1):
+        return None
+    x, y = np.mod(cam_at[keep], TWO_PI), vf[keep]
+    return _FitPoints(x, y, np.ones_like(x), "follower edges",
+                      f"{x.size} follower-encoder edges fitted (exact count boundaries; cam angle from {how})")
+
+
+def _sample_mean_points(cam: CounterReading, raw_cam: np.ndarray, phase: np.ndarray, follower: np.ndarray,
+                        idx: np.ndarray) -> _FitPoints:
+    """The used samples averaged per cam count (a quantised cam of whole pulses per revolution) or
+    per 1/``FIT_BINS`` revolution, weighted by the square root of their relative sample counts."""
+    x, y = phase[idx], follower[idx]
+    ppr = pulses_per_revolution(cam.step)
+    if ppr is not None:
+        ref = raw_cam[0] + cam.shift
+        level = np.mod(np.rint(np.mod(raw_cam[idx] + cam.shift - ref, TWO_PI) / cam.step).astype(np.int64), ppr)
+        counts = np.bincount(level, minlength=ppr)
+        sums = np.bincount(level, weights=y, minlength=ppr)
+        keep = counts > 0
+        fx = np.mod(ref + np.arange(ppr) * cam.step, TWO_PI)[keep]
+        kind = "cam-count means"
+    else:
+        level = np.minimum((x * (FIT_BINS / TWO_PI)).astype(np.int64), FIT_BINS - 1)
+        counts = np.bincount(level, minlength=FIT_BINS)
+        sums = np.bincount(level, weights=y, minlength=FIT_BINS)
+        keep = counts > 0
+        fx = np.bincount(level, weights=x, minlength=FIT_BINS)[keep] / counts[keep]
+        kind = "cam-angle bin means"
+    fy = sums[keep] / counts[keep]
+    fw = np.sqrt(counts[keep] / np.mean(counts[keep]))
+    return _FitPoints(fx, fy, fw, kind, f"{idx.size} samples averaged into {fx.size} {kind}")
+
+
+def select_cam_profile_data(recording: Recording, *, window: tuple[float, float] | None = None,
                             speed_tolerance: float = SPEED_TOLERANCE, departure_tolerance: float | None = None,
                             detachment_speed_hz: float | None = None, counter: str = "floor") -> CamProfileData:
     """Select the permanent-contact, steady-speed revolutions of a recording (module doc, steps 1-2).
@@ -551,179 +667,62 @@ def select_cam_profile_data(recording, *, window: tuple[float, float] | None = N
         names the file and why the revolutions were rejected), or invalid settings.
     """
     where = recording.source or "recording"
-    if counter not in COUNTERS:
-        raise CamProfileError(f"unknown encoder counter {counter!r}; choose one of {', '.join(COUNTERS)}")
-    if not (math.isfinite(speed_tolerance) and speed_tolerance > 0.0):
-        raise CamProfileError(f"speed_tolerance must be positive, got {speed_tolerance!r}")
-    if departure_tolerance is not None and not (math.isfinite(departure_tolerance) and departure_tolerance > 0.0):
-        raise CamProfileError(f"departure_tolerance must be positive, got {departure_tolerance!r}")
+    _check_selection_settings(counter, speed_tolerance, departure_tolerance)
     recording.require("cam_angle", "follower_angle", method="the cam-profile fit")
-    notes = []
-    rec = recording
-    if window is not None:
-        t0, t1 = (float(v) for v in window)
-        if not (math.isfinite(t0) and math.isfinite(t1) and t1 > t0):
-            raise CamProfileError(f"{where}: the time window must be two finite times t0 < t1, got {window!r}")
-        rec = rec.slice_time(t0, t1)
-        notes.append(f"time window [{t0:g}, {t1:g}) s: {rec.n_samples} samples")
-        window = (t0, t1)
-    cam = np.asarray(rec["cam_angle"], dtype=float)
-    fol = np.asarray(rec["follower_angle"], dtype=float)
+    windowed = _time_window(recording, window, where)
+    notes = [windowed.note] if windowed.note else []
+    rec = windowed.recording
+    raw_cam = np.asarray(rec["cam_angle"], dtype=float)
+    raw_follower = np.asarray(rec["follower_angle"], dtype=float)
     t = rec.time
-    span = f" in the window [{window[0]:g}, {window[1]:g}) s" if window else ""
-    travel = cam - cam[0]
-    travel = travel if travel[-1] >= 0.0 else -travel
-    turns = float(np.max(travel)) / TWO_PI
-    n_rev = int(math.floor(turns))
-    if n_rev < 1:
+    revolutions = complete_revolutions(raw_cam)
+    if len(revolutions) < 1:
         raise CamProfileError(
-            f"{where}: channel 'cam_angle' covers only {turns:.3g} cam revolution(s){span}; a cam-profile fit "
-            "needs at least one complete revolution in permanent contact")
+            f"{where}: channel 'cam_angle' covers only {revolutions.turns:.3g} cam revolution(s){windowed.span}; a "
+            "cam-profile fit needs at least one complete revolution in permanent contact")
+    cam, follower = read_counter(raw_cam, counter), read_counter(raw_follower, counter)
+    notes += [cam.describe("cam_angle"), follower.describe("follower_angle")]
+    phase = np.mod(cam.angle, TWO_PI)
 
-    offset = COUNTERS[counter]
-    cam_step = encoder_step(cam) if offset is not None else None
-    fol_step = encoder_step(fol) if offset is not None else None
-    cam_shift = offset * cam_step if cam_step else 0.0
-    fol_shift = offset * fol_step if fol_step else 0.0
-    for name, step, shift in (("cam_angle", cam_step, cam_shift), ("follower_angle", fol_step, fol_shift)):
-        if step is None:
-            notes.append(f"{name}: treated as continuous (not quantised" + (")" if offset is not None
-                                                                            else ": counter 'none')"))
-        else:
-            ppr = _ppr(step)
-            notes.append(f"{name}: quantised, step {step:.6g} rad" + (f" ({ppr} counts/rev)" if ppr else "")
-                         + f", {counter} counter" + (f": {shift:.4g} rad added to the samples" if shift else ""))
-    phase = np.mod(cam + cam_shift, TWO_PI)
-    follower = fol + fol_shift
-
-    # ---- revolutions and their speed ----
-    rev = np.floor(travel / TWO_PI).astype(np.int64)
-    inside = (rev >= 0) & (rev < n_rev)
-    order = np.flatnonzero(inside)[np.argsort(rev[inside], kind="stable")]
-    bounds = np.concatenate(([0], np.cumsum(np.bincount(rev[inside], minlength=n_rev))))
-    members = [np.sort(order[bounds[k]:bounds[k + 1]]) for k in range(n_rev)]
-    if detachment_speed_hz is None and getattr(rec.rig, "model", None) == "flat-follower":
-        detachment_speed_hz = float(rec.rig.detachment_speed_hz())
-        notes.append(f"detachment speed of the recording's rig: {detachment_speed_hz * 60:.5g} rpm")
-    table = _revolution_speeds(members, t, travel)
-    finite = table["speed_hz"].notna()
-    median_speed = float(np.median(table.loc[finite, "speed_hz"])) if finite.any() else math.nan
-    table["speed_deviation"] = table["speed_hz"] / median_speed - 1.0
-    reasons = []
-    for row in table.itertuples():
-        if not math.isfinite(row.speed_hz) or row.speed_hz <= 0.0:
-            reasons.append("too few samples, or the cam does not turn steadily forward")
-        elif row.speed_spread > speed_tolerance:
-            reasons.append(f"cam speed varies by {row.speed_spread:.1%} within the revolution "
-                           f"({row.speed_min_hz * 60:.4g} to {row.speed_max_hz * 60:.4g} rpm; tolerance "
-                           f"{speed_tolerance:.1%})")
-        elif abs(row.speed_deviation) > speed_tolerance:
-            reasons.append(f"mean cam speed {row.speed_hz * 60:.4g} rpm differs by {row.speed_deviation:+.1%} from "
-                           f"the median revolution ({median_speed * 60:.4g} rpm; tolerance {speed_tolerance:.1%})")
-        elif detachment_speed_hz is not None and row.speed_max_hz >= detachment_speed_hz:
-            reasons.append(f"cam speed {row.speed_max_hz * 60:.4g} rpm reaches the detachment speed "
-                           f"{detachment_speed_hz * 60:.4g} rpm: contact cannot be permanent")
-        else:
-            reasons.append("")
+    # ---- revolutions at a steady speed below detachment ----
+    if detachment_speed_hz is None:
+        detachment_speed_hz = _rig_detachment_speed(rec)
+        if detachment_speed_hz is not None:
+            notes.append(f"detachment speed of the recording's rig: {detachment_speed_hz * 60:.5g} rpm")
+    table = _revolution_speeds(revolutions.members, t, revolutions.travel)
+    reasons = _speed_rejections(table, speed_tolerance, detachment_speed_hz)
     steady = np.array([r == "" for r in reasons])
 
     # ---- consistency of the follower angle with the common curve ----
-    per_rev = max(int(np.median([m.size for m in members])), 1)
-    nbins = int(min(DEPARTURE_BINS, max(8, per_rev // 8)))
-    bin_of = np.minimum((phase * (nbins / TWO_PI)).astype(np.int64), nbins - 1)
-    curves = np.full((n_rev, nbins), np.nan)
-    for k, idx in enumerate(members):
-        counts = np.bincount(bin_of[idx], minlength=nbins)
-        sums = np.bincount(bin_of[idx], weights=follower[idx], minlength=nbins)
-        curves[k] = np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
-    if departure_tolerance is None:
-        sigma = _noise_sigma(follower)
-        departure_tolerance = max(DEPARTURE_FLOOR, 1.5 * (fol_step or 0.0),
-                                  8.0 * sigma / math.sqrt(max(per_rev / nbins, 1.0)))
-    departure = np.full(n_rev, np.nan)
-    departure_angle = np.full(n_rev, np.nan)
-    if steady.any():
-        common = np.nanmedian(curves[steady], axis=0)
-        dist = np.abs(curves - common)
-        valid = np.isfinite(dist)
-        j = np.argmax(np.where(valid, dist, -1.0), axis=1)
-        departure = np.where(valid.any(axis=1), dist[np.arange(n_rev), j], np.nan)
-        departure_angle = (j + 0.5) * (TWO_PI / nbins)
-        for k in np.flatnonzero(steady):
-            if not departure[k] <= departure_tolerance:
-                reasons[k] = (f"follower angle departs from the common curve of the steady revolutions by "
-                              f"{departure[k] * 1e3:.3g} mrad at cam angle {departure_angle[k]:.3f} rad (tolerance "
-                              f"{departure_tolerance * 1e3:.3g} mrad): the follower left the cam?")
-    table["departure"] = departure
-    table["departure_angle"] = departure_angle
+    departures = _departures(revolutions.members, phase, follower.angle, steady, follower.step, departure_tolerance)
+    for k in np.flatnonzero(steady):
+        reasons[k] = departures.reason(k)
+    table["departure"] = departures.distance
+    table["departure_angle"] = departures.angle
     table["used"] = np.array([r == "" for r in reasons], dtype=bool)
     table["reason"] = reasons
     used = table["used"].to_numpy()
-    notes.append(f"{n_rev} complete revolution(s){span}, {int(used.sum())} used (speed tolerance "
-                 f"{speed_tolerance:.1%}, departure tolerance {departure_tolerance * 1e3:.3g} mrad over {nbins} "
-                 "cam-angle bins)")
+    notes.append(f"{len(revolutions)} complete revolution(s){windowed.span}, {int(used.sum())} used (speed tolerance "
+                 f"{speed_tolerance:.1%}, departure tolerance {departures.tolerance * 1e3:.3g} mrad over "
+                 f"{departures.bins} cam-angle bins)")
     if not used.any():
-        kinds: dict[str, int] = {}
-        for r in reasons:
-            key = r.split(" (")[0].split(":")[0].split(" by ")[0].split(" varies")[0]
-            kinds[key] = kinds.get(key, 0) + 1
-        summary = "; ".join(f"{n} x {k}" for k, n in kinds.items())
-        raise CamProfileError(
-            f"{where}: no revolution usable for a cam-profile fit: {n_rev} complete revolution(s){span}, all "
-            f"rejected ({summary}). The fit needs revolutions at steady cam speed in permanent contact")
+        raise _no_usable_revolution(where, reasons, windowed.span)
 
     # ---- the used samples and the points to fit ----
-    idx = np.concatenate([members[k] for k in np.flatnonzero(used)])
-    idx.sort()
-    in_use = np.zeros(cam.size, dtype=bool)
+    idx = np.sort(np.concatenate([revolutions.members[k] for k in np.flatnonzero(used)]))
+    in_use = np.zeros(raw_cam.size, dtype=bool)
     in_use[idx] = True
-    fx = fy = None
-    if fol_step is not None:
-        tf, vf, kf = encoder_edges(fol, t, fol_step, counter)
-        keep = in_use[kf] & in_use[kf - 1]
-        if cam_step is not None:
-            tc, vc, _ = encoder_edges(cam, t, cam_step, counter)
-            if tc.size >= 2 * CAM_EDGE_WINDOW + 1:
-                keep &= (tf >= tc[0]) & (tf <= tc[-1])
-                cam_at = local_linear(tf, tc, vc, CAM_EDGE_WINDOW)
-                how = f"a line through the nearest {2 * CAM_EDGE_WINDOW + 1} cam-encoder edges"
-            else:
-                keep &= False
-        else:
-            cam_at = np.interp(tf, t, cam)
-            how = "interpolated in the cam samples"
-        if int(keep.sum()) >= 2 * (3 * MAX_TERMS + 1):
-            fx, fy = np.mod(cam_at[keep], TWO_PI), vf[keep]
-            fw = np.ones_like(fx)
-            kind = "follower edges"
-            notes.append(f"{fx.size} follower-encoder edges fitted (exact count boundaries; cam angle from {how})")
-    if fx is None:
-        x, y = phase[idx], follower[idx]
-        ppr = _ppr(cam_step)
-        if ppr is not None:
-            ref = cam[0] + cam_shift
-            level = np.mod(np.rint(np.mod(cam[idx] + cam_shift - ref, TWO_PI) / cam_step).astype(np.int64), ppr)
-            counts = np.bincount(level, minlength=ppr)
-            sums = np.bincount(level, weights=y, minlength=ppr)
-            keep = counts > 0
-            fx = np.mod(ref + np.arange(ppr) * cam_step, TWO_PI)[keep]
-            kind = "cam-count means"
-        else:
-            level = np.minimum((x * (FIT_BINS / TWO_PI)).astype(np.int64), FIT_BINS - 1)
-            counts = np.bincount(level, minlength=FIT_BINS)
-            sums = np.bincount(level, weights=y, minlength=FIT_BINS)
-            keep = counts > 0
-            fx = np.bincount(level, weights=x, minlength=FIT_BINS)[keep] / counts[keep]
-            kind = "cam-angle bin means"
-        fy = sums[keep] / counts[keep]
-        fw = np.sqrt(counts[keep] / np.mean(counts[keep]))
-        notes.append(f"{idx.size} samples averaged into {fx.size} {kind}")
-    order = np.argsort(fx, kind="stable")
+    points = _follower_edge_points(cam, follower, raw_cam, raw_follower, t, in_use)
+    if points is None:
+        points = _sample_mean_points(cam, raw_cam, phase, follower.angle, idx)
+    notes.append(points.note)
+    points = points.ordered()
     return CamProfileData(
-        cam_angle=phase[idx], follower_angle=follower[idx], fit_cam_angle=fx[order], fit_follower_angle=fy[order],
-        fit_weight=fw[order], fit_points=kind, revolutions=table, cam_step=cam_step, follower_step=fol_step,
-        counter=counter, speed_tolerance=float(speed_tolerance), departure_tolerance=float(departure_tolerance),
-        detachment_speed_hz=detachment_speed_hz, source=recording.source, window=window, notes=tuple(notes))
+        cam_angle=phase[idx], follower_angle=follower.angle[idx], fit_cam_angle=points.cam_angle,
+        fit_follower_angle=points.follower_angle, fit_weight=points.weight, fit_points=points.kind,
+        revolutions=table, cam_step=cam.step, follower_step=follower.step, counter=counter,
+        speed_tolerance=float(speed_tolerance), departure_tolerance=departures.tolerance,
+        detachment_speed_hz=detachment_speed_hz, source=recording.source, window=windowed.window, notes=tuple(notes))
 
 
 # --------------------------------------------------------------------------------------------
@@ -870,8 +869,9 @@ class CamProfileFit:
             "seconds": self.seconds, "criterion": self.criterion,
             "order_table": ([{k: clean(v) for k, v in row.items()} for row in self.order_table.to_dict("records")]
                             if self.order_table is not None else None),
-            "quantisation": {"counter": data.counter, "cam_step": data.cam_step, "cam_ppr": _ppr(data.cam_step),
-                             "follower_step": data.follower_step, "follower_ppr": _ppr(data.follower_step)},
+            "quantisation": {"counter": data.counter, "cam_step": data.cam_step,
+                             "cam_ppr": pulses_per_revolution(data.cam_step), "follower_step": data.follower_step,
+                             "follower_ppr": pulses_per_revolution(data.follower_step)},
             "selection": {"speed_tolerance": data.speed_tolerance, "departure_tolerance": data.departure_tolerance,
                           "detachment_speed_hz": data.detachment_speed_hz, "notes": list(data.notes)},
             "revolutions_used": list(data.used_revolutions),
@@ -914,8 +914,6 @@ def _solve_amplitudes(E: np.ndarray, y: np.ndarray, w: np.ndarray, nonnegative: 
     Solved through the normal equations (``N x N``): tall LAPACK factorisations are avoided, as they
     can be very slow with a multi-threaded BLAS on a busy machine.
     """
-    from scipy.optimize import nnls
-
     A = E * w[:, None]
     rhs = y * w
     G, g = A.T @ A, A.T @ rhs
@@ -966,8 +964,6 @@ def _fit_order(x, y, w, terms, c_lo, c_hi, nonnegative, starts, extra_seeds=()):
     the active columns, and its Jacobian is Kaufman's ``P dA/d(b, c) a``. Returns
     ``(lmfit result, a, b, c, nfev of all starts, starts run)`` of the best refinement.
     """
-    import lmfit
-
     candidates = []
     for b, c in list(extra_seeds) + _even_seeds(terms, c_lo, c_hi):
         _, cost = _solve_amplitudes(_basis(x, b, c), y, w, nonnegative)
@@ -1033,7 +1029,35 @@ def _fit_order(x, y, w, terms, c_lo, c_hi, nonnegative, starts, extra_seeds=()):
     return best, a, b, c, nfev, len(chosen)
 
 
-def _statistics(x, y, w, a, b, c) -> dict[str, Any]:
+@dataclass(frozen=True)
+class _FitStatistics:
+    """Statistics of one order's fit (:func:`_statistics`).
+
+    Attributes
+    ----------
+    chisqr : sum of squared weighted residuals [rad^2]; redchi : its reduced value.
+    aic, bic : information criteria (lmfit's definitions, ``nvarys = 3 terms``).
+    ndata, nvarys : points fitted and coefficients.
+    rms, max : weighted RMS and largest absolute residual [rad].
+    stderr : standard errors of ``(a, b, c)`` [rad], each of shape ``(terms,)`` (NaN: not available).
+    condition : condition number of the column-scaled ``J^T J`` [-].
+    stderr_note : why some standard errors are NaN (empty when none is).
+    """
+
+    chisqr: float
+    redchi: float
+    aic: float
+    bic: float
+    ndata: int
+    nvarys: int
+    rms: float
+    max: float
+    stderr: tuple[np.ndarray, np.ndarray, np.ndarray]
+    condition: float
+    stderr_note: str
+
+
+def _statistics(x, y, w, a, b, c) -> _FitStatistics:
     """chi-square, AIC, BIC (lmfit's definitions with all ``3 N`` coefficients counted) and the
     standard errors from the full Jacobian, ``sqrt(diag((J^T J)^-1) * redchi)`` as lmfit computes
     them, through :func:`impactid.covariance.covariance_from_jacobian`: NaN for the centre and width
@@ -1061,11 +1085,11 @@ def _statistics(x, y, w, a, b, c) -> dict[str, Any]:
     if not keep.all():
         zero = ", ".join(f"term {k + 1}" for k in range(terms) if a[k] == 0.0)
         note = "; ".join(filter(None, [note, f"centre and width undetermined for the zero-amplitude {zero}"]))
-    return {"chisqr": chisqr, "redchi": redchi, "aic": neg2_log_likel + 2.0 * nvarys,
-            "bic": neg2_log_likel + math.log(ndata) * nvarys, "ndata": ndata, "nvarys": nvarys,
-            "rms": math.sqrt(chisqr / float(np.sum(w * w))), "max": float(np.max(np.abs(r / w))),
-            "stderr": (stderr[0::3], stderr[1::3], stderr[2::3]), "condition": covariance.condition,
-            "stderr_note": note}
+    return _FitStatistics(chisqr=chisqr, redchi=redchi, aic=neg2_log_likel + 2.0 * nvarys,
+                          bic=neg2_log_likel + math.log(ndata) * nvarys, ndata=ndata, nvarys=nvarys,
+                          rms=math.sqrt(chisqr / float(np.sum(w * w))), max=float(np.max(np.abs(r / w))),
+                          stderr=(stderr[0::3], stderr[1::3], stderr[2::3]), condition=covariance.condition,
+                          stderr_note=note)
 
 
 def _sorted_profile(a, b, c, errors):
@@ -1107,8 +1131,6 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
     """
     if not isinstance(data, CamProfileData):
         if isinstance(data, (str, os.PathLike)):
-            from impactid.io import read_recording
-
             data = read_recording(data)
         data = select_cam_profile_data(data, window=window, speed_tolerance=speed_tolerance,
                                        departure_tolerance=departure_tolerance,
@@ -1149,8 +1171,8 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
         stats = _statistics(x, y, w, a, b, c)
         results[order] = (result, a, b, c, nfev, runs, stats)
         previous = GaussianSumProfile(a, b, c)
-        rows.append({"terms": order, "nvarys": stats["nvarys"], "chisqr": stats["chisqr"], "rms": stats["rms"],
-                     "aic": stats["aic"], "bic": stats["bic"], "success": bool(result.success)})
+        rows.append({"terms": order, "nvarys": stats.nvarys, "chisqr": stats.chisqr, "rms": stats.rms,
+                     "aic": stats.aic, "bic": stats.bic, "success": bool(result.success)})
     if auto:
         table = pd.DataFrame(rows)
         pick = int(table.loc[table[criterion].idxmin(), "terms"])
@@ -1159,17 +1181,17 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
         table, pick = None, orders[0]
     seconds = time.perf_counter() - start
     result, a, b, c, nfev, runs, stats = results[pick]
-    profile, (ea, eb, ec) = _sorted_profile(a, b, c, stats["stderr"])
+    profile, (ea, eb, ec) = _sorted_profile(a, b, c, stats.stderr)
     res = data.follower_angle - profile(data.cam_angle)
     return CamProfileFit(
-        profile=profile, stderr_a=ea, stderr_b=eb, stderr_c=ec, rms_residual=stats["rms"],
-        max_residual=stats["max"], rms_sample_residual=float(np.sqrt(np.mean(res * res))),
-        max_sample_residual=float(np.max(np.abs(res))), chisqr=stats["chisqr"], redchi=stats["redchi"],
-        aic=stats["aic"], bic=stats["bic"], ndata=stats["ndata"], nsamples=data.nsamples, nvarys=stats["nvarys"],
+        profile=profile, stderr_a=ea, stderr_b=eb, stderr_c=ec, rms_residual=stats.rms,
+        max_residual=stats.max, rms_sample_residual=float(np.sqrt(np.mean(res * res))),
+        max_sample_residual=float(np.max(np.abs(res))), chisqr=stats.chisqr, redchi=stats.redchi,
+        aic=stats.aic, bic=stats.bic, ndata=stats.ndata, nsamples=data.nsamples, nvarys=stats.nvarys,
         nfev=nfev, nfev_total=int(sum(r[4] for r in results.values())), success=bool(result.success),
         message=str(result.message), starts=runs, seconds=seconds, data=data,
-        criterion=criterion if auto else None, order_table=table, covariance_condition=stats["condition"],
-        stderr_note=stats["stderr_note"])
+        criterion=criterion if auto else None, order_table=table, covariance_condition=stats.condition,
+        stderr_note=stats.stderr_note)
 
 
 # --------------------------------------------------------------------------------------------
@@ -1226,8 +1248,6 @@ def compare_profiles(profile, reference, *, directions=(1, -1), samples: int = 3
     ProfileComparison minimising the RMS error: the offset is found on the sample grid by circular
     cross-correlation (FFT) and refined by a bounded scalar minimisation (to about 1e-12 rad).
     """
-    from scipy.optimize import minimize_scalar
-
     samples = int(samples)
     theta = TWO_PI * np.arange(samples) / samples
     p = np.asarray(profile(theta), dtype=float)

@@ -31,7 +31,7 @@ First-bounce method (:func:`restitution_at_speed` with ``method="first-bounce"``
     good as that model; the impact-law method needs only the profile.
 
 Encoder quantisation: counts are floors of the angle, so half a count is added before use (the
-quantisation error then has zero mean).
+quantisation error then has zero mean; :func:`impactid.rigs.flat.encoders.read_counter`).
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ from impactid.errors import ImpactidError
 from impactid.io import Recording
 from impactid.results import FitResult, Parameter
 from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
-from impactid.rigs.flat.camprofile import encoder_step
+from impactid.rigs.flat.encoders import CounterReading, read_counter
 
 __all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
            "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
@@ -77,18 +77,13 @@ class EncoderImpactWarning(UserWarning):
     """An impact measurement is doubtful (few impacts, scattered estimates, method outside its range)."""
 
 
-def _count(angle) -> float:
-    """Encoder count of a channel [rad] (:func:`impactid.rigs.flat.camprofile.encoder_step`), 0 if not quantised."""
-    step = encoder_step(angle)
-    return 0.0 if step is None else float(step)
-
-
-def _channel(recording: Recording, name: str) -> np.ndarray:
+def _channel(recording: Recording, name: str) -> CounterReading:
+    """An encoder channel read as a floor counter (:func:`impactid.rigs.flat.encoders.read_counter`:
+    half a count added when it is quantised)."""
     if name not in recording.channels:
         raise EncoderImpactError(f"{recording.source or 'recording'}: channel {name!r} is missing "
                                  "(rig F impacts need 'cam_angle' and 'follower_angle')")
-    x = np.asarray(recording.channels[name], dtype=float)
-    return x + 0.5 * _count(x)
+    return read_counter(recording.channels[name], "floor")
 
 
 def _analytic_profile(recording: Recording):
@@ -158,27 +153,21 @@ def relative_motion(recording: Recording, profile=None, offset: float | None = N
     :class:`~impactid.rigs.flat.camprofile.GaussianSumProfile`); default the rig's analytic A-17.
     ``offset`` [rad] defaults to the fitted alignment (:func:`align_profile`).
     """
-    raw_c = np.asarray(recording.channels.get("cam_angle", np.empty(0)), dtype=float)
-    theta_c = _channel(recording, "cam_angle")
-    theta_f = _channel(recording, "follower_angle")
+    cam, follower = _channel(recording, "cam_angle"), _channel(recording, "follower_angle")
+    theta_c, theta_f = cam.angle, follower.angle
     profile = _analytic_profile(recording) if profile is None else profile
     t = recording.start_time_s + np.arange(theta_c.size) / recording.sample_rate_hz
     slope = float(np.polyfit(t - t[0], theta_c, 1)[0])
     if not slope > 0.0:
         raise EncoderImpactError(f"{recording.source or 'recording'}: channel 'cam_angle' does not increase "
                                  f"(mean cam speed {slope / (2 * math.pi):.4g} Hz)")
-    f_step = _count(recording.channels["follower_angle"])
+    f_step = follower.step or 0.0
     tolerance = max(1.5 * f_step, 2e-4)
     if offset is None:
         offset = align_profile(theta_c, theta_f, profile, tolerance)
     return RelativeMotion(t=t, theta_c=theta_c, theta_f=theta_f, relative=theta_f - profile(theta_c + offset),
-                          offset=float(offset), follower_step=f_step, cam_step=_count(raw_c),
+                          offset=float(offset), follower_step=f_step, cam_step=cam.step or 0.0,
                           cam_speed_hz=slope / (2.0 * math.pi), source=recording.source or "", profile=profile)
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    edges = np.flatnonzero(np.diff(np.concatenate(([0], mask.astype(np.int8), [0]))))
-    return list(zip(edges[::2], edges[1::2], strict=True))
 
 
 def _follower_model(x, tau_pre, tau_post):

@@ -68,7 +68,8 @@ def synth_flat_impacting(rig: FlatFollowerRig, cam_speed_hz: float, duration: fl
     recording = Recording(
         channels=measured, sample_rate_hz=sample_rate_hz, units={k: CHANNEL_UNITS[k] for k in measured},
         rig=rig, operating={"cam_speed_hz": float(cam_speed_hz), "eccentricity_m": rig.e}, start_time_s=settle,
-        provenance=(f"impactid.rigs.flat.synth_impacts.synth_flat_impacting: {cam_speed_hz * 60:.6g} rpm, r = {run.restitution:.6g}",))
+        provenance=(f"impactid.rigs.flat.synth_impacts.synth_flat_impacting: {cam_speed_hz * 60:.6g} rpm, "
+                    f"r = {run.restitution:.6g}",))
     events = run.events[run.events["t"] >= settle]
     truth = {
         "generator": "impactid.rigs.flat.synth_impacts.synth_flat_impacting",

@@ -6,12 +6,13 @@ The folder holds the rig's parts, following the data:
   :class:`PivotedFollowerRig` parameters and the paper's rig :data:`SUNDAR2016`;
 * :mod:`~impactid.rigs.pivoted.kernel`: the compiled event-driven simulator (on the shared DP5 core
   :mod:`impactid.simulate.dp5`), driven by :mod:`impactid.rigs.pivoted.runs`.
-* :mod:`~impactid.rigs.pivoted.commands`: its commands (``impactid estimate``, ``events``, ``regime``,
-  ``regime-map``, ``simulate``, and its ``detachment`` and ``synth``).
+* :mod:`~impactid.rigs.pivoted.commands`: its commands (``events``, ``regime``, ``regime-map``,
+  ``simulate``, and its ``detachment`` and ``synth``).
 
 The measurement model (accelerometer and force channels to per-impact kinematics) is
-:func:`impactid.rigs.pivoted.reconstruct.reconstruct` (``MODEL.measure``, through which the estimate pipeline
-reaches it); the estimators are in :mod:`impactid.rigs.pivoted.estimates`.
+:func:`impactid.rigs.pivoted.reconstruct.reconstruct` (``MODEL.measure``); the estimators are in
+:mod:`impactid.rigs.pivoted.estimates`, and what the generic ``impactid estimate`` runs for this
+rig (``MODEL.estimation``) in :mod:`impactid.rigs.pivoted.estimation`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
@@ -100,4 +101,5 @@ MODEL = RigModel(
     measure=_measure,
     example=_example,
     commands=COMMANDS,
+    estimation="impactid.rigs.pivoted.estimation",
 )

@@ -27,6 +27,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from impactid.signal import noise_floor
+
 __all__ = ["PipelineBias", "RecordingSampling", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
@@ -87,8 +89,6 @@ class RecordingSampling:
     @classmethod
     def of(cls, recording) -> RecordingSampling:
         """The sampling of a :class:`~impactid.io.Recording` (with a rig, a cam speed and ``accel_tangential``)."""
-        from impactid.events import noise_floor
-
         accel = recording["accel_tangential"]
         fraction = noise_floor(accel) / max(float(np.max(np.abs(accel))), 1e-300)
         return cls(rig=recording.rig, cam_speed_hz=float(recording.require_cam_speed()),

@@ -1,6 +1,7 @@
-"""The commands rig P contributes: ``impactid regime | regime-map | simulate | events | estimate``, and
-its implementations of ``impactid detachment`` and ``impactid synth`` (shared with rig F; the rig
-``--rig`` names runs them, rig P by default).
+"""The commands rig P contributes: ``impactid regime | regime-map | simulate | events``, and its
+implementations of ``impactid detachment`` and ``impactid synth`` (shared with rig F; the rig
+``--rig`` names runs them, rig P by default). ``impactid estimate`` is the application's, generic
+over the rigs: rig P's part of it is :mod:`impactid.rigs.pivoted.estimation`.
 
 Thin: parse arguments, call the public API, print results. Units on the command line are SI
 (``--beta`` in N s m^-(n+1), e.g. 24.7e9 for the paper's 24.7 GN s m^-2.5), except cam speeds
@@ -11,8 +12,6 @@ transactions (:mod:`impactid.commandline`).
 from __future__ import annotations
 
 import argparse
-import sys
-import warnings
 
 import numpy as np
 
@@ -30,22 +29,18 @@ from impactid.commandline import (
     check_outputs,
     check_synth_size,
     command_inputs,
-    deliver,
     exponent,
     fraction,
     integer_in,
     noise_channels,
     nonnegative,
-    num,
     number,
     positive,
     print_json,
-    progress_bar,
     recording_arguments,
     recording_paths,
     recording_rig,
     rig_help,
-    say_written,
     speed_arguments,
     write_synthetic,
 )
@@ -53,11 +48,7 @@ from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
 from impactid.rigs.pivoted.parameters import MODEL_NAME
 
-__all__ = ["COMMANDS", "MAX_GRID_POINTS"]
-
-#: Largest grid of trial laws ``--grid NB,NN`` accepts (each costs one S1 run per impact).
-MAX_GRID_POINTS = 100_000
-
+__all__ = ["COMMANDS", "kinematics_arguments"]
 
 # ---- argument types ---------------------------------------------------------------------------
 
@@ -80,22 +71,6 @@ def _range(text: str) -> list[float]:
     if min(values) <= 0.0:
         raise argparse.ArgumentTypeError(f"values must be positive, got {text!r}")
     return values
-
-
-def _grid_counts(text: str) -> tuple[int, int]:
-    try:
-        parts = [int(x) for x in text.replace("x", ",").split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected NB[,NN] grid counts, got {text!r}") from None
-    if len(parts) == 1:
-        parts.append(21)
-    if len(parts) != 2 or min(parts) < 3:
-        raise argparse.ArgumentTypeError(f"grid counts must be NB[,NN] with each >= 3, got {text!r}")
-    if parts[0] * parts[1] > MAX_GRID_POINTS:
-        raise argparse.ArgumentTypeError(
-            f"{text!r} asks for {parts[0] * parts[1]:,} trial laws (each simulated for every impact); at most "
-            f"{MAX_GRID_POINTS:,}: use the optimiser (no --grid) for a precise estimate")
-    return parts[0], parts[1]
 
 
 # ---- shared plumbing --------------------------------------------------------------------------
@@ -273,64 +248,6 @@ def run_events(args, model) -> int:
     return 0
 
 
-def _estimate_figures(args, result):
-    """The figures of ``estimate --plots``: their names and their writer."""
-    from impactid.rigs.pivoted import figures
-
-    names = ["hysteresis.png"] + (["restitution.png"] if result.restitution is not None else []) + [
-        "landscape.png", "residuals.png"]
-    return names, lambda staged: figures.estimate_figures(result, args.plots, staged)
-
-
-def run_estimate(args, model) -> int:
-    from impactid.io import check_memory
-    from impactid.rigs.pivoted.estimates import C_BOUNDS, EstimationWarning
-    from impactid.pipeline import estimate
-
-    paths = recording_paths(args, several=True)
-    lo, hi = args.n_range
-    if not lo < hi:
-        raise UsageError(f"argument --n-range: need LO < HI, got {lo:g} {hi:g}")
-    inputs = command_inputs(args, paths)
-    check_outputs(args, inputs)
-    check_memory(paths, "estimate")  # before anything is allocated
-    progress = progress_bar(args.progress if args.progress is not None else sys.stderr.isatty())
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", EstimationWarning)  # the result's notes, printed below
-        result = estimate(paths, residual=args.residual, fix_n=args.fix_n,
-                          method="grid" if args.grid else args.method, grid=args.grid or (41, 21),
-                          rig=recording_rig(args), integration=args.integration, anchor=args.anchor,
-                          c_bounds=C_BOUNDS, n_bounds=(lo, hi), progress=progress)
-    data = result.to_dict()
-    data["recordings_read"] = [str(p) for p in paths]
-    deliver(args, data, inputs, _estimate_figures(args, result))
-    if args.json:
-        return 0
-    d, r = result.damping, result.restitution
-    unc = data["uncertainty"]
-    print(f"impactid estimate: {len(paths)} recording(s), {data['impacts_used']} impacts, residual {d.residual}, "
-          f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)")
-    print(f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(unc['beta_interval'][0])}, "
-          f"{num(unc['beta_interval'][1])}]")
-    if d.fixed_n:
-        print(f"  n     = {d.n:.4g} (fixed)")
-    else:
-        tag = "" if d.separable else "   NOT SEPARABLE from beta (see warnings)"
-        print(f"  n     = {num(d.n, '.4g')}   interval [{num(unc['n_interval'][0], '.4g')}, "
-              f"{num(unc['n_interval'][1], '.4g')}]{tag}")
-    print(f"  objective (mean {d.residual}) = {num(d.objective, '.4g')}")
-    if r is None:
-        print("  restitution law: undetermined (see warnings)")
-    else:
-        print(f"  gamma = {num(r.gamma)} +- {num(r.gamma_stderr, '.2g')} s/m  (xi = 1 - gamma v_a; HC equivalent "
-              f"beta {num(r.beta_equivalent, '.4g')} N s m^-2.5)")
-        print(f"  xi_mean = {num(r.xi_mean)}, va_mean = {num(r.va_mean)} m/s, constant r = {num(r.r_constant)}")
-    for message in data.get("warnings", []):
-        print(f"  warning: {message}")
-    say_written(args)
-    return 0
-
-
 # ---- arguments --------------------------------------------------------------------------------
 
 
@@ -344,7 +261,7 @@ def _simulated_rig_arguments(with_ratio: bool = True) -> tuple[Argument, ...]:
     return out
 
 
-def _kinematics_arguments(anchor: str) -> tuple[Argument, ...]:
+def kinematics_arguments(anchor: str) -> tuple[Argument, ...]:
     """``--integration`` and ``--anchor``; their choices are read when the parser is built (the module
     that defines the anchors loads the simulator, which a rig's import must not)."""
 
@@ -425,7 +342,7 @@ COMMANDS = (
                                    "help": "anti-alias filter and decimation factor (default 1)"}),
         CAM_PPR, SEED, SYNTH_OUT), run_synth, rig_argument="resolve", default_rig=True),
     CommandSpec("", "events", "find impacts and reconstruct each one (alpha, v_a, xi, contact force)", (
-        *recording_arguments(), *_kinematics_arguments("return-time"),
+        *recording_arguments(), *kinematics_arguments("return-time"),
         Argument(("--threshold",), {"type": positive, "default": None,
                                     "help": "pulse detection level [m/s^2] (default: from noise)"}),
         Argument(("--onset-threshold",), {"type": positive, "default": None,
@@ -433,27 +350,4 @@ COMMANDS = (
         Argument(("--out",), {"metavar": "EVENTS.csv", "help": "write the per-event table as CSV"}),
         Argument(("--show",), {"type": integer_in(0, 1_000_000), "default": 10, "help": "rows to print"}),
         JSON), run_events),
-    CommandSpec("", "estimate", "estimate Hunt-Crossley beta, n and the restitution law from recordings", (
-        *recording_arguments(several=True),
-        Argument(("--residual",), {"default": "lambda1", "choices": ["lambda1", "lambda2", "lambda3"],
-                                   "help": "residual minimised (default lambda1: accelerometer only)"}),
-        Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
-                                "help": "fix the exponent n (0: viscous)"}),
-        Argument(("--method",), {"choices": ["least-squares", "optimise"], "default": "least-squares",
-                                 "help": "least-squares (default: trust-region Gauss-Newton, profile intervals) or "
-                                         "optimise (nested Brent searches, lattice and bootstrap intervals; about "
-                                         "100x the simulations)"}),
-        Argument(("--grid",), {"type": _grid_counts, "default": None, "metavar": "NB[,NN]",
-                               "help": "paper-style grid search with NB values of beta (log) and NN of n instead "
-                                       "of --method"}),
-        Argument(("--n-range",), {"type": exponent, "nargs": 2, "default": [0.5, 2.5], "metavar": ("LO", "HI"),
-                                  "help": "search bounds of n (default 0.5 2.5)"}),
-        *_kinematics_arguments("cam-phase"),
-        Argument(("--out",), {"metavar": "RESULT.json", "help": "write the result as JSON (atomically)"}),
-        Argument(("--plots",), {"metavar": "DIR",
-                                "help": "write figures (hysteresis, restitution, landscape, residuals)"}),
-        Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"}),
-        Argument(("--progress",), {"action": argparse.BooleanOptionalAction, "default": None,
-                                   "help": "progress bar on stderr (default: when stderr is a terminal)"})),
-        run_estimate),
 )

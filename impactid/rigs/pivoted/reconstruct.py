@@ -18,7 +18,10 @@ contact onset to the next):
 
    Both need the edge samples :data:`EDGE_SNR` times above the noise floor; with noisy data the
    paper's plain sample means are used (noise then dominates the error anyway);
-2. the constant of the second integration is anchored, by name (:data:`ANCHORS`):
+2. the constant of the second integration is anchored, by name (:data:`ANCHORS`: typed anchor
+   objects of :mod:`impactid.rigs.pivoted.anchors`, each given the integrated
+   :class:`~impactid.rigs.pivoted.anchors.EventWindows` and returning
+   :class:`~impactid.rigs.pivoted.anchors.AnchoredOnsets`):
 
    ``return-time``
        the paper's function Xi (S-19): the free-flight angle from which the follower, starting
@@ -41,8 +44,8 @@ contact onset to the next):
        double-integration error (with 0.5 % noise the onset angle error drops from 1 % to the
        phase's, and the approach-speed scatter with it). Used by the estimators.
 
-3. ``Theta(0)``: from the encoder with ``cam-geometry``; otherwise from ``psi_i(alpha(0),
-   Theta) = 0`` on the closing branch (the root where the gap rate is negative), and
+3. ``Theta(0)``: from the encoder with ``cam-geometry``, from the recording's phase with ``cam-phase``;
+   otherwise from ``psi_i(alpha(0), Theta) = 0`` on the closing branch (the root where the gap rate is negative), and
    ``Theta(t) = Theta(0) + 2 pi Omega_c t`` (S-20);
 4. indentation ``-psi_i``, contact force from the pivot forces (S-21) when they exist,
    ``alpha_m`` (S-22, the sampled maximum refined by a parabola), the approach speed ``v_a``
@@ -51,6 +54,12 @@ contact onset to the next):
    the separation speed (the gap rate where the reconstructed gap reopens, interpolated
    linearly between samples; the paper's variant, the gap rate at the maximum of ``alpha_dot``,
    is reported too) and ``xi = v_s / v_a``.
+
+In :func:`reconstruct` each step is a function: the inputs checked (:func:`_checked_inputs`), the
+events chosen (:func:`_events_to_reconstruct`), the windows integrated with their onset states
+(:func:`_integrate_events`, :func:`_integrate_windows`, :func:`_onset_states`), the anchor, the onset cam angles
+(:func:`_onset_cam_angles`), the per-event table (:func:`_event_table`, :func:`_event_row`) and the
+notes (:func:`_plausibility`, :func:`_reconstruction_notes`).
 
 The result holds the per-event table, the contact-phase histories (with 8 samples of margin on
 each side) and, on request, the full histories of any event (recomputed, so that 850 events of a
@@ -61,20 +70,24 @@ from __future__ import annotations
 
 import math
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy import optimize
 
 from impactid.errors import ImpactidError
 from impactid.events import EventTable, EventWarning, find_events
 from impactid.io import Recording, RecordingError
 from impactid.rigs._params import RigParameters
 from impactid.rigs.pivoted import MODEL_NAME, spring_force
-from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, return_time_anchors
-from impactid.rigs.pivoted.runs import pack_rig
+from impactid.rigs.pivoted.anchors import (
+    ANCHORS,
+    Anchor,
+    AnchoredOnsets,
+    EventWindows,
+    hertz_ratio,
+    theta_from_gap,
+)
 from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator
 
 __all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
@@ -99,141 +112,6 @@ EDGE_SNR = 20.0
 HISTORY_MARGIN = 8
 
 
-def _anchor_return_time(ctx: dict) -> np.ndarray:
-    """Constants C (alpha = angle + C) of all events by the return-time condition."""
-    rig, rate_hz = ctx["rig"], ctx["sample_rate_hz"]
-    starts, ends, angles, rates = ctx["free_start"], ctx["free_end"], ctx["angles"], ctx["rates"]
-    n = len(angles)
-    start_rate = np.array([rates[i][starts[i]] for i in range(n)])
-    displacement = np.array([angles[i][ends[i]] - angles[i][starts[i]] for i in range(n)])
-    duration = (ends - starts) / rate_hz
-    guess = np.full(n, rig.static_equilibrium(0.0))
-    out = np.empty((n, 3))
-    return_time_anchors(start_rate, duration, displacement, guess, pack_rig(rig), FREE_FLIGHT_STEPS,
-                        1e-14, out)
-    ctx["anchor_iterations"] = out[:, 2]
-    ctx["anchor_slope"] = out[:, 1]
-    constants = np.array([out[i, 0] - angles[i][starts[i]] for i in range(n)])
-    ctx["alpha_onset_return_time"] = ctx["angle_onset"] + constants
-    return constants
-
-
-def _anchor_cam_geometry(ctx: dict) -> np.ndarray:
-    rec: Recording = ctx["recording"]
-    rec.require("cam_angle", method="the 'cam-geometry' anchor")
-    rig = ctx["rig"]
-    theta0 = ctx["theta_onset_encoder"]
-    alpha_onset = np.asarray(rig.contact_angle(theta0))
-    angle_onset = ctx["angle_onset"]
-    ctx["anchor_iterations"] = np.zeros(len(theta0))
-    ctx["anchor_slope"] = np.full(len(theta0), np.nan)
-    return alpha_onset - angle_onset
-
-
-def _anchor_cam_phase(ctx: dict) -> np.ndarray:
-    """Return-time first; then one cam phase for the whole recording, and the gap zero at each onset.
-
-    The cam turns at the constant ``Omega_c``, so ``Theta(t_onset) = Theta_ref + 2 pi Omega_c t_onset``
-    with one ``Theta_ref`` for all events. Each event's return-time anchor gives an estimate of it
-    (from ``psi_i = 0`` at its onset angle); their circular median (robust to a few non-period-1
-    events) starts a soft-L1 least-squares fit of the phase to the onset angles
-    (``contact_angle(Theta_ref + Omega t_i) = alpha_i``), which is the recording's phase. The
-    onset angle is then the contact angle at the event's cam angle, with no double-integration
-    error in it; the onset rate stays the integrated one.
-    """
-    constants = _anchor_return_time(ctx)
-    rig, omega, t_rel = ctx["rig"], ctx["omega"], ctx["t_onset_rel"]
-    angle_onset = ctx["angle_onset"]
-    alpha_on = angle_onset + constants
-    theta = _theta_from_gap(rig, alpha_on, ctx["rate_onset"], omega, _contact_windows(ctx, constants))
-    phases = np.angle(np.exp(1j * (theta - omega * t_rel)))
-    ok = np.isfinite(phases)
-    if not np.any(ok):
-        return constants
-    first = phases[ok][0]
-    phase = first + float(np.median(np.angle(np.exp(1j * (phases[ok] - first)))))
-    # refine in angle space, where the return-time errors are zero-mean (the inverse map from a
-    # noisy angle to the gap-zero cam angle is nonlinear, so the median of per-event phases is
-    # biased); soft-L1 loss against the odd non-period-1 event
-    spread = float(np.median(np.abs(np.asarray(rig.contact_angle(phase + omega * t_rel)) - alpha_on)))
-    fit = optimize.least_squares(lambda q: np.asarray(rig.contact_angle(q[0] + omega * t_rel)) - alpha_on, [phase],
-                                 loss="soft_l1", f_scale=max(3.0 * spread, 1e-9), xtol=1e-14, ftol=1e-14, gtol=1e-14)
-    if fit.success and abs(fit.x[0] - phase) < 0.5:
-        phase = float(fit.x[0])
-    # standard error of the phase (Gauss-Newton, from the scatter of the onset angles about the fit)
-    resid = np.asarray(rig.contact_angle(phase + omega * t_rel)) - alpha_on
-    slope = (np.asarray(rig.contact_angle(phase + 1e-6 + omega * t_rel))
-             - np.asarray(rig.contact_angle(phase - 1e-6 + omega * t_rel))) / 2e-6
-    m = int(np.isfinite(resid).sum())
-    ctx["phase_stderr"] = (float(np.sqrt(np.nansum(resid ** 2) / (m - 1) / np.nansum(slope ** 2)))
-                           if m > 1 else math.inf)
-    ctx["phase"] = phase
-    theta_common = phase + omega * t_rel
-    ctx["theta_onset_phase"] = theta_common
-    return np.asarray(rig.contact_angle(theta_common)) - angle_onset
-
-
-#: Anchoring methods by name.
-ANCHORS: dict[str, Callable[[dict], np.ndarray]] = {
-    "return-time": _anchor_return_time,
-    "cam-geometry": _anchor_cam_geometry,
-    "cam-phase": _anchor_cam_phase,
-}
-
-
-def _encoder_theta(rec: Recording, k0: np.ndarray, k1: np.ndarray, t_onset_rel: np.ndarray, omega: float) -> np.ndarray:
-    """Cam angle at each onset from the encoder channel (least-squares offset at nominal speed)."""
-    cam = rec["cam_angle"]
-    steps = np.diff(cam[: min(cam.size, 20_000)])
-    positive = steps[steps > 0]
-    # an encoder channel holds its count between edges (zero steps) and moves in whole counts
-    multiples = positive / positive.min() if positive.size else positive
-    quantised = bool(positive.size and np.all(np.abs(multiples - np.round(multiples)) < 1e-6)
-                     and (np.any(steps == 0) or np.unique(np.round(multiples)).size > 1))
-    half_count = 0.5 * positive.min() if quantised else 0.0
-    dt = 1.0 / rec.sample_rate_hz
-    out = np.empty(k0.size)
-    for i, (a, b) in enumerate(zip(k0, k1)):
-        tau = (np.arange(a, b) - a) * dt  # time from the first contact sample
-        offset = np.mean(cam[a:b] - omega * tau) + half_count
-        out[i] = offset + omega * t_onset_rel[i]
-    return out
-
-
-def _theta_from_gap(rig: RigParameters, alpha0: np.ndarray, rate0: np.ndarray, omega: float,
-                    contacts=None) -> np.ndarray:
-    """Cam angle where ``psi_i(alpha0, Theta) = 0`` with the gap closing (S-5 solved for Theta).
-
-    A follower angle meets the cam twice per revolution (on its rising and on its falling side),
-    and both roots can have a closing gap, with free flights that both stay outside the cam (a
-    low cam speed, or a heavily damped contact). ``contacts`` (per event: the times [s from the
-    onset], angles and angular accelerations over the contact) then decides by the physics of the
-    contact: at the deepest indentation the gap rate is zero, so the force the accelerometer
-    implies must be the Hertz force ``k_H delta^1.5`` of the indentation the cam angle gives
-    (:func:`_hertz_ratio`); the root whose ratio is nearest 1 is taken. (The reopening time of
-    the gap is no guide: with noise and a nearly plastic impact the right root's gap may not
-    reopen at all.)
-    """
-    grid = np.linspace(0.0, 2.0 * math.pi, 721)
-    out = np.full(alpha0.size, np.nan)
-    for i, (a, ad) in enumerate(zip(alpha0, rate0)):
-        g = rig.gap(a, grid)
-        roots = []
-        for j in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:])):
-            roots.append(optimize.brentq(lambda th, a=a: float(rig.gap(a, th)), grid[j], grid[j + 1], xtol=1e-15))
-        closing = [th for th in roots if rig.gap_rate(a, ad, th, omega) < 0.0]
-        if len(closing) > 1 and contacts is not None and contacts[i] is not None:
-            t, alpha, acceleration = contacts[i]
-            ratios = np.array([_hertz_ratio(rig, t, alpha, acceleration, th, omega) for th in closing])
-            scores = np.where(ratios > 0.0, np.abs(np.log(np.where(ratios > 0.0, ratios, 1.0))), np.inf)
-            out[i] = closing[int(np.argmin(scores))]
-        elif closing:
-            out[i] = closing[0]
-        elif roots:  # grazing: take the root nearest the closing side
-            out[i] = min(roots, key=lambda th: rig.gap_rate(a, ad, th, omega))
-    return out
-
-
 def _reopening(gap: np.ndarray) -> tuple[int, float] | None:
     """Where a sampled gap turns positive after its deepest point: ``(j, w)`` with the crossing at
     ``j + w`` samples (linear interpolation), or None when it never reopens."""
@@ -243,21 +121,6 @@ def _reopening(gap: np.ndarray) -> tuple[int, float] | None:
         return None
     j = deepest + int(after[0])
     return j, float(-gap[j] / (gap[j + 1] - gap[j]))
-
-
-def _contact_windows(ctx: dict, constants: np.ndarray) -> list:
-    """Per event, ``(t, alpha, alpha_ddot)`` over its contact and :data:`ANCHOR_MARGIN` samples
-    after it, times from the sub-sample onset [s], with the anchor's constants applied."""
-    out = []
-    dt = 1.0 / ctx["sample_rate_hz"]
-    for i, angle in enumerate(ctx["angles"]):
-        hi = min(int(ctx["contact_end"][i]) + 1, angle.size)
-        if hi < 3 or not math.isfinite(constants[i]):
-            out.append(None)
-            continue
-        k = np.arange(hi)
-        out.append(((k + ctx["onset_offset"][i]) * dt, angle[:hi] + constants[i], ctx["accs"][i][:hi]))
-    return out
 
 
 @dataclass(frozen=True)
@@ -362,7 +225,8 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         and ``cam_speed_hz``.
     events : from :func:`~impactid.events.find_events` (found here with defaults if None).
     integration : integration method name (:data:`impactid.signal.INTEGRATORS`) or callable.
-    anchor : ``"return-time"`` (the paper's) or ``"cam-geometry"`` (needs ``cam_angle``).
+    anchor : ``"return-time"`` (the paper's), ``"cam-geometry"`` (needs ``cam_angle``) or ``"cam-phase"``
+        (:data:`ANCHORS`, :mod:`impactid.rigs.pivoted.anchors`).
     rig : overrides the recording's rig.
     warn : issue an :class:`~impactid.events.EventWarning` for each note of the result
         (:attr:`Reconstruction.warnings`; those of ``events`` given here were issued by
@@ -374,29 +238,76 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     ValueError : unknown integration or anchor name (listing the valid ones).
     ImpactidError : no usable event.
     """
+    rig, cam_speed_hz, method = _checked_inputs(recording, integration, anchor, rig)
+    given = events is not None
+    events = _events_to_reconstruct(recording, events, warn=warn)
+    windows = _integrate_events(recording, rig, events, integration, cam_speed_hz)
+    anchored = method.anchor(windows)
+    theta_on = _onset_cam_angles(windows, anchored)
+    table, contact, hertz = _event_table(windows, events.usable, anchored, theta_on)
+    messages = list(events.warnings)
+    messages += _plausibility(windows, anchored, hertz)
+    messages += _reconstruction_notes(recording, table, anchor)
+    int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
+    if warn:
+        for message in messages[len(events.warnings) if given else 0:]:
+            warnings.warn(message, EventWarning, stacklevel=2)
+    return Reconstruction(
+        table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
+        events=events, warnings=tuple(messages), cam_phase=float(anchored.cam_phase),
+        cam_phase_stderr=float(anchored.cam_phase_stderr),
+        provenance=events.provenance + (f"reconstruct(integration={int_name!r}, anchor={anchor!r}): "
+                                        f"{len(table)} events",),
+        _recording=recording)
+
+
+def _checked_inputs(recording: Recording, integration, anchor: str,
+                    rig: RigParameters | None) -> tuple[RigParameters, float, Anchor]:
+    """The rig, the cam speed [Hz] and the anchor of a reconstruction, once its inputs are checked.
+
+    Raises
+    ------
+    ValueError : unknown integration or anchor name.
+    RecordingError : not a rig P recording, or a channel the reconstruction or the anchor needs is missing.
+    """
     get_integrator(integration)  # validate the name before any work
     if anchor not in ANCHORS:
         raise ValueError(f"unknown anchor {anchor!r}; valid: {', '.join(ANCHORS)}")
+    method = ANCHORS[anchor]
     rig = rig if rig is not None else recording.require_rig(MODEL_NAME)
     if getattr(rig, "model", None) != MODEL_NAME:
         raise RecordingError(f"{recording.source}: per-impact reconstruction needs a pivoted-follower rig")
     recording.require("accel_tangential", method="per-impact reconstruction")
-    if anchor == "cam-geometry":
-        recording.require("cam_angle", method="the 'cam-geometry' anchor")
-    cam_speed_hz = recording.require_cam_speed()
+    for channel in method.channels:
+        recording.require(channel, method=f"the {anchor!r} anchor")
+    return rig, recording.require_cam_speed(), method
+
+
+def _events_to_reconstruct(recording: Recording, events: EventTable | None, *, warn: bool) -> EventTable:
+    """The events (found with defaults when None, their notes left to the result) with usable ones.
+
+    Raises
+    ------
+    ImpactidError : no usable event (the notes of events found here, which say why, are issued first).
+    """
     given = events is not None
     if events is None:
         events = find_events(recording, warn=False)  # its notes are this result's first ones
-    usable = events.usable
-    if usable.empty:
+    if events.usable.empty:
         for message in events.warnings if warn and not given else ():  # they say why (clipped, overlapping)
-            warnings.warn(message, EventWarning, stacklevel=2)
+            warnings.warn(message, EventWarning, stacklevel=3)
         raise ImpactidError(f"{recording.source or 'recording'}: no usable impact events "
                             f"({len(events)} found, none complete and clean)")
+    return events
+
+
+def _integrate_events(recording: Recording, rig: RigParameters, events: EventTable, integration,
+                      cam_speed_hz: float) -> EventWindows:
+    """Each usable event's window integrated twice (before anchoring), with its onset state and the
+    free flight of the return-time anchor (:data:`ANCHOR_MARGIN`, :data:`ANCHOR_SEPARATION_DELAY`)."""
+    usable = events.usable
     rate_hz = recording.sample_rate_hz
     dt = 1.0 / rate_hz
-    omega = 2.0 * math.pi * cam_speed_hz
-    accel = recording["accel_tangential"]
     k0 = usable["onset_index"].to_numpy()
     k1 = usable["next_index"].to_numpy()
     ka = usable["separation_index"].to_numpy()
@@ -408,43 +319,63 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     # sub-sample pieces: the pulse's rise from the onset to the first sample, and the free flight
     # from the last sample to the next onset.
     next_offset = k1 - (usable["t_next"].to_numpy() - recording.start_time_s) * rate_hz
-    angular = accel / rig.l_a
+    angular = recording["accel_tangential"] / rig.l_a
     noise = events.noise_sigma / rig.l_a
     head_change = _onset_rate_change(angular, k0, onset_offset, dt, noise)
     tail_change = _free_tail_rate_change(angular, k1, next_offset, dt)
     t_sep_samples = (usable["t_separation"].to_numpy() - recording.start_time_s) * rate_hz
-    impulse = usable["too_short"].to_numpy(dtype=bool)
+    impulsive = usable["too_short"].to_numpy(dtype=bool)
+    edges = [() if impulsive[i] else _pulse_edges(angular, int(k0[i]), onset_offset[i], t_sep_samples[i], dt, noise)
+             for i in range(k0.size)]
+    spans = [_event_span(onset_offset[i], next_offset[i], head_change[i], tail_change[i]) for i in range(k0.size)]
+    angles, rates, accs = _integrate_windows(angular, k0, k1, edges, spans, dt, integration)
+    angle_onset, rate_onset, rate_after = _onset_states(angular, k0, ka, onset_offset, head_change, impulsive,
+                                                        angles, rates, accs, dt)
+    free_samples = k1 - ka
+    delay = np.maximum(ANCHOR_MARGIN, np.minimum(round(ANCHOR_SEPARATION_DELAY * rate_hz), free_samples // 4))
+    return EventWindows(
+        recording=recording, rig=rig, sample_rate_hz=rate_hz, omega=2.0 * math.pi * cam_speed_hz, first_sample=k0,
+        next_sample=k1, separation_sample=ka, onset_offset=onset_offset, next_offset=next_offset,
+        t_onset=usable["t_onset"].to_numpy() - recording.start_time_s, impulsive=impulsive,
+        head_rate_change=head_change, tail_rate_change=tail_change, angles=angles, rates=rates, accelerations=accs,
+        angle_onset=angle_onset, rate_onset=rate_onset, rate_after=rate_after,
+        contact_end=(ka - k0) + ANCHOR_MARGIN, free_start=(ka - k0) + delay, free_end=(k1 - k0) - 1 - ANCHOR_MARGIN)
+
+
+def _integrate_windows(angular: np.ndarray, k0: np.ndarray, k1: np.ndarray, edges: list, spans: list, dt: float,
+                       integration) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
+    """Each window ``k0[i]:k1[i]`` of the angular acceleration [rad/s^2] detrended and integrated twice
+    (:func:`~impactid.signal.detrend_integrate` with the window's pulse edges and true span): per event the
+    angular acceleration [rad/s^2], rate [rad/s] and angle [rad] (before anchoring)."""
     angles, rates, accs = [], [], []
-    for i, (a, b) in enumerate(zip(k0, k1)):
-        edges = () if impulse[i] else _pulse_edges(angular, int(a), onset_offset[i], t_sep_samples[i], dt, noise)
-        span = _event_span(onset_offset[i], next_offset[i], head_change[i], tail_change[i])
-        add, rate, angle = detrend_integrate(angular[a:b], dt, integration, span=span, edges=edges)
+    for a, b, edge, span in zip(k0, k1, edges, spans):
+        add, rate, angle = detrend_integrate(angular[a:b], dt, integration, span=span, edges=edge)
         angles.append(angle)
         rates.append(rate)
         accs.append(add)
-    free_samples = k1 - ka
-    delay = np.maximum(ANCHOR_MARGIN, np.minimum(round(ANCHOR_SEPARATION_DELAY * rate_hz), free_samples // 4))
-    ctx = dict(recording=recording, rig=rig, sample_rate_hz=rate_hz, angles=angles, rates=rates, accs=accs,
-               contact_end=(ka - k0) + ANCHOR_MARGIN, free_start=(ka - k0) + delay,
-               free_end=(k1 - k0) - 1 - ANCHOR_MARGIN,
-               onset_offset=onset_offset, omega=omega,
-               t_onset_rel=usable["t_onset"].to_numpy() - recording.start_time_s)
-    # angle (before anchoring) and rate at the sub-sample onset, back from the first contact sample
-    # (the rate changes over the sub-sample piece by the rise integral of the pulse edge, less the
-    # removed offset; the angle by the piece's mean rate times its length)
+    return angles, rates, accs
+
+
+def _onset_states(angular: np.ndarray, k0: np.ndarray, ka: np.ndarray, onset_offset: np.ndarray,
+                  head_change: np.ndarray, impulsive: np.ndarray, angles: list[np.ndarray], rates: list[np.ndarray],
+                  accs: list[np.ndarray], dt: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Angle [rad] (before anchoring) and rate [rad/s] at each sub-sample onset, and the rate just after
+    an impulse (NaN for other contacts): ``(angle_onset, rate_onset, rate_after)``.
+
+    Back from the first contact sample, the rate changes over the sub-sample piece by the rise integral
+    of the pulse edge, less the removed offset; the angle by the piece's mean rate times its length.
+    For impulses (fewer than 3 contact samples) the first samples carry the impulse itself, so the
+    pre-impact rate is the integrated rate before it (sample 0 of the window), not extrapolated
+    back through the impulse (the onset may then lie after the first contact sample).
+    """
     rate_first = np.array([r[0] for r in rates])
     acc_first = np.array([x[0] for x in accs])
     offsets_removed = angular[k0] - acc_first
     edge_rise = np.where(np.isfinite(head_change) & (onset_offset > 0.0),
                          head_change - offsets_removed * onset_offset * dt,
                          onset_offset * dt * acc_first)  # no edge law: linear extrapolation
-    ctx["rate_onset"] = rate_first - edge_rise
-    ctx["angle_onset"] = (np.array([ang[0] for ang in angles])
-                          - onset_offset * dt * 0.5 * (rate_first + ctx["rate_onset"]))
-    # impulses (fewer than 3 contact samples): the first samples carry the impulse itself, so the
-    # pre-impact rate is the integrated rate before it (sample 0 of the window), not extrapolated
-    # back through the impulse (the onset may then lie after the first contact sample)
-    impulsive = usable["too_short"].to_numpy(dtype=bool)
+    rate_onset = rate_first - edge_rise
+    angle_onset = np.array([ang[0] for ang in angles]) - onset_offset * dt * 0.5 * (rate_first + rate_onset)
     rate_after = np.full(len(angles), np.nan)
     for i in np.flatnonzero(impulsive):
         # the window starts at the impulse's first sample, so part of it is lost to the quadrature
@@ -454,64 +385,83 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
         back = (j + onset_offset[i]) * dt
         rate_after[i] = rates[i][j] - accs[i][j] * back
         jump = dt * float(np.sum(accs[i][: j - 1]))
-        ctx["rate_onset"][i] = rate_after[i] - jump
-        ctx["angle_onset"][i] = angles[i][j] - rate_after[i] * back
-    if anchor == "cam-geometry":
-        ctx["theta_onset_encoder"] = _encoder_theta(recording, k0, k1, -onset_offset * dt, omega)
-    constants = ANCHORS[anchor](ctx)
-    # state at the sub-sample onset (back from the first contact sample by onset_offset samples)
-    alpha_on = ctx["angle_onset"] + constants
-    rate_on = ctx["rate_onset"]
-    if anchor == "cam-geometry":
-        theta_on = ctx["theta_onset_encoder"]
-    elif anchor == "cam-phase" and "theta_onset_phase" in ctx:
-        theta_on = ctx["theta_onset_phase"]
-    else:
-        theta_on = _theta_from_gap(rig, alpha_on, rate_on, omega, _contact_windows(ctx, constants))
+        rate_onset[i] = rate_after[i] - jump
+        angle_onset[i] = angles[i][j] - rate_after[i] * back
+    return angle_onset, rate_onset, rate_after
+
+
+def _onset_cam_angles(windows: EventWindows, anchored: AnchoredOnsets) -> np.ndarray:
+    """Cam angle [rad] at each onset: the anchor's, or where the gap closes at the anchored onset angle."""
+    if anchored.theta_onset is not None:
+        return anchored.theta_onset
+    alpha_on = windows.angle_onset + anchored.constants
+    return theta_from_gap(windows.rig, alpha_on, windows.rate_onset, windows.omega,
+                          windows.contact_windows(anchored.constants))
+
+
+def _event_table(windows: EventWindows, usable: pd.DataFrame, anchored: AnchoredOnsets,
+                 theta_on: np.ndarray) -> tuple[pd.DataFrame, dict[int, EventKinematics], np.ndarray]:
+    """The per-event table (:class:`Reconstruction`), the contact histories, and each contact's Hertz
+    ratio (:func:`~impactid.rigs.pivoted.anchors.hertz_ratio`; NaN for impulses)."""
+    rig, omega, dt = windows.rig, windows.omega, windows.dt
+    constants = anchored.constants
+    alpha_on = windows.angle_onset + constants
+    k0, k1, ka = windows.first_sample, windows.next_sample, windows.separation_sample
     rows = []
     contact: dict[int, EventKinematics] = {}
-    messages = list(events.warnings)
-    hertz = np.full(len(angles), np.nan)
-    ctx["hertz_ratio"] = hertz
+    hertz = np.full(len(windows), np.nan)
     for i, event in enumerate(usable.index):
-        ev_row = usable.loc[event]
         n_contact = int(ka[i] - k0[i])
-        lo = 0
         hi = min(n_contact + HISTORY_MARGIN, int(k1[i] - k0[i]))
-        hist = _contact_history(angles[i], rates[i], accs[i], recording, k0[i], lo, hi, onset_offset[i], constants[i],
-                                theta_on[i], rig, omega, dt, event)
+        hist = _contact_history(windows.angles[i], windows.rates[i], windows.accelerations[i], windows.recording,
+                                k0[i], 0, hi, windows.onset_offset[i], constants[i], theta_on[i], rig, omega, dt,
+                                event)
         contact[event] = hist
-        hertz[i] = (math.nan if impulsive[i] else
-                    _hertz_ratio(rig, hist.t, hist.alpha, hist.alpha_ddot, float(theta_on[i]), omega))
-        alpha_full = angles[i] + constants[i]
-        j = int(np.argmax(alpha_full))
-        alpha_m, t_m = _parabolic_max(alpha_full, j)
-        v_a = -float(rig.gap_rate(alpha_on[i], rate_on[i], theta_on[i], omega))
-        if impulsive[i]:
-            v_s = float(rig.gap_rate(alpha_on[i], rate_after[i], theta_on[i], omega))
-        else:
-            v_s = _reopening_rate(hist)
-        jmax = int(np.argmax(hist.alpha_dot[:n_contact + 1])) if n_contact >= 1 else 0
-        v_s_paper = float(hist.gap_rate[jmax])
-        rows.append({
-            "t_onset": ev_row["t_onset"], "t_separation": ev_row["t_separation"], "t_next": ev_row["t_next"],
-            "contact_duration": ev_row["t_separation"] - ev_row["t_onset"],
-            "alpha_onset": alpha_on[i], "alpha_dot_onset": rate_on[i], "theta_onset": theta_on[i],
-            "alpha_m": alpha_m, "t_alpha_m": (t_m + onset_offset[i]) * dt,
-            "approach_speed": v_a, "separation_speed": v_s, "separation_speed_at_max_rate": v_s_paper,
-            "xi": v_s / v_a if v_a > 0 else math.nan,
-            "peak_indentation": float(np.max(-hist.gap)),
-            "peak_force": float(np.max(hist.contact_force)) if hist.contact_force is not None else math.nan,
-            "anchor_constant": constants[i], "anchor_iterations": ctx["anchor_iterations"][i],
-            "onset_offset": onset_offset[i], "next_offset": next_offset[i],
-            "head_rate_change": head_change[i], "tail_rate_change": tail_change[i],
-            "chattering": bool(ev_row["chattering"]), "not_period1": bool(ev_row["not_period1"]),
-            "hertz_ratio": hertz[i],
-            "contact_consistent": bool(not math.isfinite(hertz[i])
-                                       or 1.0 / CONTACT_HERTZ_TOLERANCE <= hertz[i] <= CONTACT_HERTZ_TOLERANCE),
-        })
-    table = pd.DataFrame(rows, index=pd.Index(list(usable.index), name="event"))
-    messages += _plausibility(recording, rig, ctx, angles, accs, k0, constants)
+        hertz[i] = (math.nan if windows.impulsive[i] else
+                    hertz_ratio(rig, hist.t, hist.alpha, hist.alpha_ddot, float(theta_on[i]), omega))
+        rows.append(_event_row(windows, i, usable.loc[event], hist, alpha_on[i], theta_on[i], anchored, hertz[i]))
+    return pd.DataFrame(rows, index=pd.Index(list(usable.index), name="event")), contact, hertz
+
+
+def _event_row(windows: EventWindows, i: int, ev_row: pd.Series, hist: EventKinematics, alpha_on: float,
+               theta_on: float, anchored: AnchoredOnsets, hertz: float) -> dict:
+    """One row of the per-event table: event ``i``'s onset state, ``alpha_m``, approach and separation
+    speeds [m/s], ``xi``, peak indentation [m] and force [N], the anchor's outcome and the event flags."""
+    rig, omega, dt = windows.rig, windows.omega, windows.dt
+    constant, rate_on, onset_offset = anchored.constants[i], windows.rate_onset[i], windows.onset_offset[i]
+    n_contact = int(windows.separation_sample[i] - windows.first_sample[i])
+    alpha_full = windows.angles[i] + constant
+    j = int(np.argmax(alpha_full))
+    alpha_m, t_m = _parabolic_max(alpha_full, j)
+    v_a = -float(rig.gap_rate(alpha_on, rate_on, theta_on, omega))
+    if windows.impulsive[i]:
+        v_s = float(rig.gap_rate(alpha_on, windows.rate_after[i], theta_on, omega))
+    else:
+        v_s = _reopening_rate(hist)
+    jmax = int(np.argmax(hist.alpha_dot[:n_contact + 1])) if n_contact >= 1 else 0
+    v_s_paper = float(hist.gap_rate[jmax])
+    return {
+        "t_onset": ev_row["t_onset"], "t_separation": ev_row["t_separation"], "t_next": ev_row["t_next"],
+        "contact_duration": ev_row["t_separation"] - ev_row["t_onset"],
+        "alpha_onset": alpha_on, "alpha_dot_onset": rate_on, "theta_onset": theta_on,
+        "alpha_m": alpha_m, "t_alpha_m": (t_m + onset_offset) * dt,
+        "approach_speed": v_a, "separation_speed": v_s, "separation_speed_at_max_rate": v_s_paper,
+        "xi": v_s / v_a if v_a > 0 else math.nan,
+        "peak_indentation": float(np.max(-hist.gap)),
+        "peak_force": float(np.max(hist.contact_force)) if hist.contact_force is not None else math.nan,
+        "anchor_constant": constant, "anchor_iterations": anchored.iterations[i],
+        "onset_offset": onset_offset, "next_offset": windows.next_offset[i],
+        "head_rate_change": windows.head_rate_change[i], "tail_rate_change": windows.tail_rate_change[i],
+        "chattering": bool(ev_row["chattering"]), "not_period1": bool(ev_row["not_period1"]),
+        "hertz_ratio": hertz,
+        "contact_consistent": bool(not math.isfinite(hertz)
+                                   or 1.0 / CONTACT_HERTZ_TOLERANCE <= hertz <= CONTACT_HERTZ_TOLERANCE),
+    }
+
+
+def _reconstruction_notes(recording: Recording, table: pd.DataFrame, anchor: str) -> list[str]:
+    """Notes on events whose gap does not reopen (``xi`` undetermined) and where the anchor did not converge."""
+    messages = []
     undetermined = table.index[~np.isfinite(table["xi"])].tolist()
     if undetermined:
         messages.append(
@@ -521,17 +471,7 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     failed = table.index[table["anchor_iterations"] < 0].tolist()
     if failed:
         messages.append(f"{recording.source or 'recording'}: the {anchor} anchor did not converge at events {failed}")
-    int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
-    if warn:
-        for message in messages[len(events.warnings) if given else 0:]:
-            warnings.warn(message, EventWarning, stacklevel=2)
-    return Reconstruction(
-        table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
-        events=events, warnings=tuple(messages), cam_phase=float(ctx.get("phase", math.nan)),
-        cam_phase_stderr=float(ctx.get("phase_stderr", math.nan)),
-        provenance=events.provenance + (f"reconstruct(integration={int_name!r}, anchor={anchor!r}): "
-                                        f"{len(table)} events",),
-        _recording=recording)
+    return messages
 
 
 #: Events whose free flights enter the force-balance check (enough to average the noise).
@@ -552,83 +492,89 @@ CONTACT_ANGLE_MARGIN = 0.01
 CONTACT_HERTZ_TOLERANCE = 2.5
 
 
-def _hertz_ratio(rig: RigParameters, t: np.ndarray, alpha: np.ndarray, acceleration: np.ndarray,
-                 theta0: float, omega: float) -> float:
-    """Force implied by the accelerometer at the deepest indentation over ``k_H delta^1.5`` there,
-    for the contact histories ``t`` [s from the onset], ``alpha`` [rad], ``acceleration``
-    [rad/s^2] with the cam at ``theta0 + omega t`` (NaN without indentation)."""
-    gap = rig.gap(alpha, theta0 + omega * t)
-    j = int(np.argmin(gap))
-    delta = -float(gap[j])
-    if not delta > 0.0:
-        return math.nan
-    alpha, theta = float(alpha[j]), float(theta0 + omega * t[j])
-    torque = rig.m_b * rig.g * rig.l_g * math.cos(alpha) - float(
-        spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)) * rig.d_x
-    chi = float(rig.lever_arm(alpha, theta))
-    force = (rig.I_b * float(acceleration[j]) - torque) / chi
-    return force / (rig.k_H * delta ** 1.5)
-
-
-def _plausibility(recording: Recording, rig: RigParameters, ctx: dict, angles, accs, k0, constants) -> list[str]:
+def _plausibility(windows: EventWindows, anchored: AnchoredOnsets, hertz: np.ndarray) -> list[str]:
     """Cross-checks of the channels against the rig model; returns warning texts naming channels.
 
-    * onset angles: the return-time anchor's onset angles (accelerometer only) must lie where the
-      follower can touch the cam, within the range of ``contact_angle(Theta)`` over a revolution;
-    * Hertz at the deepest indentation (accelerometer only): there the gap rate is zero, so the
-      Hunt–Crossley damping term vanishes and the contact force is ``k_H delta^1.5`` with the rig's
-      own Hertz stiffness. The force the accelerometer implies (the equation of motion solved for
-      it, friction left out: a few per cent) must match it; an accelerometer in other units than
-      declared (g read as m/s^2, say) scales the force but not the indentation in the same way;
-    * force balance (S-21) in free flight, where the contact force is zero: with the pivot forces and
-      the accelerometer it must give about 0 N. Swapped or mislabelled force channels, or an
-      accelerometer off by a factor, leave a mean force comparable with the pivot force itself.
+    * onset angles (:func:`_onset_angle_check`): the return-time anchor's onset angles
+      (accelerometer only) must lie where the follower can touch the cam, within the range of
+      ``contact_angle(Theta)`` over a revolution;
+    * Hertz at the deepest indentation (:func:`_hertz_check`, accelerometer only): there the gap rate
+      is zero, so the Hunt–Crossley damping term vanishes and the contact force is ``k_H delta^1.5``
+      with the rig's own Hertz stiffness. The force the accelerometer implies (the equation of motion
+      solved for it, friction left out: a few per cent) must match it; an accelerometer in other units
+      than declared (g read as m/s^2, say) scales the force but not the indentation in the same way;
+    * force balance (S-21) in free flight (:func:`_force_balance_check`), where the contact force is
+      zero: with the pivot forces and the accelerometer it must give about 0 N. Swapped or mislabelled
+      force channels, or an accelerometer off by a factor, leave a mean force comparable with the
+      pivot force itself.
     """
+    return (_onset_angle_check(windows, anchored.return_time_onset) + _hertz_check(windows, hertz)
+            + _force_balance_check(windows, anchored.constants))
+
+
+def _onset_angle_check(windows: EventWindows, onset: np.ndarray | None) -> list[str]:
+    """A note when the median return-time onset angle [rad] lies outside the angles of contact."""
+    if onset is None or not np.any(np.isfinite(onset)):
+        return []
+    reach = np.asarray(windows.rig.contact_angle(np.linspace(0.0, 2.0 * math.pi, 361)))
+    lo, hi = float(np.min(reach)) - CONTACT_ANGLE_MARGIN, float(np.max(reach)) + CONTACT_ANGLE_MARGIN
+    median = float(np.nanmedian(onset))
+    if lo <= median <= hi:
+        return []
+    where = windows.recording.source or "recording"
+    return [f"{where}: channel 'accel_tangential': the reconstructed onset angles (median {median:.4g} rad) "
+            f"lie outside the angles where the follower touches the cam ({lo:.4g} to {hi:.4g} rad): the "
+            "accelerometer's scale or units look wrong"]
+
+
+def _hertz_check(windows: EventWindows, ratio: np.ndarray) -> list[str]:
+    """A note when the median Hertz ratio of the contacts is beyond :data:`CONTACT_HERTZ_TOLERANCE`."""
+    if not np.any(np.isfinite(ratio)):
+        return []
+    median = float(np.nanmedian(ratio))
+    if 1.0 / CONTACT_HERTZ_TOLERANCE <= median <= CONTACT_HERTZ_TOLERANCE:
+        return []
+    recording = windows.recording
     where = recording.source or "recording"
-    out = []
-    onset = ctx.get("alpha_onset_return_time")
-    if onset is not None and np.any(np.isfinite(onset)):
-        reach = np.asarray(rig.contact_angle(np.linspace(0.0, 2.0 * math.pi, 361)))
-        lo, hi = float(np.min(reach)) - CONTACT_ANGLE_MARGIN, float(np.max(reach)) + CONTACT_ANGLE_MARGIN
-        median = float(np.nanmedian(onset))
-        if not lo <= median <= hi:
-            out.append(f"{where}: channel 'accel_tangential': the reconstructed onset angles (median {median:.4g} rad) "
-                       f"lie outside the angles where the follower touches the cam ({lo:.4g} to {hi:.4g} rad): the "
-                       "accelerometer's scale or units look wrong")
-    ratio = ctx.get("hertz_ratio")
-    if ratio is not None and np.any(np.isfinite(ratio)):
-        median = float(np.nanmedian(ratio))
-        if not (1.0 / CONTACT_HERTZ_TOLERANCE <= median <= CONTACT_HERTZ_TOLERANCE):
-            unit = recording.units.get("accel_tangential")
-            out.append(f"{where}: channel 'accel_tangential' implies {median:.3g} times the Hertz force k_H delta^1.5 "
-                       "at the deepest indentation, where the two must agree: either the accelerometer's scale or "
-                       f"units are wrong (declared {unit!r}; in g, perhaps?), or the contact here is not a short "
-                       "pulse followed by a free flight (a nearly plastic impact whose tail cannot be told from the "
-                       "flight, or a follower that rides the cam after the impact); such events are left out of the "
-                       "estimates")
-    if "force_x" in recording and "force_y" in recording:
-        residual, pivot = [], []
-        starts, ends = ctx["free_start"], ctx["free_end"]
-        for i in range(min(len(angles), PLAUSIBILITY_EVENTS)):
-            lo_i, hi_i = int(starts[i]), int(ends[i])
-            if hi_i - lo_i < 16:
-                continue
-            alpha = angles[i][lo_i:hi_i] + constants[i]
-            nx = recording["force_x"][k0[i] + lo_i:k0[i] + hi_i]
-            ny = recording["force_y"][k0[i] + lo_i:k0[i] + hi_i]
-            fs = spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)
-            force = (rig.m_b * rig.l_g * accs[i][lo_i:hi_i] + nx * np.sin(alpha)
-                     + (ny + fs - rig.m_b * rig.g) * np.cos(alpha))
-            residual.append(float(np.median(force)))
-            pivot.append(float(np.median(np.hypot(nx, ny))))
-        if residual:
-            mean_force, typical = float(np.median(residual)), float(np.median(pivot))
-            if abs(mean_force) > FORCE_BALANCE_TOLERANCE * typical:
-                out.append(f"{where}: channels 'force_x', 'force_y' and 'accel_tangential' disagree: the force "
-                           f"balance (S-21) gives {mean_force:.3g} N of contact force in free flight, where it is 0, "
-                           f"against pivot forces of {typical:.3g} N; are the force channels swapped or mislabelled, "
-                           "or the accelerometer in other units than declared?")
-    return out
+    unit = recording.units.get("accel_tangential")
+    return [f"{where}: channel 'accel_tangential' implies {median:.3g} times the Hertz force k_H delta^1.5 "
+            "at the deepest indentation, where the two must agree: either the accelerometer's scale or "
+            f"units are wrong (declared {unit!r}; in g, perhaps?), or the contact here is not a short "
+            "pulse followed by a free flight (a nearly plastic impact whose tail cannot be told from the "
+            "flight, or a follower that rides the cam after the impact); such events are left out of the "
+            "estimates"]
+
+
+def _force_balance_check(windows: EventWindows, constants: np.ndarray) -> list[str]:
+    """A note when the force balance (S-21) over the first :data:`PLAUSIBILITY_EVENTS` free flights gives
+    a contact force [N] beyond :data:`FORCE_BALANCE_TOLERANCE` of the pivot force (with force channels)."""
+    recording, rig = windows.recording, windows.rig
+    if not ("force_x" in recording and "force_y" in recording):
+        return []
+    k0, angles, accs = windows.first_sample, windows.angles, windows.accelerations
+    residual, pivot = [], []
+    for i in range(min(len(angles), PLAUSIBILITY_EVENTS)):
+        lo_i, hi_i = int(windows.free_start[i]), int(windows.free_end[i])
+        if hi_i - lo_i < 16:
+            continue
+        alpha = angles[i][lo_i:hi_i] + constants[i]
+        nx = recording["force_x"][k0[i] + lo_i:k0[i] + hi_i]
+        ny = recording["force_y"][k0[i] + lo_i:k0[i] + hi_i]
+        fs = spring_force(alpha, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)
+        force = (rig.m_b * rig.l_g * accs[i][lo_i:hi_i] + nx * np.sin(alpha)
+                 + (ny + fs - rig.m_b * rig.g) * np.cos(alpha))
+        residual.append(float(np.median(force)))
+        pivot.append(float(np.median(np.hypot(nx, ny))))
+    if not residual:
+        return []
+    mean_force, typical = float(np.median(residual)), float(np.median(pivot))
+    if abs(mean_force) <= FORCE_BALANCE_TOLERANCE * typical:
+        return []
+    where = recording.source or "recording"
+    return [f"{where}: channels 'force_x', 'force_y' and 'accel_tangential' disagree: the force "
+            f"balance (S-21) gives {mean_force:.3g} N of contact force in free flight, where it is 0, "
+            f"against pivot forces of {typical:.3g} N; are the force channels swapped or mislabelled, "
+            "or the accelerometer in other units than declared?"]
 
 
 def _edge_law(angular: np.ndarray, k: int, s: float, direction: int, noise: float) -> tuple[float, float]:

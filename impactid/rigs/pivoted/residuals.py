@@ -123,7 +123,8 @@ class EventSet:
 
     @classmethod
     def from_reconstruction(cls, recon: Reconstruction, source: str | None = None) -> EventSet:
-        """Collect the events of a :class:`~impactid.rigs.pivoted.reconstruct.Reconstruction` with finite onset states."""
+        """Collect the events of a :class:`~impactid.rigs.pivoted.reconstruct.Reconstruction` with finite
+        onset states."""
         tab = recon.table
         source = source or (recon._recording.source if recon._recording is not None else None) or "recording"
         states = tab[["alpha_onset", "alpha_dot_onset", "theta_onset"]].to_numpy(dtype=float)

@@ -80,3 +80,22 @@ def test_nothing_usable_is_an_error():
         analyse_bounces([np.cumsum(np.full(12, 0.2))])
     with pytest.raises(ValueError, match="valid"):
         analyse_bounces([np.arange(5.0)], law="cubic")
+
+
+def test_chained_fits_are_checked_against_the_timing_noise(result):
+    noise = result.statistics["timing_sigma_s"]
+    chained = result.chained_fits
+    assert chained["linear"].statistics["timing_noise_s"] == pytest.approx(noise)
+    # the law the drops were made with describes whole drops to the timing noise; a constant e does not
+    assert chained["linear"].statistics["residual_over_timing_noise"] < 1.5
+    assert not any("lack of fit" in n for n in chained["linear"].notes)
+    assert chained["constant"].statistics["residual_over_timing_noise"] > 5
+    assert any("lack of fit" in n for n in chained["constant"].notes)
+    assert not any("chained fit of the linear law: lack of fit" in n for n in result.notes)
+
+
+def test_per_impact_laws_are_checked_for_a_trend_they_miss(result):
+    # the drops follow e = 0.96 - 0.02 v: a constant e leaves long runs of one sign along v
+    assert any(n.startswith("constant law: lack of fit") for n in result.notes)
+    assert not any(n.startswith("linear law: lack of fit") for n in result.notes)
+    assert abs(result.law_fits["linear"].statistics["runs_z"]) < 3

@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from impactid.cli import main
+from impactid.results import FitResult
+from impactid.rigs.ball import BounceAnalysis
 from impactid.rigs.ball.synth import write_phyphox_csv, write_phyphox_xlsx
 
 
@@ -32,6 +34,12 @@ def test_json_and_figures(files, tmp_path, capsys):
     data = json.loads(out.read_text())
     for key in ("constant", "linear", "viscoelastic", "selected", "bounces", "notes", "result"):
         assert key in data
+    # under "result", the analysis in the FitResult schema: it rebuilds the analysis
+    schema = {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details", "provenance"}
+    assert set(data["result"]) == schema and data["result"]["kind"] == "bounce-analysis"
+    back = FitResult.from_dict(data["result"])
+    assert isinstance(back, BounceAnalysis) and back["linear.gamma"].value == data["linear"]["gamma"]
+    assert back.law_fits["linear"].statistics["condition_number"] >= 1.0
     assert {"e", "e_stderr"} <= set(data["constant"]) and {"e0", "gamma", "gamma_stderr"} <= set(data["linear"])
     record = data["bounces"][0]
     assert {"file", "index", "interval_s", "impact_speed_m_s", "e", "flag", "reason"} <= set(record)

@@ -95,3 +95,72 @@ def test_chained_fit_needs_enough_events():
     with pytest.raises(ValueError, match="too few"):
         fit_chained([{"name": "a", "times": [0.0, 0.5, 0.9], "numbers": [0, 1, 2]}], "linear",
                     flight_constants(None))
+
+
+def test_errors_come_from_the_shared_covariance_rule():
+    from impactid.covariance import covariance_from_jacobian
+
+    v = np.linspace(0.5, 2.5, 30)
+    e = 0.97 - 0.02 * v + 1e-3 * np.sin(7 * v)
+    fit = fit_law("linear", v, e)
+    X = np.column_stack([np.ones(v.size), -v])
+    bread = covariance_from_jacobian(X, 1.0)
+    assert fit.statistics["condition_number"] == pytest.approx(bread.condition, rel=1e-12)
+    scale2 = fit.statistics["scale"] ** 2
+    model = np.array(fit.details["covariance_model"])
+    assert np.allclose(model, scale2 * bread.matrix, rtol=1e-12, atol=0)
+    corr = np.array(fit.details["correlation"])
+    assert np.allclose(np.diag(corr), 1.0) and np.allclose(corr, corr.T) and -1 < corr[0, 1] < 1
+
+
+def test_speeds_that_cannot_separate_the_parameters_leave_them_undetermined():
+    v = np.full(20, 1.3)  # one speed: e0 and gamma are not separable
+    e = 0.94 + 1e-3 * np.sin(np.arange(20.0))
+    fit = fit_law("linear", v, e)
+    assert not np.isfinite(fit["gamma"].stderr) and not np.isfinite(fit["e0"].stderr)
+    assert "undetermined" in fit["gamma"].note and any("condition number" in n for n in fit.notes)
+    assert fit.statistics["condition_number"] > 1e13
+    assert np.isfinite(fit_law("constant", v, e)["e"].stderr)  # the constant law is still determined
+
+
+def test_a_law_that_misses_the_trend_is_reported_as_a_lack_of_fit():
+    rng = np.random.default_rng(3)
+    v = np.linspace(0.5, 2.5, 60)
+    e = 0.97 - 0.03 * v + 0.002 * rng.standard_normal(v.size)
+    constant, linear = fit_law("constant", v, e), fit_law("linear", v, e)
+    assert constant.statistics["runs_z"] < -3 and any("lack of fit" in n for n in constant.notes)
+    assert abs(linear.statistics["runs_z"]) < 3 and not any("lack of fit" in n for n in linear.notes)
+
+
+def test_runs_check_counts_sign_changes():
+    from impactid.rigs.ball.laws import runs_check
+
+    v = np.arange(12.0)
+    alternating = runs_check(v, (-1.0) ** np.arange(12))
+    assert alternating.runs == 12 and alternating.z > 3 and not alternating.fails
+    blocks = runs_check(v[::-1], np.r_[np.ones(6), -np.ones(6)])  # ordered by v, not by position
+    assert blocks.runs == 2 and blocks.fails
+    assert not np.isfinite(runs_check(v[:5], np.ones(5)).z)  # too few to test
+
+
+def test_normal_root_gives_the_dense_jacobians_covariance():
+    from scipy.sparse import random as sparse_random
+
+    from impactid.covariance import covariance_from_jacobian
+    from impactid.rigs.ball.laws import _normal_root
+
+    J = sparse_random(400, 9, density=0.3, random_state=4, format="csr")
+    J = J + sparse_random(400, 9, density=0.3, random_state=5, format="csr") * 1e3
+    R = _normal_root(J)
+    assert np.allclose(R.T @ R, (J.T @ J).toarray(), rtol=1e-10, atol=1e-8 * abs(J).max() ** 2)
+    dense, root = covariance_from_jacobian(J.toarray(), 2.0), covariance_from_jacobian(R, 2.0)
+    assert np.allclose(root.stderr, dense.stderr, rtol=1e-8)
+    assert root.condition == pytest.approx(dense.condition, rel=1e-6)
+
+
+def test_chained_fit_reports_its_condition_and_correlation(clean_drops):
+    result = analyse_bounces([d.times for d in clean_drops], ball=TABLE_TENNIS, law="linear", compare_no_drag=False)
+    chained = result.chained_fits["linear"]
+    assert 1.0 <= chained.statistics["condition_number"] < 1e13
+    corr = np.array(chained.details["correlation"])
+    assert corr.shape == (2, 2) and np.allclose(np.diag(corr), 1.0)

@@ -158,13 +158,15 @@ def test_fit_command_errors(tmp_path, capsys):
     assert "unknown channel 'speed'" in capsys.readouterr().err
 
 
-def test_rig_ps_estimate_leaves_drop_recordings_alone(tmp_path, capsys):
-    # ``impactid estimate`` (rig P's pipeline) takes rigs whose law is "hunt-crossley"; this rig's law is
-    # named apart, so a drop recording is refused with a clear message, not fed to rig P's estimators
+def test_estimate_refuses_rig_ps_options_for_drop_recordings(tmp_path, capsys):
+    # ``impactid estimate`` is generic: a drop recording runs this rig's estimate (MODEL.estimation); an
+    # option of rig P's estimate given for it is refused, naming the option and the rigs
     from impactid.pipeline import _estimable
     from impactid.rigs.drop import MODEL
 
-    assert not _estimable(MODEL)
+    assert _estimable(MODEL)
     path = synth_drop_impact(STEEL_ON_PA6, PA6_PAD_LAW, 0.05, duration=0.2).write(tmp_path / "drop.h5")
-    assert main(["estimate", str(path)]) == 2
-    assert "the recording's rig is 'drop-impact'" in capsys.readouterr().err
+    assert main(["estimate", str(path), "--residual", "lambda2"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("impactid: error: argument --residual: not an option of 'estimate' for the 'drop-impact' "
+                          "rig") and "'pivoted-follower'" in err and err.count("\n") == 1

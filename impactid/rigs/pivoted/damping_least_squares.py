@@ -1,0 +1,275 @@
+"""The ``"least-squares"`` method of the contact-damping fit (:mod:`impactid.gauss_newton`).
+
+Steps, one function each:
+
+1. the **search**: the trust-region Gauss–Newton fit of the per-event residuals over several starts,
+   equally good minima told apart by the measured contact durations (:func:`gauss_newton_search`,
+   :func:`by_contact_duration`);
+2. the **statistical interval** of ``beta``: the 95 % profile region projected on ``beta``, holding any
+   minima nothing told apart (:func:`profile_interval`);
+3. the **systematic shifts**: a common-mode residual error of each recording (:func:`systematic_shifts`)
+   and each recording's cam-phase error (:func:`cam_phase_shifts`), by linear propagation through the
+   Gauss–Newton normal matrix, combined in quadrature (:func:`quadrature`);
+4. the **intervals**: ``beta`` widened by them and kept inside the search box (:func:`clip_to_search_box`),
+   ``n`` likewise (:func:`n_interval`);
+5. the **standard errors** and a **linearised bootstrap** over impacts (:func:`standard_errors`,
+   :func:`linearised_bootstrap`).
+
+Identifiability and the shared notes are :mod:`impactid.rigs.pivoted.damping_diagnostics`'.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+
+from impactid.gauss_newton import LeastSquaresFit, fit_least_squares
+from impactid.rigs.pivoted.damping_diagnostics import (
+    bound_notes,
+    failure_note,
+    per_event_table,
+    separability,
+    widen_interval,
+)
+from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
+from impactid.rigs.pivoted.estimate_results import DampingEstimate, Progress
+
+__all__ = ["by_contact_duration", "cam_phase_shifts", "clip_to_search_box", "fit_by_least_squares",
+           "gauss_newton_search", "linearised_bootstrap", "n_interval", "profile_interval", "quadrature",
+           "standard_errors", "systematic_shifts"]
+
+
+def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: list[str], progress: Progress,
+                         *, sensitivities: bool = True) -> DampingEstimate:
+    """The ``"least-squares"`` estimate of ``beta`` (and ``n``) as a :class:`DampingEstimate`.
+
+    Parameters
+    ----------
+    problem : the validated fit.
+    obj : its objective (counts the simulations of the whole fit).
+    notes : the fit's notes, appended to.
+    progress : callback ``(stage, fraction)``.
+    sensitivities : differentiate the residuals with the simulator's forward sensitivities (else
+        central differences of batched runs).
+    """
+    fix_n = problem.fix_n
+    systematic = max(problem.residual_floor, problem.systematic)
+    fit = gauss_newton_search(problem, obj, systematic, notes, progress, sensitivities=sensitivities)
+    logc_hat = fit.x[0]
+    n_hat = float(fix_n) if fix_n is not None else fit.x[1]
+    beta_hat = float(obj.beta(logc_hat, n_hat))
+    J, r = fit.jacobian, fit.residuals
+    # d log(beta) / d(log10 c, n)
+    grad = np.array([math.log(10.0), -math.log(obj.delta_ref)])[: J.shape[1]]
+    normal = np.linalg.pinv(J.T @ J)
+
+    log_iv = profile_interval(fit, obj, n_hat, fix_n, notes)
+    per_event_hat = np.full(fit.used.size, math.nan)
+    per_event_hat[fit.used] = r
+    sys_shifts = systematic_shifts(problem, fit, normal, systematic)
+    phase_shifts = cam_phase_shifts(problem, obj, fit, normal, logc_hat, n_hat, per_event_hat)
+    phase_logbeta, sys_logbeta = quadrature(phase_shifts, grad), quadrature(sys_shifts, grad)
+    log_iv = widen_interval(log_iv, math.log(beta_hat), math.hypot(1.96 * phase_logbeta, sys_logbeta))
+    beta_iv = clip_to_search_box(problem, obj, log_iv, n_hat, notes)
+    phase_n_sd = quadrature(phase_shifts, grad, 1) if fix_n is None else 0.0
+    n_iv = n_interval(problem, fit, n_hat, math.hypot(1.96 * phase_n_sd, quadrature(sys_shifts, grad, 1))
+                      if fix_n is None else 0.0)
+
+    beta_se, n_se = standard_errors(fit, grad, beta_hat, fixed_n=fix_n is not None)
+    boot = linearised_bootstrap(obj, J, r, logc_hat, n_hat, problem.bootstrap_resamples, problem.bootstrap_seed)
+    b_boot = np.percentile(boot[:, 0], [2.5, 97.5])
+    n_boot = np.percentile(boot[:, 1], [2.5, 97.5])
+
+    region = (f"the 95 % profile interval of the {problem.residual} sum of squares (with the pipeline's systematic "
+              f"residual error {systematic:.3g} per recording) stays open")
+    separable = separability(problem, n_iv, beta_iv, region, notes)
+    bound_notes(problem, logc_hat, n_hat, notes)
+    if math.sqrt(fit.s2) > 0.05:
+        notes.append(f"the residual scatter between impacts is large (rms {math.sqrt(fit.s2):.3g}); "
+                     f"the estimate rests on {r.size} impacts")
+    prof = fit.profile
+    valley = pd.DataFrame({"n": prof["n"], "beta": obj.beta(prof["log10_c"].to_numpy(), prof["n"].to_numpy()),
+                           "log10_c": prof["log10_c"], "objective": prof["objective"]})
+    land = problem.landscape_if_asked()
+    failure_note(obj, notes)
+    return DampingEstimate(
+        beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=problem.residual,
+        objective=float(np.mean(np.abs(r))), method="least-squares", beta_interval=beta_iv, n_interval=n_iv,
+        beta_bootstrap_interval=(float(b_boot[0]), float(b_boot[1])),
+        n_bootstrap_interval=(float(n_boot[0]), float(n_boot[1])), indifference=float(systematic),
+        separable=separable, phase_beta_sd=beta_hat * math.expm1(min(phase_logbeta, 700.0)), phase_n_sd=phase_n_sd,
+        valley=valley, per_event=per_event_table(problem, per_event_hat), delta_ref=obj.delta_ref, bootstrap=boot,
+        landscape=land, n_simulations=obj.n_simulations, seconds=math.nan, warnings=tuple(notes),
+        n_failed_simulations=obj.n_failed, beta_stderr=beta_se, n_stderr=n_se)
+
+
+def gauss_newton_search(problem: DampingProblem, obj: DampingObjective, systematic: float, notes: list[str],
+                        progress: Progress, *, sensitivities: bool = True) -> LeastSquaresFit:
+    """The Gauss–Newton fit of the per-event residuals (:func:`impactid.gauss_newton.fit_least_squares`).
+
+    ``systematic`` (the residual's systematic error per event) sets the sum of squares within which
+    minima count as equally good; those are told apart by :func:`by_contact_duration`.
+    """
+    fix_n = problem.fix_n
+    return fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=problem.log10_c_bounds, n_bounds=problem.n_bounds,
+                             progress=progress,
+                             choose=lambda points: by_contact_duration(obj, problem.sets, points, fix_n, notes),
+                             rss_tolerance=obj.n_events * systematic ** 2,
+                             per_event_jacobian=obj.per_event_and_jacobian if sensitivities else None)
+
+
+def by_contact_duration(obj: DampingObjective, sets: Sequence, points, fix_n: float | None,
+                        notes: list[str]) -> int | None:
+    """Which of several equally good minima ``(log10 c[, n])`` reproduces the measured contact durations.
+
+    A heavily damped law can make the follower chatter and still reach the measured ``alpha_m``
+    (with friction especially); the duration of the first contact tells it apart. Returns the index
+    of the point whose simulated first contacts differ least from the measured ones (median relative
+    difference over the events with a measured duration), if it is clearly the best (less than half
+    the next and below 20 %); None otherwise. The simulations count in ``obj``; the choice is noted.
+    """
+    measured = np.concatenate([s.contact_duration if s.contact_duration is not None else np.full(len(s), np.nan)
+                               for s in sets])
+    if not np.isfinite(measured).any():
+        return None
+    trials = np.array([[float(obj.beta(p[0], p[1] if len(p) > 1 else fix_n)), p[1] if len(p) > 1 else fix_n]
+                       for p in points])
+    simulated = np.concatenate([s.simulate(trials).contact_duration for s in sets], axis=1)
+    obj.n_simulations += trials.shape[0] * measured.size
+    with np.errstate(all="ignore"):
+        score = np.nanmedian(np.abs(simulated / measured[None, :] - 1.0), axis=1)
+    order = np.argsort(score)
+    best = int(order[0])
+    if not (np.isfinite(score[best]) and score[best] < 0.2 and score[best] < 0.5 * score[order[1]]):
+        return None
+    others = ", ".join(f"beta {trials[i, 0]:.4g} ({100 * score[i]:.0f} %)" for i in order[1:])
+    notes.append(f"other laws match the {obj.residual} residuals as well ({others} median difference of the first "
+                 f"contact's duration); the estimate is the one whose contacts last as measured "
+                 f"({100 * score[best]:.1f} %)")
+    return best
+
+
+def profile_interval(fit: LeastSquaresFit, obj: DampingObjective, n_hat: float, fix_n: float | None,
+                     notes: list[str]) -> tuple[float, float]:
+    """The statistical interval of ``ln beta``: the profile-likelihood region projected on ``beta``.
+
+    The profile points within the 95 % threshold of the sum of squares, each with its half-width in
+    ``log10 c``, plus the ends of the ``n`` interval (joint fits) and any equally good minima that
+    nothing told apart (then noted: the interval holds them all).
+    """
+    prof = fit.profile
+    inside = prof["rss"] - fit.rss <= fit.threshold
+    lc_in, n_in, half = (prof.loc[inside, k].to_numpy(dtype=float) for k in ("log10_c", "n", "half_width"))
+    if fix_n is None:  # the interval's ends on the profile (half-width 0 there)
+        ends = np.asarray(fit.n_interval)
+        lc_in = np.concatenate([lc_in, np.interp(ends, prof["n"], prof["log10_c"])])
+        n_in = np.concatenate([n_in, ends])
+        half = np.concatenate([half, [0.0, 0.0]])
+    if not fit.resolved:  # equally good minima that nothing told apart: the interval holds them all
+        lc_in = np.concatenate([lc_in, [a[0] for a in fit.alternatives]])
+        n_in = np.concatenate([n_in, [a[1] if len(a) > 1 else n_hat for a in fit.alternatives]])
+        half = np.concatenate([half, np.zeros(len(fit.alternatives))])
+        notes.append(f"the {obj.residual} residuals are matched equally well by other laws ("
+                     + ", ".join(f"beta {obj.beta(a[0], a[1] if len(a) > 1 else n_hat):.4g}" for a in fit.alternatives)
+                     + ") that the measured contact durations do not tell apart: the interval of beta holds them all")
+    log_beta = np.log(obj.beta(np.concatenate([lc_in - half, lc_in + half]), np.concatenate([n_in, n_in])))
+    return (float(log_beta.min()), float(log_beta.max()))
+
+
+def _event_owners(problem: DampingProblem) -> np.ndarray:
+    """Per pooled event, the index of its recording's event set."""
+    return np.concatenate([[k] * len(es) for k, es in enumerate(problem.sets)])
+
+
+def systematic_shifts(problem: DampingProblem, fit: LeastSquaresFit, normal: np.ndarray,
+                      systematic: float) -> list[np.ndarray]:
+    """Per recording, the shift of ``(log10 c[, n])`` that a common-mode residual error ``systematic``
+    of its events causes (linear propagation through the normal matrix ``normal = (J^T J)^+``)."""
+    owner = _event_owners(problem)[fit.used]
+    J = fit.jacobian
+    return [normal @ (J.T @ (systematic * (owner == k))) for k in range(len(problem.sets))]
+
+
+def cam_phase_shifts(problem: DampingProblem, obj: DampingObjective, fit: LeastSquaresFit, normal: np.ndarray,
+                     logc_hat: float, n_hat: float, per_event_hat: np.ndarray) -> list[np.ndarray]:
+    """Per recording with a cam-phase error, the shift of ``(log10 c[, n])`` that a phase shifted by its
+    standard error causes (its residuals' change at the estimate, propagated linearly). The extra
+    simulations count in ``obj``."""
+    owner_all = _event_owners(problem)
+    J = fit.jacobian
+    shifts = []
+    for k, es in enumerate(problem.sets):
+        if not (math.isfinite(es.phase_stderr) and es.phase_stderr > 0):
+            continue
+        sub = problem.objective([es.shift_phase(es.phase_stderr)])
+        delta = np.zeros(fit.used.size)
+        delta[owner_all == k] = sub.per_event(logc_hat, n_hat)[0] - per_event_hat[owner_all == k]
+        obj.n_simulations += sub.n_simulations
+        shifts.append(normal @ (J.T @ np.nan_to_num(delta[fit.used])))
+    return shifts
+
+
+def quadrature(shifts: Sequence[np.ndarray], grad: np.ndarray, component: int | None = None) -> float:
+    """The shifts combined in quadrature: as ``ln beta`` shifts (``grad @ dx``), or of one component of ``dx``."""
+    values = [float(grad @ dx) if component is None else float(dx[component]) for dx in shifts]
+    return float(np.sqrt(np.sum(np.square(values)))) if values else 0.0
+
+
+def clip_to_search_box(problem: DampingProblem, obj: DampingObjective, log_interval: tuple[float, float],
+                       n_hat: float, notes: list[str]) -> tuple[float, float]:
+    """The interval of ``beta`` [N s m^-(n+1)] from that of ``ln beta``, stopped at the search box.
+
+    A linear propagation through a nearly singular valley can reach beyond the box: the interval stops
+    at the box's extreme ``beta`` (``beta = c / delta_ref^n``, least at ``(c_lo, n_lo)``, largest at
+    ``(c_hi, n_hi)``), with a note.
+    """
+    lc_bounds = problem.log10_c_bounds
+    n_box = (n_hat, n_hat) if problem.fix_n is not None else problem.n_bounds
+    box = (math.log(obj.beta(lc_bounds[0], n_box[0])), math.log(obj.beta(lc_bounds[1], n_box[1])))
+    if log_interval[0] < box[0] or log_interval[1] > box[1]:
+        notes.append("the interval of beta reaches the search box of c = beta delta_ref^n: the data bound beta "
+                     "only weakly")
+    log_iv = (max(log_interval[0], box[0]), min(log_interval[1], box[1]))
+    return (math.exp(log_iv[0]), math.exp(log_iv[1]))
+
+
+def n_interval(problem: DampingProblem, fit: LeastSquaresFit, n_hat: float, extra: float) -> tuple[float, float]:
+    """The interval of ``n``: the profile interval widened by ``extra`` in quadrature, within the bounds
+    and opened to a bound the profile reaches (``(n, n)`` with ``n`` fixed)."""
+    if problem.fix_n is not None:
+        return (n_hat, n_hat)
+    n_bounds = problem.n_bounds
+    n_iv = widen_interval(fit.n_interval, n_hat, extra)
+    n_iv = (max(n_iv[0], n_bounds[0]), min(n_iv[1], n_bounds[1]))
+    if fit.reaches_bound[0]:
+        n_iv = (n_bounds[0], n_iv[1])
+    if fit.reaches_bound[1]:
+        n_iv = (n_iv[0], n_bounds[1])
+    return n_iv
+
+
+def standard_errors(fit: LeastSquaresFit, grad: np.ndarray, beta_hat: float, *, fixed_n: bool) -> tuple[float, float]:
+    """Gauss–Newton standard errors of ``beta`` [N s m^-(n+1)] and ``n`` (0 with ``n`` fixed)."""
+    beta_se = beta_hat * math.sqrt(max(float(grad @ fit.covariance @ grad), 0.0))
+    n_se = 0.0 if fixed_n else math.sqrt(max(float(fit.covariance[1, 1]), 0.0))
+    return beta_se, n_se
+
+
+def linearised_bootstrap(obj: DampingObjective, J: np.ndarray, r: np.ndarray, logc_hat: float, n_hat: float,
+                         resamples: int, seed: int) -> np.ndarray:
+    """Bootstrap over impacts, linearised: one weighted Gauss–Newton step from the estimate per resample of
+    the events. Returns ``(resamples, 2)`` estimates ``(beta, n)``."""
+    rng = np.random.default_rng(seed)
+    m = r.size
+    weights = rng.multinomial(m, np.full(m, 1.0 / m), size=resamples).astype(float)
+    boot = []
+    for w in weights:
+        A = J.T @ (w[:, None] * J)
+        dx = -np.linalg.lstsq(A, J.T @ (w * r), rcond=None)[0]
+        x_b = np.array([logc_hat, n_hat])
+        x_b[: dx.size] += dx
+        boot.append((float(obj.beta(x_b[0], x_b[1])), float(x_b[1])))
+    return np.asarray(boot)

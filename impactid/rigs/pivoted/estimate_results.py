@@ -1,0 +1,257 @@
+"""Result types of rig P's estimates: the contact damping, the restitution law, and the whole job.
+
+:class:`DampingEstimate` is what :func:`~impactid.rigs.pivoted.damping.fit_contact_damping` returns,
+:class:`RestitutionEstimate` what :func:`~impactid.rigs.pivoted.restitution.fit_restitution` returns, and
+:class:`Estimate` what the estimate pipeline (:func:`impactid.pipeline.estimate`) returns: both fits and
+what they rest on. Each converts to the shared :class:`~impactid.results.FitResult` (``to_result``:
+lmfit-style report, JSON round trip, tables). Units are SI: ``beta`` [N s m^-(n+1)], ``gamma`` [s/m],
+speeds [m/s], indentations [m].
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from impactid.results import FitResult, Parameter
+
+__all__ = ["ContactDampingResult", "DampingEstimate", "Estimate", "EstimationWarning", "Landscape", "Progress",
+           "RestitutionEstimate", "RestitutionResult"]
+
+
+class EstimationWarning(UserWarning):
+    """The data do not support (part of) an estimate as precisely as its number suggests."""
+
+
+#: A progress display: called with the stage's name and the fraction done (0 to 1).
+Progress = Callable[[str, float], None]
+
+
+@dataclass(frozen=True)
+class Landscape:
+    """Mean residual on a grid: ``objective[i, j]`` at ``n[i]``, ``beta[i, j]`` (log-spaced in c).
+
+    Attributes
+    ----------
+    n : exponents of the grid's rows.
+    log10_c : ``log10 c`` of its columns, ``c = beta delta_ref^n`` [N s/m].
+    beta : ``beta`` [N s m^-(n+1)] at each grid point.
+    objective : the mean residual over events at each grid point.
+    residual : the residual's name (``"lambda1"``, ...).
+    """
+
+    n: np.ndarray
+    log10_c: np.ndarray
+    beta: np.ndarray
+    objective: np.ndarray
+    residual: str
+
+
+class ContactDampingResult(FitResult):
+    """Hunt–Crossley damping ``beta, n`` of :func:`~impactid.rigs.pivoted.damping.fit_contact_damping` as a shared
+    fit result."""
+
+    kind = "contact-damping"
+    title = "Hunt-Crossley contact damping"
+
+
+class RestitutionResult(FitResult):
+    """Restitution laws of :func:`~impactid.rigs.pivoted.restitution.fit_restitution` as a shared fit result."""
+
+    kind = "restitution"
+    title = "restitution xi = 1 - gamma v_a"
+
+
+@dataclass(frozen=True)
+class DampingEstimate:
+    """Hunt–Crossley damping estimate.
+
+    Attributes
+    ----------
+    beta : [N s m^-(n+1)]; n : exponent (fixed or estimated).
+    residual : name of the residual minimised; objective : its mean over events at the estimate.
+    beta_interval, n_interval : (low, high) intervals (:mod:`impactid.rigs.pivoted.damping`; ``n_interval`` is
+        ``(n, n)`` when ``n`` was fixed).
+    separable : whether the data separate beta from n (None when n was fixed).
+    valley : DataFrame ``n, beta, objective`` of the minimum over beta at each n (joint fits).
+    per_event : DataFrame ``source, event, approach_speed, residual`` at the estimate.
+    delta_ref : reference indentation [m]; c = beta delta_ref^n is the damping there [N s/m].
+    bootstrap : (n_resamples, 2) bootstrap estimates (beta, n).
+    phase_beta_sd, phase_n_sd : standard deviations of beta and n caused by the error of each
+        recording's cam phase (cam-phase anchor; 0 otherwise), already included in the intervals.
+    """
+
+    beta: float
+    n: float
+    fixed_n: bool
+    residual: str
+    objective: float
+    method: str
+    beta_interval: tuple[float, float]
+    n_interval: tuple[float, float]
+    beta_bootstrap_interval: tuple[float, float]
+    n_bootstrap_interval: tuple[float, float]
+    indifference: float
+    separable: bool | None
+    phase_beta_sd: float
+    phase_n_sd: float
+    valley: pd.DataFrame
+    per_event: pd.DataFrame
+    delta_ref: float
+    bootstrap: np.ndarray
+    landscape: Landscape | None
+    n_simulations: int
+    seconds: float
+    warnings: tuple[str, ...] = ()
+    #: S1 runs (trial law x event) that could not be simulated and got the documented penalty
+    n_failed_simulations: int = 0
+    #: Gauss-Newton standard errors of beta and n (least-squares method; NaN otherwise)
+    beta_stderr: float = math.nan
+    n_stderr: float = math.nan
+
+    @property
+    def damping_at_reference(self) -> float:
+        """``c = beta delta_ref^n`` [N s/m]."""
+        return self.beta * self.delta_ref ** self.n
+
+    def to_result(self) -> ContactDampingResult:
+        """The estimate as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
+        unit = f"N s m^-({self.n:.4g}+1)"
+        why = "" if self.separable in (None, True) else "beta and n are not separable from these data"
+        params = [Parameter("beta", self.beta, interval=self.beta_interval, unit=unit, note=why),
+                  Parameter("n", self.n, stderr=0.0 if self.fixed_n else math.nan,
+                            interval=(self.n, self.n) if self.fixed_n else self.n_interval, fixed=self.fixed_n,
+                            note=why)]
+        statistics = {"residual": self.residual, "objective": self.objective, "indifference": self.indifference,
+                      "events": int(np.isfinite(self.per_event["residual"]).sum()), "simulations": self.n_simulations,
+                      "failed_simulations": self.n_failed_simulations, "seconds": self.seconds}
+        details = {"method": self.method, "separable": self.separable, "delta_ref": self.delta_ref,
+                   "c_ref": self.damping_at_reference, "beta_bootstrap_95": list(self.beta_bootstrap_interval),
+                   "n_bootstrap_95": list(self.n_bootstrap_interval)}
+        return ContactDampingResult(params=params, statistics=statistics, notes=self.warnings,
+                                    tables={"per_event": self.per_event, "valley": self.valley}, details=details)
+
+    def report(self) -> str:
+        """An lmfit-style fit report (of :meth:`to_result`)."""
+        return self.to_result().report()
+
+
+@dataclass(frozen=True)
+class RestitutionEstimate:
+    """Restitution law fits over impacts (docs/estimation.md).
+
+    ``gamma`` [s/m] of ``xi = 1 - gamma v_a`` (least squares, intercept fixed at 1) with its
+    standard error; ``r_constant`` the constant-r fit (mean xi) with its standard error;
+    ``intercept``/``slope`` of the free line ``xi = a - b v_a`` (NaN when the speeds do not
+    spread); ``beta_equivalent = 1.5 gamma k_H`` [N s m^-2.5]; ``va_spread`` = std/mean of v_a.
+    """
+
+    gamma: float
+    gamma_stderr: float
+    r_constant: float
+    r_constant_stderr: float
+    intercept: float
+    intercept_stderr: float
+    slope: float
+    slope_stderr: float
+    xi_mean: float
+    va_mean: float
+    va_spread: float
+    beta_equivalent: float
+    impacts_used: int
+    per_impact: pd.DataFrame
+    warnings: tuple[str, ...] = ()
+
+    def to_result(self) -> RestitutionResult:
+        """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
+        def ci(value, stderr):
+            return (value - 1.96 * stderr, value + 1.96 * stderr)
+
+        params = [Parameter("gamma", self.gamma, self.gamma_stderr, ci(self.gamma, self.gamma_stderr), unit="s/m"),
+                  Parameter("r_constant", self.r_constant, self.r_constant_stderr,
+                            ci(self.r_constant, self.r_constant_stderr)),
+                  Parameter("intercept", self.intercept, self.intercept_stderr,
+                            ci(self.intercept, self.intercept_stderr)),
+                  Parameter("slope", self.slope, self.slope_stderr, ci(self.slope, self.slope_stderr), unit="s/m")]
+        statistics = {"impacts": self.impacts_used, "xi_mean": self.xi_mean, "va_mean": self.va_mean,
+                      "va_spread": self.va_spread}
+        return RestitutionResult(params=params, statistics=statistics, notes=self.warnings,
+                                 tables={"per_impact": self.per_impact},
+                                 details={"beta_equivalent_n1.5": self.beta_equivalent})
+
+    def report(self) -> str:
+        """An lmfit-style fit report (of :meth:`to_result`)."""
+        return self.to_result().report()
+
+
+@dataclass(frozen=True)
+class Estimate:
+    """Result of :func:`impactid.pipeline.estimate`: contact damping, restitution, and what they rest on."""
+
+    damping: DampingEstimate
+    restitution: RestitutionEstimate | None
+    sources: tuple[str, ...]
+    operating_points: tuple[dict, ...]
+    reconstructions: tuple = field(default=(), repr=False)
+    event_sets: tuple = field(default=(), repr=False)
+    warnings: tuple[str, ...] = ()
+    provenance: tuple[str, ...] = ()
+    #: per recording, the pipeline's alpha_m bias measured on the model's own recording
+    #: (:mod:`impactid.rigs.pivoted.calibration`), when the estimate was calibrated
+    calibration: tuple[dict, ...] = ()
+    #: the options of the :class:`~impactid.pipeline.Pipeline` that made the estimate
+    pipeline: dict = field(default_factory=dict)
+
+    def report(self) -> str:
+        """lmfit-style reports of the damping and the restitution fits, with the recordings and notes."""
+        parts = [self.damping.to_result().report()]
+        parts.append(self.restitution.to_result().report() if self.restitution is not None
+                     else "[[restitution]]\n    not estimated (see the notes)")
+        parts.append("[[Recordings]]\n" + "\n".join(
+            f"    {s}: {op['events']} events at e/r_c {op['e_over_rc']:.4g}, {op['cam_speed_hz']:.4g} Hz"
+            for s, op in zip(self.sources, self.operating_points)))
+        if self.warnings:
+            parts.append("[[Notes]]\n" + "\n".join(f"    - {w}" for w in self.warnings))
+        return "\n".join(parts)
+
+    def to_dict(self, per_impact: bool = True) -> dict:
+        """The result as JSON-ready data: the keys of docs/formats.md (SI units) plus uncertainty and detail."""
+        d, r = self.damping, self.restitution
+        out = {
+            "beta": d.beta, "n": d.n, "gamma": r.gamma if r else None, "xi_mean": r.xi_mean if r else None,
+            "va_mean": r.va_mean if r else None,
+            "impacts_used": int(len(d.per_event[np.isfinite(d.per_event["residual"])])),
+            "residual": d.residual, "objective": d.objective,
+            "units": {"beta": "N s m^-(n+1)", "gamma": "s/m", "va_mean": "m/s", "c_ref": "N s/m",
+                      "delta_ref": "m"},
+            "uncertainty": {
+                "beta_interval": list(d.beta_interval), "n_interval": list(d.n_interval),
+                "beta_bootstrap_95": list(d.beta_bootstrap_interval), "n_bootstrap_95": list(d.n_bootstrap_interval),
+                "objective_indifference": d.indifference, "separable": d.separable, "n_fixed": d.fixed_n,
+                "gamma_stderr": r.gamma_stderr if r else None, "beta_sd_from_cam_phase": d.phase_beta_sd,
+                "n_sd_from_cam_phase": d.phase_n_sd,
+            },
+            "contact_damping": {"method": d.method, "delta_ref": d.delta_ref, "c_ref": d.damping_at_reference,
+                                "simulations": d.n_simulations, "failed_simulations": d.n_failed_simulations,
+                                "seconds": d.seconds,
+                                "valley": d.valley[["n", "beta", "objective"]].to_dict(orient="list")},
+            "restitution": None if r is None else {
+                "gamma": r.gamma, "gamma_stderr": r.gamma_stderr, "r_constant": r.r_constant,
+                "r_constant_stderr": r.r_constant_stderr, "intercept": r.intercept,
+                "intercept_stderr": r.intercept_stderr, "slope": r.slope, "slope_stderr": r.slope_stderr,
+                "va_spread": r.va_spread, "beta_equivalent_n1.5": r.beta_equivalent,
+                "impacts_used": r.impacts_used},
+            "recordings": [dict(source=s, **op) for s, op in zip(self.sources, self.operating_points)],
+            "calibration": [dict(c) for c in self.calibration],
+            "warnings": list(self.warnings),
+            "provenance": list(self.provenance),
+        }
+        if per_impact:
+            merged = d.per_event if r is None else d.per_event.merge(
+                r.per_impact[["source", "event", "xi", "separation_speed"]], on=["source", "event"], how="outer")
+            out["per_impact"] = merged.to_dict(orient="records")
+        return out

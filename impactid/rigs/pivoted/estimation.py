@@ -1,0 +1,335 @@
+"""Rig P's estimate: Hunt–Crossley ``beta, n`` and the restitution law from its recordings (``ESTIMATOR``).
+
+What the generic estimate (``impactid estimate``, :class:`impactid.pipeline.Pipeline`,
+:mod:`impactid.campaign`) runs for recordings of the ``pivoted-follower`` rig, in two stages::
+
+    prepare (one recording):  events -> per-impact kinematics -> event set (+ the calibration's sampling)
+    fit (prepared recordings): contact damping (+ calibration) -> restitution -> Estimate
+
+The options (:data:`OPTIONS`) are the choices that decide an estimate: the per-event kinematics
+method and anchor, the residual, the search and its bounds, the uncertainty options and the
+calibration. They are recorded in the result (:attr:`~impactid.rigs.pivoted.estimates.Estimate.pipeline`
+and its provenance), so that an estimate says how it was made.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import pandas as pd
+
+from impactid.commandline import UsageError, exponent, num
+from impactid.contact import HuntCrossley
+from impactid.errors import ImpactidError
+from impactid.rigs.base import Argument, Estimator, PreparedRecording, options_record, pipeline_provenance
+from impactid.rigs.pivoted import figures
+from impactid.rigs.pivoted.calibration import RecordingSampling, pipeline_bias
+from impactid.rigs.pivoted.commands import kinematics_arguments
+from impactid.rigs.pivoted.estimates import (
+    BOOTSTRAP_RESAMPLES,
+    BOOTSTRAP_SEED,
+    C_BOUNDS,
+    CALIBRATION_THRESHOLD,
+    METHODS,
+    N_BOUNDS,
+    SEPARABILITY_WIDTH,
+    Estimate,
+    EstimationWarning,
+    Progress,
+    fit_contact_damping,
+    fit_restitution,
+)
+from impactid.rigs.pivoted.reconstruct import Reconstruction, reconstruct
+from impactid.rigs.pivoted.residuals import EventSet, residual_name
+
+__all__ = ["ESTIMATOR", "MAX_GRID_POINTS", "OPTIONS", "PreparedImpacts", "check_options", "fit", "prepare"]
+
+#: Largest grid of trial laws ``--grid NB,NN`` accepts (each costs one S1 run per impact).
+MAX_GRID_POINTS = 100_000
+
+#: Every option of rig P's estimate and its default:
+#:
+#: * ``residual``: ``"lambda1"`` (accelerometer only, default), ``"lambda2"`` or ``"lambda3"``;
+#: * ``fix_n``: fix the Hunt–Crossley exponent (1.5: Hertzian; None: estimate it jointly with beta);
+#: * ``method``: ``"least-squares"`` (trust-region Gauss–Newton on the per-event residuals, with the
+#:   profile along the valley; :mod:`impactid.gauss_newton`), ``"optimise"`` (nested bounded Brent
+#:   searches along the valley, lattice and bootstrap intervals) or ``"grid"`` (the paper's grid);
+#: * ``grid``: grid points ``(n_c, n_n)`` of the grid method;
+#: * ``integration``, ``anchor``: per-event kinematics (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`);
+#: * ``c_bounds``: bounds of ``c = beta delta_ref^n`` [N s/m]; ``n_bounds``: bounds of ``n`` [-];
+#: * ``landscape``: also compute the objective landscape (for plots);
+#: * ``calibrate``: measure and correct the pipeline's alpha_m bias on the model's own recording
+#:   (:mod:`impactid.rigs.pivoted.calibration`; lambda1 only);
+#: * ``residual_floor``: the residual's noise floor (None: the calibrated default of the residual);
+#: * ``separability_width``: widest interval of ``n`` with which ``beta, n`` count as separable [-];
+#: * ``bootstrap_resamples``, ``bootstrap_seed``: the bootstrap over events.
+OPTIONS: Mapping[str, Any] = {
+    "residual": "lambda1",
+    "fix_n": None,
+    "method": "least-squares",
+    "grid": (41, 21),
+    "integration": "rk",
+    "anchor": "cam-phase",
+    "c_bounds": C_BOUNDS,
+    "n_bounds": N_BOUNDS,
+    "landscape": False,
+    "calibrate": True,
+    "residual_floor": None,
+    "separability_width": SEPARABILITY_WIDTH,
+    "bootstrap_resamples": BOOTSTRAP_RESAMPLES,
+    "bootstrap_seed": BOOTSTRAP_SEED,
+}
+
+#: The options that change what :func:`prepare` makes (the others change only the fits).
+PREPARE_OPTIONS = ("integration", "anchor")
+
+
+def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """Check the values of the full options and normalise the residual's name (``ValueError`` naming
+    the option)."""
+    out = dict(options)
+    out["residual"] = residual_name(out["residual"])
+    if out["method"] not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}; got {out['method']!r}")
+    fix_n = out["fix_n"]
+    if fix_n is not None and not (isinstance(fix_n, (int, float)) and math.isfinite(fix_n) and fix_n >= 0.0):
+        raise ValueError(f"fix_n must be a finite number >= 0, got {fix_n!r}")
+    if out["bootstrap_resamples"] < 10:
+        raise ValueError(f"bootstrap_resamples must be at least 10, got {out['bootstrap_resamples']!r}")
+    return out
+
+
+def _fit_options(options: Mapping[str, Any]) -> dict:
+    """The keyword arguments of :func:`~impactid.rigs.pivoted.estimates.fit_contact_damping` the options give."""
+    return {name: options[name] for name in ("fix_n", "method", "grid", "c_bounds", "n_bounds", "landscape",
+                                             "residual_floor", "separability_width", "bootstrap_resamples",
+                                             "bootstrap_seed")}
+
+
+def _calibrated(options: Mapping[str, Any]) -> bool:
+    """Whether the estimate is calibrated (:mod:`impactid.rigs.pivoted.calibration`; lambda1 only)."""
+    return bool(options["calibrate"] and residual_name(options["residual"]) == "lambda1")
+
+
+@dataclass(frozen=True)
+class PreparedImpacts:
+    """One rig P recording read, segmented and reconstructed (:func:`prepare`): what its fits use.
+
+    Attributes
+    ----------
+    source : the recording's name in messages and results.
+    reconstruction : the per-impact kinematics (without the samples after :func:`compact`).
+    event_set : the :class:`~impactid.rigs.pivoted.residuals.EventSet` the fits replay.
+    impacts : per impact ``source, event, approach_speed`` [m/s], ``xi`` [-], ``separation_speed``
+        [m/s] (the restitution fit's data).
+    sampling : the :class:`~impactid.rigs.pivoted.calibration.RecordingSampling` of the calibration
+        (None when the estimate is not calibrated).
+    warnings : the notes of the per-impact kinematics.
+    """
+
+    source: str
+    reconstruction: Reconstruction
+    event_set: EventSet
+    impacts: pd.DataFrame
+    sampling: RecordingSampling | None
+    warnings: tuple[str, ...] = ()
+
+
+def prepare(recording, options: Mapping[str, Any], source: str) -> PreparedImpacts:
+    """Find the impacts of one recording and reconstruct each (the notes in the result, not warned)."""
+    recon = reconstruct(recording, integration=options["integration"], anchor=options["anchor"], warn=False)
+    es = EventSet.from_reconstruction(recon, source=source)
+    tab = recon.table.reset_index()
+    impacts = pd.DataFrame({"source": es.source, "event": tab["event"], "approach_speed": tab["approach_speed"],
+                            "xi": tab["xi"], "separation_speed": tab["separation_speed"]})
+    sampling = RecordingSampling.of(recording) if _calibrated(options) else None
+    return PreparedImpacts(source=es.source, reconstruction=recon, event_set=es, impacts=impacts, sampling=sampling,
+                           warnings=tuple(recon.warnings))
+
+
+def compact(data: PreparedImpacts) -> PreparedImpacts:
+    """The prepared recording without its samples (a few kB per impact; the figures' histories need them)."""
+    if getattr(data.reconstruction, "_recording", None) is None:
+        return data
+    return replace(data, reconstruction=replace(data.reconstruction, _recording=None))
+
+
+def fit(prepared: Sequence[PreparedRecording], options: Mapping[str, Any],
+        progress: Progress | None = None) -> Estimate:
+    """Estimate ``beta, n`` and the restitution law from prepared recordings of one rig (several: jointly).
+
+    The recordings may differ in cam speed and eccentricity only. Returns the
+    :class:`~impactid.rigs.pivoted.estimates.Estimate` with the damping estimate, the restitution law
+    (None, with the reason among the warnings, when it cannot be fitted), per-event tables, notes
+    (the prepared recordings' first) and provenance; nothing is warned.
+    """
+    prepared = list(prepared)
+    if not prepared:
+        raise ImpactidError("no recording given")
+    data = [p.data for p in prepared]
+    recons = [d.reconstruction for d in data]
+    sets = [d.event_set for d in data]
+    frames = [d.impacts for d in data]
+    collected: list[str] = [m for p in prepared for m in p.notes + tuple(w for w in p.data.warnings
+                                                                          if w not in p.notes)]
+    # operating points may differ in cam speed and eccentricity; the contact pair must be the same
+    models = {repr(r.fixed_parameters) for r in recons}
+    if len(models) > 1:
+        raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
+                            "e equal); they differ between " + ", ".join(s.source for s in sets))
+    fit_options = _fit_options(options)
+    damping = fit_contact_damping(sets, options["residual"], **fit_options, progress=progress, warn=False)
+    collected += damping.warnings
+    calibration: list[dict] = []
+    if _calibrated(options):
+        first = damping
+        damping, sets, calibration = _calibrate(damping, [d.sampling for d in data], sets, fit_options,
+                                                integration=options["integration"], anchor=options["anchor"])
+        collected += damping.warnings if damping is not first else ()
+    # a part of the job that cannot be done does not take the others with it: without a
+    # determined xi the restitution law is missing from the result, with the reason
+    try:
+        restitution = fit_restitution(pd.concat(frames, ignore_index=True), recons[0].rig.k_H, warn=False)
+        collected += restitution.warnings
+    except ImpactidError as exc:
+        restitution = None
+        collected.append(f"restitution law not estimated: {exc}")
+    ops = tuple({**r.operating_point, "events": len(s)} for r, s in zip(recons, sets))
+    prov = tuple(p for r in recons for p in r.provenance) + (
+        f"fit_contact_damping(residual={damping.residual!r}, method={options['method']!r}, "
+        f"fix_n={options['fix_n']}): {damping.n_simulations} S1 simulations in {damping.seconds:.2f} s",
+        pipeline_provenance(options))
+    return Estimate(damping=damping, restitution=restitution, sources=tuple(s.source for s in sets),
+                    operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
+                    warnings=tuple(collected), provenance=prov, calibration=tuple(calibration),
+                    pipeline=options_record(options))
+
+
+def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
+    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.rigs.pivoted.calibration`); where it
+    exceeds :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit
+    again, with the intervals' indifference at least half the largest correction."""
+    law = HuntCrossley(beta=damping.beta, n=damping.n)
+    biases = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
+    record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
+    applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
+    if not any(applied):
+        return damping, sets, record
+    corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
+    systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
+    again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
+    note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
+            f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
+            + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
+                        if math.isfinite(b.alpha_m))
+            + "; alpha_m was corrected where the bias is significant and the fit repeated, with the intervals "
+              "widened by half the correction plus two standard errors")
+    again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
+                    seconds=again.seconds + damping.seconds)
+    return again, corrected, record
+
+
+# ---- delivery: JSON, the printed summary, the figures -----------------------------------------------
+
+
+def to_dict(result: Estimate) -> dict:
+    """The estimate as JSON-ready data (docs/formats.md)."""
+    return result.to_dict()
+
+
+def summary(result: Estimate) -> list[str]:
+    """The lines ``impactid estimate`` prints for an estimate."""
+    data = result.to_dict(per_impact=False)
+    d, r = result.damping, result.restitution
+    unc = data["uncertainty"]
+    lines = [f"impactid estimate: {len(result.sources)} recording(s), {data['impacts_used']} impacts, residual "
+             f"{d.residual}, "
+             f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)",
+             f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(unc['beta_interval'][0])}, "
+             f"{num(unc['beta_interval'][1])}]"]
+    if d.fixed_n:
+        lines.append(f"  n     = {d.n:.4g} (fixed)")
+    else:
+        tag = "" if d.separable else "   NOT SEPARABLE from beta (see warnings)"
+        lines.append(f"  n     = {num(d.n, '.4g')}   interval [{num(unc['n_interval'][0], '.4g')}, "
+                     f"{num(unc['n_interval'][1], '.4g')}]{tag}")
+    lines.append(f"  objective (mean {d.residual}) = {num(d.objective, '.4g')}")
+    if r is None:
+        lines.append("  restitution law: undetermined (see warnings)")
+    else:
+        lines.append(f"  gamma = {num(r.gamma)} +- {num(r.gamma_stderr, '.2g')} s/m  (xi = 1 - gamma v_a; HC "
+                     f"equivalent beta {num(r.beta_equivalent, '.4g')} N s m^-2.5)")
+        lines.append(f"  xi_mean = {num(r.xi_mean)}, va_mean = {num(r.va_mean)} m/s, constant r = "
+                     f"{num(r.r_constant)}")
+    lines += [f"  warning: {message}" for message in data.get("warnings", [])]
+    return lines
+
+
+def estimate_figures(result: Estimate, args: argparse.Namespace):
+    """The figures of ``estimate --plots``: their names and their writer."""
+    names = ["hysteresis.png"] + (["restitution.png"] if result.restitution is not None else []) + [
+        "landscape.png", "residuals.png"]
+    return names, lambda staged: figures.estimate_figures(result, args.plots, staged)
+
+
+# ---- the command line -------------------------------------------------------------------------------
+
+
+def _grid_counts(text: str) -> tuple[int, int]:
+    try:
+        parts = [int(x) for x in text.replace("x", ",").split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected NB[,NN] grid counts, got {text!r}") from None
+    if len(parts) == 1:
+        parts.append(21)
+    if len(parts) != 2 or min(parts) < 3:
+        raise argparse.ArgumentTypeError(f"grid counts must be NB[,NN] with each >= 3, got {text!r}")
+    if parts[0] * parts[1] > MAX_GRID_POINTS:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} asks for {parts[0] * parts[1]:,} trial laws (each simulated for every impact); at most "
+            f"{MAX_GRID_POINTS:,}: use the optimiser (no --grid) for a precise estimate")
+    return parts[0], parts[1]
+
+
+ARGUMENTS = (
+    Argument(("--residual",), {"default": "lambda1", "choices": ["lambda1", "lambda2", "lambda3"],
+                               "help": "pivoted-follower: residual minimised (default lambda1: accelerometer only)"}),
+    Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
+                            "help": "fix the exponent n of the damping (0: viscous)"}),
+    Argument(("--method",), {"choices": ["least-squares", "optimise"], "default": "least-squares",
+                             "help": "pivoted-follower: least-squares (default: trust-region Gauss-Newton, profile "
+                                     "intervals) or optimise (nested Brent searches, lattice and bootstrap "
+                                     "intervals; about 100x the simulations)"}),
+    Argument(("--grid",), {"type": _grid_counts, "default": None, "metavar": "NB[,NN]",
+                           "help": "pivoted-follower: paper-style grid search with NB values of beta (log) and NN "
+                                   "of n instead of --method"}),
+    Argument(("--n-range",), {"type": exponent, "nargs": 2, "default": [0.5, 2.5], "metavar": ("LO", "HI"),
+                              "help": "pivoted-follower: search bounds of n (default 0.5 2.5)"}),
+    *kinematics_arguments("cam-phase"),
+)
+
+
+def from_arguments(args: argparse.Namespace) -> dict[str, Any]:
+    """The options of ``impactid estimate``'s arguments (``--grid`` chooses the grid method)."""
+    lo, hi = args.n_range
+    if not lo < hi:
+        raise UsageError(f"argument --n-range: need LO < HI, got {lo:g} {hi:g}")
+    return dict(residual=args.residual, fix_n=args.fix_n, method="grid" if args.grid else args.method,
+                grid=tuple(args.grid or (41, 21)), integration=args.integration, anchor=args.anchor,
+                c_bounds=C_BOUNDS, n_bounds=(lo, hi))
+
+
+def _notes(result: Estimate) -> tuple[str, ...]:
+    return result.warnings
+
+
+#: What the generic estimate runs for rig P's recordings.
+ESTIMATOR = Estimator(
+    options=OPTIONS, arguments=ARGUMENTS, prepare=prepare, fit=fit, to_dict=to_dict, summary=summary, notes=_notes,
+    warning=EstimationWarning, figures=estimate_figures, from_arguments=from_arguments, check=check_options,
+    compact=compact, prepare_options=PREPARE_OPTIONS,
+    title="Hunt-Crossley beta, n and the restitution law (pivoted-follower)")
