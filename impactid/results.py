@@ -65,6 +65,9 @@ class Parameter:
     fixed : True when the value was given, not fitted.
     unit : SI unit string, e.g. ``"N s m^-2.5"``, ``"s/m"``, ``""`` for dimensionless.
     note : why the value, error or interval is undetermined or to be read with care ("" if none).
+    min, max : the bounds the search respected [same unit] (infinite: unbounded), as lmfit's.
+
+    ``vary`` (lmfit's name) is ``not fixed``.
     """
 
     name: str
@@ -75,13 +78,22 @@ class Parameter:
     fixed: bool = False
     unit: str = ""
     note: str = ""
+    min: float = -math.inf
+    max: float = math.inf
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "value", float(self.value))
+        object.__setattr__(self, "min", float(self.min))
+        object.__setattr__(self, "max", float(self.max))
         object.__setattr__(self, "stderr", 0.0 if self.fixed and not math.isfinite(self.stderr) else
                            float(self.stderr))
         lo, hi = self.interval
         object.__setattr__(self, "interval", (float(lo), float(hi)))
+
+    @property
+    def vary(self) -> bool:
+        """Whether the parameter was fitted (lmfit's name for ``not fixed``)."""
+        return not self.fixed
 
     @property
     def determined(self) -> bool:
@@ -97,7 +109,8 @@ class Parameter:
         """JSON-ready dict (non-finite numbers as None)."""
         return {"name": self.name, "value": _finite_or_none(self.value), "stderr": _finite_or_none(self.stderr),
                 "interval": [_finite_or_none(self.interval[0]), _finite_or_none(self.interval[1])],
-                "confidence": self.confidence, "fixed": self.fixed, "unit": self.unit, "note": self.note}
+                "confidence": self.confidence, "fixed": self.fixed, "vary": not self.fixed, "unit": self.unit,
+                "note": self.note, "min": _finite_or_none(self.min), "max": _finite_or_none(self.max)}
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Parameter:
@@ -105,7 +118,9 @@ class Parameter:
         return cls(name=str(data["name"]), value=_number(data.get("value")), stderr=_number(data.get("stderr")),
                    interval=(_number(interval[0]), _number(interval[1])),
                    confidence=float(data.get("confidence", 0.95)), fixed=bool(data.get("fixed", False)),
-                   unit=str(data.get("unit", "")), note=str(data.get("note", "")))
+                   unit=str(data.get("unit", "")), note=str(data.get("note", "")),
+                   min=-math.inf if data.get("min") is None else float(data["min"]),
+                   max=math.inf if data.get("max") is None else float(data["max"]))
 
     def report_line(self, width: int = 10) -> str:
         """One line of a fit report: ``name: value +/- stderr (rel %) [low, high] unit``."""
