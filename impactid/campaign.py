@@ -75,7 +75,7 @@ __all__ = ["FORMAT_HELP", "OPERATING_RIG_PARAMETERS", "CampaignError", "Campaign
 #: Recording files a campaign folder is scanned for.
 RECORDING_SUFFIXES = (".h5", ".hdf5", ".csv")
 #: Version of the keys and of the files of the output folder (a change makes every task run again).
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 #: The per-recording fits fix the Hunt–Crossley exponent at the Hertz value unless told otherwise:
 #: one operating point cannot tell beta and n apart (docs/estimation.md).
 SINGLE_DEFAULTS = {"fix_n": 1.5}
@@ -1123,8 +1123,39 @@ COLUMNS = ("campaign", "kind", "name", "status", "reason", "recordings", "n_reco
            "method", "simulations", "warnings", "seconds", "key", "json")
 
 
+def _fit_result_fields(res: dict) -> dict:
+    """The summary's fields of a result in the :class:`~impactid.results.FitResult` schema (rig P's
+    ``pivoted-estimate``, the drop rig's ``drop-impact-fit``, ...): in the keys of the summary's row."""
+    params, stats = res.get("params") or {}, res.get("statistics") or {}
+    details = res.get("details") or {}
+
+    def param(name: str, key: str = "value"):
+        return (params.get(name) or {}).get(key)
+
+    def interval(name: str) -> list:
+        return list(param(name, "interval") or [None, None])
+
+    table = (res.get("tables") or {}).get("recordings") or {}
+    columns = list(table.get("columns") or [])
+    recordings = [dict(zip(columns, row)) for row in table.get("data") or []]
+    impacts = stats.get("impacts_used", stats.get("n_impacts"))
+    return {
+        "beta": param("beta"), "n": param("n"), "gamma": param("gamma"), "xi_mean": stats.get("xi_mean"),
+        "va_mean": stats.get("va_mean"), "impacts_used": impacts, "residual": stats.get("residual", ""),
+        "objective": stats.get("objective"), "recordings": recordings, "warnings": res.get("notes"),
+        "uncertainty": {"beta_interval": interval("beta"), "n_interval": interval("n"),
+                        "n_fixed": bool(param("n", "fixed") or False), "separable": stats.get("separable"),
+                        "gamma_stderr": param("gamma", "stderr")},
+        "contact_damping": {"method": (details.get("contact_damping") or {}).get("method", ""),
+                            "simulations": stats.get("simulations")},
+    }
+
+
 def _row(record: dict) -> dict:
     res = record.get("result") or {}
+    if isinstance(res.get("params"), dict):  # a FitResult document (every estimate since issue 25)
+        res = _fit_result_fields(res)
+    # else: a fit file of an earlier impactid (rig P's own document), read as it was written
     unc = res.get("uncertainty") or {}
     recs = res.get("recordings") or []
     nan = math.nan
@@ -1136,17 +1167,6 @@ def _row(record: dict) -> dict:
         pair = unc.get(name) or [None, None]
         return num(pair[k]) if len(pair) > k else nan
 
-    params = res.get("params") if isinstance(res.get("params"), dict) else {}
-    if params:  # a rig whose estimate is a FitResult (the drop rig's k, beta, n): its parameters
-
-        def value(name: str, k: int | None = None) -> float:
-            entry = params.get(name) or {}
-            return num(entry.get("value") if k is None else (entry.get("interval") or [None, None])[k])
-
-        res = {**res, "beta": value("beta"), "n": value("n"), "impacts_used": (res.get("statistics") or {}).get(
-            "n_impacts"), "warnings": res.get("notes")}
-        unc = {"beta_interval": [value("beta", 0), value("beta", 1)], "n_interval": [value("n", 0), value("n", 1)],
-               "n_fixed": bool((params.get("n") or {}).get("fixed", False))}
     single = record.get("kind") == "single" and len(recs) == 1
     json_path = Path("fits") / f"{record.get('key', '')}.json"
     return {

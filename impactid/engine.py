@@ -149,7 +149,8 @@ def search(residual: Callable[[np.ndarray], np.ndarray], free: Sequence[Free], *
            jacobian: Callable[[np.ndarray], np.ndarray] | None = None,
            starts: Sequence[Mapping[str, float]] = (), xtol: float = 1e-12, ftol: float = 1e-12,
            gtol: float = 1e-12, max_nfev: int | None = None, x_scale: str | float = "jac",
-           differences: str = "3-point", diff_step: float | None = None) -> Search:
+           differences: str = "3-point", diff_step: float | None = None, tr_solver: str | None = None,
+           normalise: bool = True) -> Search:
     """Least squares within bounds from one or several starts; the lowest cost wins.
 
     Parameters
@@ -163,6 +164,16 @@ def search(residual: Callable[[np.ndarray], np.ndarray], free: Sequence[Free], *
         central, by default: the covariance is read from this Jacobian, and one-sided differences
         bias the standard errors by about 1e-5 relative on NIST's Misra1a; ``"2-point"`` halves
         the cost) with ``diff_step``.
+    tr_solver : the trust-region subproblem solver of :func:`scipy.optimize.least_squares` (None:
+        its default, ``"exact"`` for dense Jacobians; ``"lsmr"`` for large or nearly singular
+        problems such as rig F's Gaussian-sum cam profile, where the exact solver wanders along
+        flat valleys).
+    normalise : divide each coordinate by the magnitude of its start value (1 for a start at 0)
+        during the search, so that a parameter of 5e-4 and one of 2e2 take comparable
+        finite-difference steps and tolerances; False searches the coordinates as given (for a
+        residual whose coordinates are already of comparable size, or to reproduce a fit
+        written without it). A parameter that starts near 0 but moves far (a phase) is better
+        searched unnormalised or started at its typical size.
     starts : each a mapping of parameter name -> start value [unit] overriding ``Free.value``;
         empty: the ``Free`` values alone.
     xtol, ftol, gtol, max_nfev, x_scale, diff_step : of :func:`scipy.optimize.least_squares`
@@ -180,7 +191,7 @@ def search(residual: Callable[[np.ndarray], np.ndarray], free: Sequence[Free], *
         raise ValueError("no parameter varies")
     # the search runs in coordinates divided by their start magnitudes, so that a parameter of
     # 5e-4 and one of 2e2 take comparable finite-difference steps and tolerances
-    typical = np.array([abs(free[i].coordinate(free[i].value)) or 1.0 for i in varying])
+    typical = np.array([(abs(free[i].coordinate(free[i].value)) or 1.0) if normalise else 1.0 for i in varying])
     lower = np.array([free[i].bounds()[0] for i in varying]) / typical
     upper = np.array([free[i].bounds()[1] for i in varying]) / typical
 
@@ -203,6 +214,8 @@ def search(residual: Callable[[np.ndarray], np.ndarray], free: Sequence[Free], *
         z0 = np.clip(z0, lower + inside, upper - inside)
         options = dict(bounds=(lower, upper), method="trf", x_scale=x_scale, xtol=xtol, ftol=ftol, gtol=gtol,
                        max_nfev=max_nfev)
+        if tr_solver is not None:
+            options["tr_solver"] = tr_solver
         if jac is not None:
             options["jac"] = jac
         else:
@@ -254,27 +267,33 @@ class Uncertainty:
         return float(self.covariance.stderr[self.names.index(name)])
 
 
-def uncertainty(found: Search, *, confidence: float = 0.95, scale: float | None = None) -> Uncertainty:
+def uncertainty(found: Search, *, confidence: float = 0.95, scale: float | None = None,
+                dof: int | None = None) -> Uncertainty:
     """Covariance, intervals, bound hits and correlations at the optimum of a search.
 
     Parameters
     ----------
     found : the :class:`Search`.
-    confidence : nominal coverage of the intervals (Student-t with the fit's degrees of freedom).
+    confidence : nominal coverage of the intervals (Student-t with the fit's degrees of freedom;
+        normal with zero degrees of freedom and a known scale).
     scale : variance of the residual; None: the reduced chi-square ``2 cost / dof`` (lmfit's
         ``scale_covar``: the residuals' own scatter, right when the weights are relative), else a
-        known value (1 for residuals weighted by a noise that is known).
+        known value (1 for residuals weighted by a noise that is known). With a known scale, as
+        many data as parameters (zero degrees of freedom) still determine an uncertainty.
+    dof : the degrees of freedom, when the fit eliminated parameters in closed form that the
+        search does not see (default: data minus varying parameters).
     """
     varying = found.varying
     names = tuple(p.name for p in varying)
     n_data = found.residual.size
-    dof = n_data - len(varying)
-    if dof <= 0:
-        raise ValueError(f"{n_data} data cannot determine {len(varying)} parameters")
+    dof = n_data - len(varying) if dof is None else int(dof)
+    if dof < 0 or (dof == 0 and scale is None):
+        raise ValueError(f"{n_data} data cannot determine {len(varying)} parameters"
+                         + (" and the residual's scale" if dof == 0 else ""))
     s2 = float(2.0 * found.cost / dof) if scale is None else float(scale)
     covariance = covariance_from_jacobian(found.jacobian, s2, names=names)
     notes = [covariance.reason] if covariance.reason else []
-    q = float(stats.t.ppf(0.5 + 0.5 * confidence, dof))
+    q = float(stats.t.ppf(0.5 + 0.5 * confidence, dof) if dof > 0 else stats.norm.ppf(0.5 + 0.5 * confidence))
     values = found.values()
     parameters, k, on_bound = [], 0, []
     for p in found.free:
@@ -308,7 +327,7 @@ def uncertainty(found: Search, *, confidence: float = 0.95, scale: float | None 
         notes.append(f"{', '.join(on_bound)} on a bound of the search: the data do not bound "
                      f"{'it' if len(on_bound) == 1 else 'them'} inside (intervals not reliable)")
     statistics = {"ndata": n_data, "nvarys": len(varying), "dof": dof,
-                  "reduced_chi_square": float(2.0 * found.cost / dof), "variance_scale": s2,
+                  "reduced_chi_square": float(2.0 * found.cost / dof) if dof else math.nan, "variance_scale": s2,
                   "condition_number": covariance.condition, "cost": found.cost, "nfev": found.nfev,
                   "success": found.success}
     return Uncertainty(covariance=covariance, scale=s2, dof=dof, confidence=confidence, parameters=tuple(parameters),

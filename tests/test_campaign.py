@@ -160,7 +160,8 @@ def test_outputs_table_and_json_agree(first_run):
         assert record["key"] == row["key"] and record["status"] == row["status"]
         assert record["campaign"] == "test" and record["options"]["calibrate"] is False
         if row["status"] == "ok":
-            assert record["result"]["beta"] == pytest.approx(row["beta"], rel=1e-15)
+            assert record["result"]["params"]["beta"]["value"] == pytest.approx(row["beta"], rel=1e-15)
+            assert record["result"]["kind"] == "pivoted-estimate"
             assert len(record["recordings"][0]["sha256"][0]) == 64
     # the table is rebuilt from the JSON files
     rebuilt = summary_table(read_fits(out, list(parquet["key"])))
@@ -173,8 +174,23 @@ def test_a_fit_is_the_estimate_of_its_recording(first_run, recordings):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the estimate's notes (also in the campaign's result)
         direct = Pipeline(fix_n=1.5, calibrate=False).run([spec.recordings[0].path])
-    assert record["result"]["beta"] == direct.damping.beta
-    assert record["result"]["impacts_used"] == direct.to_dict()["impacts_used"]
+    assert record["result"]["params"]["beta"]["value"] == direct.damping.beta
+    assert record["result"]["statistics"]["impacts_used"] == direct.to_dict()["statistics"]["impacts_used"]
+    # the fit file's result is the estimate's FitResult document; the summary row reads it
+    from impactid.results import FitResult
+
+    again = FitResult.from_dict(record["result"])
+    assert again["beta"].value == direct.damping.beta and again["n"].fixed
+    row = result.table.loc[0]
+    assert (row["beta_lo"], row["beta_hi"]) == tuple(record["result"]["params"]["beta"]["interval"])
+    assert row["n_fixed"] and row["gamma"] == record["result"]["params"]["gamma"]["value"]
+    assert row["gamma_stderr"] == record["result"]["params"]["gamma"]["stderr"]
+    assert row["xi_mean"] == record["result"]["statistics"]["xi_mean"]
+    assert row["impacts_used"] == record["result"]["statistics"]["impacts_used"] > 0
+    assert row["method"] == "least-squares" and row["simulations"] == record["result"]["statistics"]["simulations"]
+    assert row["warnings"] == len(record["result"]["notes"])
+    table = record["result"]["tables"]["recordings"]
+    assert row["e_over_rc"] == table["data"][0][table["columns"].index("e_over_rc")]
 
 
 def test_rerun_skips_finished_fits_and_reruns_failed_ones(first_run):

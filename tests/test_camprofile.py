@@ -42,6 +42,7 @@ from impactid.rigs.flat.camprofile import (
 )
 from impactid.rigs.flat.synth import synth_flat_encoders
 from tests.golden import assert_matches_golden
+from tests.rigs.flat import golden_view
 
 RIG = ALZATE2007
 SPEED_HZ = 110.0 / 60.0
@@ -150,9 +151,24 @@ def test_standard_errors_are_numbers_when_the_covariance_is_well_conditioned(rec
     assert fit7.covariance_condition > CONDITION_LIMIT
     assert np.all(np.isnan(fit7.stderr_a + fit7.stderr_b + fit7.stderr_c))
     assert "condition number" in fit7.stderr_note
-    result = fit7.to_result()
-    assert any("condition number" in note for note in result.notes)
+    assert any("condition number" in note for note in fit7.notes)
     assert "condition number" in fit7.report()
+    # the determined fit: intervals of the engine (Student-t, 95 %), bounds as the search had them
+    a1 = fit3["a1"]
+    assert a1.interval[0] < a1.value < a1.interval[1] and a1.min == 0.0 and fit3["c1"].max == C_MAX
+    assert fit3.statistics["dof"] == fit3.ndata - 9 and np.isfinite(fit3.statistics["condition_number"])
+
+
+def test_the_fit_is_checked_against_the_edges_timing_noise(rec110, fit7):
+    """The residual at the edges is the timing error (a uniform half sample of cam motion times the
+    profile's slope): the 7-term profile leaves exactly that (ratio ~1, no note); one Gaussian
+    cannot follow the profile and the check says so."""
+    ratio = fit7.statistics["residual_over_noise"]
+    assert 0.85 < ratio < 1.15 and not any("lack of fit" in n or "exceeds its noise" in n for n in fit7.notes)
+    # the noise is the edges' timing error: 0.29 mrad of cam angle / sqrt(3) times the RMS slope
+    assert fit7.statistics["noise_sd"] == pytest.approx(fit7.rms_residual, rel=0.15)
+    fit1 = fit_cam_profile(fit7.data, 1)
+    assert fit1.statistics["residual_over_noise"] > 10 and any("lack of fit" in n for n in fit1.notes)
 
 
 def test_fitted_edges_are_exact_boundaries_at_the_right_cam_angle(rec110, fit7):
@@ -186,9 +202,10 @@ def test_without_counter_correction_the_half_count_bias_remains(rec110):
     assert cmp.rms == pytest.approx(Q_FOLLOWER / 2, rel=0.05)
     level = compare_profiles(fit.profile, _analytic, directions=(1,), fit_level=True)
     assert level.level == pytest.approx(-Q_FOLLOWER / 2, rel=0.05) and level.rms < 0.1 * cmp.rms
-    again = FitResult.from_json(fit.to_result().to_json())
+    again = FitResult.from_json(fit.to_json())
     assert type(again) is CamProfileResult and again["a1"].value == fit.profile.a[0]
-    assert len(again.params) == 3 * fit.terms and "[[Fit Statistics]]" in fit.fit_report()
+    assert again.profile == fit.profile and again.data is None
+    assert len(again.params) == 3 * fit.terms and "[[Fit Statistics]]" in fit.report()
 
 
 @pytest.mark.parametrize("zero", [PEAK, PEAK + 0.02, PEAK - 0.02])
@@ -361,11 +378,21 @@ def test_cam_fit_cli_round_trip(rec110, tmp_path, capsys):
     assert main(["cam-fit", str(path), "--out", str(out), "--plots", str(plots)]) == 0
     assert "7-term Gaussian-sum cam profile" in capsys.readouterr().out
     data = json.loads(out.read_text())
-    for key in ("a", "b", "c", "rms_residual", "max_residual", "chisqr", "aic", "bic", "ndata", "nfev", "success",
-                "a_stderr", "revolutions_used", "revolutions", "quantisation", "profile"):
-        assert key in data
-    assert len(data["a"]) == len(data["b"]) == len(data["c"]) == 7
-    theta, value = np.array(data["profile"]["cam_angle"]), np.array(data["profile"]["follower_angle"])
+    # the fit-result schema (docs/formats.md, "Fit results"), plus the command's own keys
+    assert data["kind"] == "cam-profile" and data["recordings_read"] == [str(path)]
+    assert set(data) == {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details",
+                         "provenance", "recordings_read", "plots"}
+    for key in ("rms_residual", "max_residual", "chisqr", "aic", "bic", "ndata", "nfev", "success",
+                "condition_number", "residual_over_noise"):
+        assert key in data["statistics"]
+    assert {"revolutions_used", "quantisation", "profile", "selection"} <= set(data["details"])
+    assert list(data["params"]) == [f"{k}{i}" for k in "abc" for i in range(1, 8)]
+    assert all(p["stderr"] is None and p["unit"] == "rad" for p in data["params"].values())
+    assert [n.split(":")[0] for n in data["notes"]] == ["the data do not determine the parameters separately"]
+    again = FitResult.from_dict(data)
+    assert type(again) is CamProfileResult and again.terms == 7 and len(again.tables["revolutions"]) == 2
+    theta = np.array(data["details"]["profile"]["cam_angle"])
+    value = np.array(data["details"]["profile"]["follower_angle"])
     assert theta.size == value.size == 3600
     np.testing.assert_allclose(np.diff(theta), 2 * math.pi / 3600, rtol=1e-12)
     profile = load_profile_json(out)
@@ -373,7 +400,7 @@ def test_cam_fit_cli_round_trip(rec110, tmp_path, capsys):
     assert compare_profiles(profile, _analytic, directions=(1,)).rms <= PROFILE_RMS
     assert (plots / "cam_fit.png").stat().st_size > 10_000
     assert not list(tmp_path.glob("**/*.tmp"))
-    assert_matches_golden(data, "cam_fit.json")
+    assert_matches_golden(golden_view(data), "cam_fit.json")
     # the input file is never overwritten; bad input exits 2 with one clear line
     before = path.read_bytes()
     assert main(["cam-fit", str(path), "--out", str(path)]) == 2
@@ -396,9 +423,15 @@ def test_cam_fit_cli_rejects_a_recording_without_follower_encoder(tmp_path, caps
     assert "cam_only.h5" in err and "follower_angle" in err
 
 
-def test_load_profile_json_errors(tmp_path):
+def test_load_profile_json_errors(tmp_path, fit7):
     with pytest.raises(CamProfileError, match="not found"):
         load_profile_json(tmp_path / "none.json")
+    # a fit result (FitResult JSON) of the cam profile reads back; one of another kind is refused
+    fit7.to_json(tmp_path / "fit.json")
+    assert load_profile_json(tmp_path / "fit.json") == fit7.profile
+    (tmp_path / "other.json").write_text('{"kind": "speed-restitution", "params": {}}')
+    with pytest.raises(CamProfileError, match="not a cam profile"):
+        load_profile_json(tmp_path / "other.json")
     (tmp_path / "bad.json").write_text('{"a": [0.1], "b": [1.0]}')
     with pytest.raises(CamProfileError, match=r"bad.json: no coefficient list\(s\) c"):
         load_profile_json(tmp_path / "bad.json")

@@ -116,17 +116,35 @@ def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):
     assert example_recording_path().stat().st_mtime_ns == mtime  # cached, not regenerated
 
 
+def _tables_as_records(data: dict) -> dict:
+    """The document with each table of ``tables`` as a list of records, so that the golden file's
+    tolerance rules name a table's columns (``tables.per_impact[*].residual``)."""
+    tables = {name: [dict(zip(t["columns"], row, strict=True)) for row in t["data"]]
+              for name, t in data["tables"].items()}
+    return {**data, "tables": tables}
+
+
 @pytest.mark.slow
 def test_estimate_example_fixed_n_writes_the_format_keys(tmp_path, capsys):
+    from impactid.results import FitResult
+    from impactid.rigs.pivoted.estimate_results import PivotedEstimateResult
+
     out = tmp_path / "result.json"
     assert main(["estimate", "--example", "--fix-n", "1.5", "--out", str(out), "--plots", str(tmp_path / "fig")]) == 0
     data = json.loads(out.read_text())
-    for key in ("beta", "n", "gamma", "xi_mean", "va_mean", "impacts_used", "residual", "objective"):
-        assert key in data
-    assert data["n"] == 1.5 and data["residual"] == "lambda1" and data["impacts_used"] >= 10
+    # one FitResult document (docs/formats.md, "Fit results"), plus the command's recordings_read and plots
+    assert data["kind"] == "pivoted-estimate" and len(data["recordings_read"]) == 2 and len(data["plots"]) == 4
+    params, stats = data["params"], data["statistics"]
+    assert set(params) == {"beta", "n", "gamma", "r_constant", "intercept", "slope"}
+    assert params["n"]["value"] == 1.5 and params["n"]["fixed"] and stats["residual"] == "lambda1"
+    assert stats["impacts_used"] >= 10
     # the example was made with beta = 24.7e9: the interval must hold it (the estimate lies inside by construction)
-    assert data["uncertainty"]["beta_interval"][0] <= 24.7e9 <= data["uncertainty"]["beta_interval"][1]
-    assert_matches_golden(data, "estimate_example_fix_n.json")
+    assert params["beta"]["interval"][0] <= 24.7e9 <= params["beta"]["interval"][1]
+    assert params["beta"]["min"] < params["beta"]["value"] < params["beta"]["max"]
+    again = FitResult.from_json(out)
+    assert type(again) is PivotedEstimateResult and again.to_dict() == {k: v for k, v in data.items()
+                                                                         if k not in ("recordings_read", "plots")}
+    assert_matches_golden(_tables_as_records(data), "estimate_example_fix_n.json")
     assert {p.name for p in (tmp_path / "fig").iterdir()} == {"hysteresis.png", "restitution.png", "landscape.png",
                                                              "residuals.png"}
     assert "beta" in capsys.readouterr().out

@@ -9,10 +9,17 @@ import pytest
 
 from impactid import save_rig_toml
 from impactid.cli import main
+from impactid.results import FitResult
 from impactid.rigs import ALZATE2007
+from impactid.rigs.flat.encoder_impacts import SpeedLawResult
 from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION
 from impactid.rigs.flat.synth_impacts import synth_flat_impacting
 from tests.golden import assert_matches_golden
+from tests.rigs.flat import golden_view
+
+
+def result_keys():
+    return FitResult(params=()).to_dict().keys()
 
 
 def test_detachment_flat_rig_file(tmp_path, capsys):
@@ -64,14 +71,22 @@ def test_restitution_command_recovers_law(impacting_files, tmp_path, capsys):
     assert main(["restitution", *impacting_files, "--out", str(out), "--json"]) == 0
     data = json.loads(out.read_text())
     assert json.loads(capsys.readouterr().out) == data
-    for point in data["points"]:
+    # the fit-result schema (docs/formats.md, "Fit results"), plus the command's own keys
+    assert data["kind"] == "speed-restitution" and list(data["params"]) == ["a", "b"]
+    assert data["recordings_read"] == impacting_files and data["details"]["method"] == "impact-law"
+    assert set(data) - set(result_keys()) == {"recordings_read"}
+    result = FitResult.from_dict(data)
+    assert type(result) is SpeedLawResult and result["b"].unit == "s/rad"
+    view = golden_view(data)
+    for point in view["tables"]["points"]:
         hz = point["cam_speed_hz"]
         assert point["restitution"] == pytest.approx(DEFAULT_RESTITUTION(hz), rel=0.02)
-    fit = data["fit"]
+    law = data["details"]["law"]
+    assert law["a"] == data["params"]["a"]["value"] and law["b_per_rad_s"] == data["params"]["b"]["value"]
     rpm = np.array([132.0, 146.0])
-    fitted = fit["a"] + fit["b_per_rpm"] * rpm
+    fitted = law["a"] + law["b_per_rpm"] * rpm
     np.testing.assert_allclose(fitted, [DEFAULT_RESTITUTION(r / 60.0) for r in rpm], rtol=0.02)
-    assert_matches_golden(data, "restitution.json")
+    assert_matches_golden(view, "restitution.json")
 
 
 def test_restitution_command_errors(impacting_files, tmp_path, capsys):

@@ -661,8 +661,8 @@ def test_non_finite_results_are_null_in_json_and_undetermined_in_text(good, tmp_
     assert main(["estimate", str(rec), "--fix-n", "1.5", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     data = json.loads(out.read_text())
-    assert data["uncertainty"]["gamma_stderr"] is None
-    assert any("uncertainty.gamma_stderr" in w for w in data["warnings"])
+    assert data["params"]["gamma"]["stderr"] is None
+    assert data["params"]["gamma"]["note"], data["params"]["gamma"]  # the reason it is null
     assert "+- undetermined" in text
 
 
@@ -681,9 +681,9 @@ def test_restitution_failure_keeps_the_damping_estimate(good, tmp_path, capsys, 
     out = tmp_path / "r.json"
     assert main(["estimate", str(rec), "--fix-n", "1.5", "--out", str(out)]) == 0
     data = json.loads(out.read_text())
-    assert data["beta"] == pytest.approx(24.7e9, rel=0.01)
-    assert data["gamma"] is None and data["restitution"] is None
-    assert any("restitution law not estimated" in w for w in data["warnings"])
+    assert data["params"]["beta"]["value"] == pytest.approx(24.7e9, rel=0.01)
+    assert data["params"]["gamma"]["value"] is None and data["params"]["gamma"]["stderr"] is None
+    assert any("restitution law not estimated" in w for w in data["notes"])
     assert "restitution law: undetermined" in capsys.readouterr().out
 
 
@@ -705,7 +705,7 @@ def test_interrupt_while_plotting_keeps_the_result_and_leaves_no_figure(good, tm
                  "--plots", str(tmp_path / "fig")])
     err = capsys.readouterr().err
     assert code == 130 and err.strip().splitlines()[-1].startswith("impactid: error: interrupted")
-    assert json.loads((tmp_path / "r.json").read_text())["beta"] > 0  # the result was written first
+    assert json.loads((tmp_path / "r.json").read_text())["params"]["beta"]["value"] > 0  # the result was written first
     assert not (tmp_path / "fig").exists() or not any((tmp_path / "fig").iterdir())
     assert not list(tmp_path.rglob("*.tmp"))
 
@@ -771,5 +771,5 @@ def test_two_estimates_writing_the_same_output(good, tmp_path):
     for proc in procs:
         _, err = proc.communicate(timeout=300)
         assert proc.returncode == 0, err
-    assert json.loads(out.read_text())["n"] == 1.5
+    assert json.loads(out.read_text())["params"]["n"]["value"] == 1.5
     assert not list(tmp_path.rglob("*.tmp"))

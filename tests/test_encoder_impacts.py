@@ -15,6 +15,7 @@ from impactid.results import FitResult
 from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.encoder_impacts import (
     EncoderImpactError,
+    RestitutionAtSpeed,
     SpeedLawResult,
     fit_speed_law,
     relative_motion,
@@ -93,11 +94,49 @@ def test_linear_law_recovered(impact_law_points):
     fit = fit_speed_law(impact_law_points.values())
     for rpm in np.linspace(130.0, 150.0, 5):
         assert fit.law(rpm / 60.0) == pytest.approx(LAW(rpm / 60.0), rel=0.02)
-    assert fit.law.b < 0.0 and math.isfinite(fit.stderr_b)
-    assert "law" in fit.to_dict() and len(fit.to_dict()["points"]) == len(SPEEDS_RPM)
-    again = FitResult.from_json(fit.to_result().to_json())
-    assert type(again) is SpeedLawResult and again["b"].value == fit.law.b
+    assert fit.law.b < 0.0 and math.isfinite(fit.stderr_b) and fit["b"].unit == "s/rad"
+    assert fit.details["law"]["b_per_rpm"] == pytest.approx(fit.law.b * 2 * math.pi / 60, rel=1e-12)
+    assert len(fit.points) == len(SPEEDS_RPM) and fit.statistics["dof"] == 1
+    again = FitResult.from_json(fit.to_json())
+    assert type(again) is SpeedLawResult and again["b"].value == fit.law.b and again.law == fit.law
     assert len(again.to_pandas("points")) == len(SPEEDS_RPM) and "[[Variables]]" in fit.report()
+
+
+def _point(rpm, r, se, source="x.h5"):
+    return RestitutionAtSpeed(cam_speed_hz=rpm / 60.0, restitution=r, stderr=se, method="impact-law", n_impacts=8,
+                              bounce_height=1e-3, impacts=None, source=source)
+
+
+def test_speed_law_on_the_engine_ordinary_and_exact():
+    """Three speeds: ordinary least squares with the covariance from the residual scatter (the
+    textbook formulas); two speeds: the exact line with the points' own errors propagated; one
+    speed: a constant, b fixed. No recording needed."""
+    rpm = np.array([130.0, 140.0, 150.0])
+    r = np.array([0.65, 0.62, 0.57])
+    fit = fit_speed_law([_point(v, ri, 1e-3) for v, ri in zip(rpm, r, strict=True)])
+    omega = 2 * math.pi * rpm / 60
+    X = np.column_stack((np.ones(3), omega))
+    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
+    resid = r - X @ coef
+    cov = np.linalg.inv(X.T @ X) * (resid @ resid) / 1
+    assert fit.value("a") == pytest.approx(coef[0], rel=1e-10) and fit.value("b") == pytest.approx(coef[1], rel=1e-9)
+    assert fit.stderr_a == pytest.approx(math.sqrt(cov[0, 0]), rel=1e-6)
+    assert fit.stderr_b == pytest.approx(math.sqrt(cov[1, 1]), rel=1e-6)
+    assert fit.details["correlation"]["matrix"][0][1] == pytest.approx(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]),
+                                                                       rel=1e-6)
+    # the line misses the middle point by 6.7 times its standard error (0.01 * 2 / 3): the check says so
+    assert fit.statistics["residual_over_noise"] > 1.5 and any("lack of fit" in n for n in fit.notes)
+
+    two = fit_speed_law([_point(130.0, 0.65, 2e-3), _point(150.0, 0.57, 1e-3)])
+    w1, w2 = 2 * math.pi * 130 / 60, 2 * math.pi * 150 / 60
+    assert two.value("b") == pytest.approx((0.57 - 0.65) / (w2 - w1), rel=1e-10)
+    assert two.stderr_b == pytest.approx(math.hypot(2e-3, 1e-3) / (w2 - w1), rel=1e-9)
+    assert two.stderr_a == pytest.approx(math.hypot(2e-3 * w2, 1e-3 * w1) / (w2 - w1), rel=1e-9)
+    assert two.residual_rms < 1e-12 and not two.notes
+
+    one = fit_speed_law([_point(140.0, 0.61, 1e-3, "only.h5")])
+    assert one["b"].fixed and one.value("a") == pytest.approx(0.61) and one.stderr_a == pytest.approx(1e-3)
+    assert math.isnan(one.stderr_b) and any("one cam speed" in n for n in one.notes)
 
 
 def test_permanent_contact_has_no_impacts():

@@ -120,22 +120,15 @@ def _num(value, fmt=".5g") -> str:
 
 
 def _document(result, args, ball: Ball | None) -> dict:
-    """The command's JSON document (``docs/formats.md``, ``docs/bounces.md``): the command's
-    context (``command``, ``files``, ``ball``, ``drag``, ``flight``), the headline numbers of
-    :meth:`~impactid.rigs.ball.analysis.BounceAnalysis.summary` (``constant``, ``linear``,
-    ``viscoelastic``, ``selected``, ``selection``, ``chained``, ``no_drag``, ``bounces``), the
-    result's ``notes``, ``statistics`` and ``provenance``, and under ``result`` the
-    :class:`~impactid.rigs.ball.analysis.BounceAnalysis` itself in the
-    :class:`~impactid.results.FitResult` schema (``FitResult.from_dict(data["result"])`` rebuilds it)."""
-    constants = flight_constants(ball, not args.no_drag, args.gravity)
-    data = {"command": "bounces", "files": [str(f) for f in args.files],
-            "ball": ball.to_dict() if ball is not None else None, "drag": constants.drag,
-            "flight": constants.to_dict()}
-    data.update(result.summary())
-    data["notes"] = list(result.notes)
-    data["statistics"] = dict(result.statistics)
-    data["provenance"] = list(result.provenance)
-    data["result"] = result.to_dict()
+    """The command's JSON document (``docs/formats.md``, "Fit results"): the
+    :class:`~impactid.rigs.ball.analysis.BounceAnalysis` in the :class:`~impactid.results.FitResult`
+    schema (``FitResult.from_dict(data)`` rebuilds it; the law fits' parameters are ``constant.e``,
+    ``linear.e0``, ``linear.gamma``, ..., the per-interval table ``tables.bounces``, the ball and the
+    flight in ``details``, with ``details.drag``: whether the flights include the air) and the files
+    read (``recordings_read``); ``--plots`` adds ``plots``."""
+    data = result.to_dict()
+    data["details"].setdefault("drag", flight_constants(ball, not args.no_drag, args.gravity).drag)
+    data["recordings_read"] = [str(f) for f in args.files]
     return data
 
 

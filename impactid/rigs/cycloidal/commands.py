@@ -154,7 +154,7 @@ def _write(args, data: dict, inputs, figures=None, printed: dict | None = None) 
     from impactid.commandline import print_json as _print_json
 
     if getattr(args, "plots", None) and figures is not None:
-        data["plots"] = []
+        data.setdefault("plots", [])  # the figures' paths when the command names them before writing them
     if getattr(args, "out", None):
         with StagedFiles(protect=inputs) as staged:
             staged.write_text(args.out, _json_text(data))
@@ -299,10 +299,12 @@ def run_fit_surge(args, model) -> int:
     recs = [read_recording(path, rig=rig_file) for path in recordings]
     fit = fit_surge(recs, channel=channel, free_k0=bool(getattr(args, "free_k0", False)),
                     confidence=getattr(args, "confidence", None) or 0.95)
-    data = fit.to_dict()
-    data["values"] = {name: p.value for name, p in fit.params.items()}
+    # the FitResult document (docs/formats.md) and the recordings read; --plots adds "plots"
+    data = {**fit.to_dict(), "recordings_read": [str(p) for p in recordings]}
     figures = None
     if getattr(args, "plots", None):
+        data["plots"] = [str(Path(args.plots) / "surge_fit.png")]
+
         def figures(staged):
             fig = fit.plot()
             path = Path(args.plots) / "surge_fit.png"

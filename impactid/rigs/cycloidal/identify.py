@@ -36,10 +36,17 @@ non-finite, constant or zero, shorter than a revolution, or (after the fit) expl
 the model than by noise alone (:func:`impactid.rigs.valvespring.check_model_explains`) is refused
 with an :class:`IdentificationError` naming the file and the channel or attribute.
 
-Uncertainty: the covariance ``s^2 (J^T J)^-1`` of the full parameter vector at the optimum (``J`` by
-central differences, ``s^2`` the residual variance), and Student-t intervals at ``confidence``. It
-assumes white noise and a correct model; a parameter whose interval is wider than its value is
-reported as not determined. The EHL regression constants (1.67, 0.059, 0.541, 0.421, 96.775) are
+Search, uncertainty and model check come from the identification engine (:mod:`impactid.engine`):
+the search is :func:`~impactid.engine.search` (within bounds; for level A over ``f0``, ``c_spring``
+(``k0``) with ``f_p`` and ``m3`` projected out, for level B over every parameter); the uncertainty is
+:func:`~impactid.engine.uncertainty` of the full parameter vector at the optimum (``J`` by central
+differences of the model, ``s^2`` the residual variance, the shared covariance rule, Student-t
+intervals at ``confidence``, bound hits), each interval cut at the parameter's physical lower bound.
+It assumes white noise and a correct model; a parameter whose interval is wider than its value is
+reported as not determined. The model check is :func:`~impactid.engine.residual_against_noise`:
+each recording's residual against its own noise, measured from the first differences of the
+residual (the noise is white, the misfit of a model smooth; at least :data:`NOISE_FLOOR` of the
+channel's range, the simulator's accuracy). The EHL regression constants (1.67, 0.059, 0.541, 0.421, 96.775) are
 not identifiable from dynamic signals (the film does not enter the dynamics) and stay fixed.
 """
 
@@ -47,14 +54,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
 import pandas as pd
-from scipy import optimize, stats
+from scipy import stats
 
-from impactid.covariance import covariance_from_jacobian
+from impactid.engine import Free, Search, residual_against_noise, search, uncertainty
 from impactid.errors import ImpactidError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.cycloidal import cam
@@ -71,13 +78,16 @@ from impactid.rigs.cycloidal.simulate import (
 )
 from impactid.rigs.valvespring import check_fit_channel, check_model_explains, damper_damping_ratio
 
-__all__ = ["CHANNEL_MODELS", "IdentificationError", "SurgeFit", "fit_surge"]
+__all__ = ["CHANNEL_MODELS", "NOISE_FLOOR", "IdentificationError", "SurgeFit", "fit_surge"]
 
 TWO_PI = 2.0 * math.pi
 #: Which level models which channel.
 CHANNEL_MODELS = {"contact_load": "A", "valve_displacement": "B"}
 _UNITS = {"f0": "Hz", "c_spring": "N s/m", "f_p": "N", "m3": "kg", "k0": "N/m", "zeta1": ""}
 _BOUNDS = {"f0": (20.0, 20_000.0), "c_spring": (0.0, 1e3), "f_p": (0.0, 1e5), "m3": (1e-4, 1e2), "k0": (10.0, 1e8)}
+#: The noise of the model check is at least this fraction of the channel's range: the simulator's
+#: accuracy (a noise-free recording is compared with it).
+NOISE_FLOOR = 1e-9
 
 
 class IdentificationError(ImpactidError, ValueError):
@@ -237,12 +247,12 @@ def _fit_level_a(data, nonlinear, base, tol, scan_f0, full=False):
     lo = np.array([_BOUNDS[k][0] for k in nonlinear])
     hi = np.array([_BOUNDS[k][1] for k in nonlinear])
     x0 = np.clip(x0, lo * (1 + 1e-9) + 1e-12, hi * (1 - 1e-9))
-    sol = optimize.least_squares(residual, x0, bounds=(lo, hi), x_scale="jac", xtol=1e-12, ftol=1e-12,
-                                 gtol=1e-12, diff_step=1e-6, max_nfev=400)
-    r, beta = project(sol.x)
-    values = dict(zip(nonlinear, (float(v) for v in sol.x)))
+    free = [Free(k, float(v), *_BOUNDS[k], unit=_UNITS[k]) for k, v in zip(nonlinear, x0)]
+    found = search(residual, free, diff_step=1e-6, max_nfev=400)
+    r, beta = project(found.x)
+    values = dict(zip(nonlinear, (float(v) for v in found.x)))
     values.update(f_p=float(beta[0]), m3=float(beta[1]))
-    return (values, r, sol) if full else values
+    return (values, r, found) if full else values
 
 
 def _zeta_parameter(values: dict, k0_fixed: float, cov: np.ndarray, names: list, q: float,
@@ -305,7 +315,7 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
     n_total = sum(d.y.size for d in data)
     if level == "A":
         names = nonlinear + ["f_p", "m3"]
-        values, r, sol = _fit_level_a(data, nonlinear, base, tol, scan_f0, full=True)
+        values, r, found = _fit_level_a(data, nonlinear, base, tol, scan_f0, full=True)
 
         def model_all(vals):
             theta = {k: vals[k] for k in nonlinear}
@@ -315,7 +325,6 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
                 out.append(G + vals["f_p"] + vals["m3"] * a)
             return np.concatenate(out)
 
-        nfev = sol.nfev
     else:
         names = nonlinear + ["f_p", "m3"]
         # information check: the load-dependent part of the displacement (the Hertz approach and any
@@ -351,34 +360,30 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
         notes.append("starting values from a level-A fit of the load implied by the displacement: "
                      + ", ".join(f"{k} = {start[k]:.5g}" for k in names))
         res0 = y_all - np.concatenate([_level_b_model(d, start, tol, conv_tol) for d in data])
-        scale = np.array([abs(start[k]) if start[k] != 0 else 1.0 for k in names])
         r_scale = max(float(np.sqrt(np.mean(res0**2))), 1e-15)  # residuals of order 1 for the solver's tolerances
 
         def residual(u):
-            theta = dict(zip(names, u * scale))
+            theta = dict(zip(names, u))
             return np.concatenate([d.y - _level_b_model(d, theta, tol, conv_tol) for d in data]) / r_scale
 
-        lo = np.array([_BOUNDS[k][0] for k in names]) / scale
-        hi = np.array([_BOUNDS[k][1] for k in names]) / scale
-        u0 = np.clip(np.array([start[k] for k in names]) / scale, lo * (1 + 1e-9), hi * (1 - 1e-9))
-        sol = optimize.least_squares(residual, u0, bounds=(lo, hi), xtol=1e-10, ftol=1e-10,
-                                     gtol=1e-10, diff_step=1e-4, max_nfev=200)
-        values = dict(zip(names, sol.x * scale))
-        r = residual(sol.x) * r_scale
+        # the engine searches in coordinates divided by the start values (as this fit always did),
+        # with unit steps in them (x_scale 1)
+        u0 = {k: min(max(start[k], _BOUNDS[k][0] * (1 + 1e-9)), _BOUNDS[k][1] * (1 - 1e-9)) for k in names}
+        free = [Free(k, float(u0[k]), *_BOUNDS[k], unit=_UNITS[k]) for k in names]
+        found = search(residual, free, x_scale=1.0, xtol=1e-10, ftol=1e-10, gtol=1e-10, diff_step=1e-4,
+                       max_nfev=200)
+        values = found.values()
+        r = found.residual * r_scale
 
         def model_all(vals):
             return np.concatenate([_level_b_model(d, vals, tol, conv_tol) for d in data])
-
-        nfev = sol.nfev
     # ---- does the model explain more of the channel than noise would? (a constant is the null model) ----
     y_fitted = np.concatenate([d.y for d in data])
     check_model_explains(float(np.sum((y_fitted - y_fitted.mean()) ** 2)), float(np.sum(r**2)), n_total,
                          len(names) - 1, where=", ".join(dict.fromkeys(d.source for d in data)), channel=chosen,
                          error=IdentificationError)
-    # ---- covariance of the full parameter vector (central differences) ----
+    # ---- the engine's uncertainty of the full parameter vector (J by central differences) ----
     p = len(names)
-    dof = n_total - p
-    s2 = float(np.sum(r**2) / dof) if dof > 0 else math.nan
     J = np.empty((n_total, p))
     rel = 1e-5 if level == "A" else 1e-3
     for j, k in enumerate(names):
@@ -388,22 +393,40 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
         plus[k] += step
         minus[k] -= step
         J[:, j] = (model_all(plus) - model_all(minus)) / (2.0 * step)
-    covariance = covariance_from_jacobian(J, s2, names=tuple(names))
-    cond, cov = covariance.condition, covariance.matrix
-    if covariance.reason:
-        notes.append(covariance.reason)
-    q = float(stats.t.ppf(0.5 + 0.5 * confidence, max(dof, 1)))
+    # level A's f_p and m3 are solved by linear least squares, unbounded
+    bounds = {k: (_BOUNDS[k] if level == "B" or k in nonlinear else (-math.inf, math.inf)) for k in names}
+    full = Search(free=tuple(Free(k, float(values[k]), *bounds[k], unit=_UNITS[k]) for k in names),
+                  x=np.array([values[k] for k in names], dtype=float), residual=r, jacobian=-J,
+                  cost=float(0.5 * r @ r), nfev=found.nfev, success=found.success, message=found.message)
+    if n_total <= p:
+        raise IdentificationError(f"{n_total} samples cannot determine {p} parameters")
+    fit = uncertainty(full, confidence=confidence)
+    notes.extend(fit.notes)
+    cov, cond, s2 = fit.covariance.matrix, fit.statistics["condition_number"], fit.scale
     params = []
-    for j, k in enumerate(names):
-        se = float(math.sqrt(cov[j, j])) if np.isfinite(cov[j, j]) and cov[j, j] >= 0 else math.nan
-        note = ""
-        if not math.isfinite(se) or se > abs(values[k]):
+    for par in fit.parameters:
+        lo, hi = par.interval
+        note = par.note
+        if not math.isfinite(par.stderr) or par.stderr > abs(par.value):
             note = "not determined by these data (interval wider than the value)"
-        params.append(Parameter(k, float(values[k]), se, _interval(values[k], se, q, _BOUNDS[k][0]), confidence,
-                                False, _UNITS[k], note))
+        # cut at the physical lower bound (a damper, a preload and a mass are not negative)
+        params.append(replace(par, interval=(max(lo, _BOUNDS[par.name][0]), hi) if math.isfinite(lo) else (lo, hi),
+                              note=note))
+    # ---- the model check: each recording's residual against its own noise ----
+    noise = []
+    offset = 0
+    for d in data:
+        res = r[offset:offset + d.y.size]
+        offset += d.y.size
+        floor = NOISE_FLOOR * float(np.ptp(d.y))
+        noise.append(np.full(d.y.size, max(float(np.std(np.diff(res))) / math.sqrt(2.0), floor)))
+    check, check_notes = residual_against_noise(r, np.concatenate(noise), what=chosen,
+                                                unit="N" if chosen == "contact_load" else "m")
+    notes.extend(check_notes)
     if not free_k0:
         params.append(Parameter("k0", float(base.k0), 0.0, (base.k0, base.k0), confidence, True, "N/m",
                                 "fixed at the rig file's spring rate"))
+    q = float(stats.t.ppf(0.5 + 0.5 * confidence, fit.dof))
     params.append(_zeta_parameter(values, base.k0, cov, names, q, confidence))
     notes.append("the EHL regression constants are not identified: the film does not enter the dynamics")
     if level == "B":
@@ -425,9 +448,10 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
         curves.append({"source": d.source, "rpm": d.rpm, "angle_deg": (np.arange(360) + 0.5).tolist(),
                        "measured": meas.tolist(), "model": mod.tolist()})
         start += n
-    stats_ = {"channel": chosen, "model": f"level {level}", "ndata": n_total, "nvarys": p, "nfev": int(nfev),
+    stats_ = {"channel": chosen, "model": f"level {level}", "ndata": n_total, "nvarys": p, "nfev": int(found.nfev),
               "residual_rms": float(np.sqrt(np.mean(r**2))), "residual_sd": math.sqrt(s2) if math.isfinite(s2) else s2,
-              "condition_number": cond, "success": bool(sol.success)}
+              "condition_number": cond, "success": bool(found.success), "dof": fit.dof,
+              "noise_sd": check["noise_sd"], "residual_over_noise": check["residual_over_noise"]}
     return SurgeFit(params=params, statistics=stats_, notes=tuple(notes),
                     tables={"recordings": pd.DataFrame(rows)},
                     details={"curves": curves, "unit": "N" if chosen == "contact_load" else "m",

@@ -4,7 +4,8 @@
 (``F``), sample by sample in a window around each impact (:mod:`impactid.rigs.drop.measure`), to
 the same impacts replayed by the compiled simulator from their onset states
 (:func:`~impactid.rigs.drop.simulate.replay_impacts`), by nonlinear least squares
-(:func:`scipy.optimize.least_squares`, trust-region reflective, ``x_scale="jac"``) over
+(the identification engine's :func:`impactid.engine.search`: trust-region reflective within bounds,
+coordinates scaled by their start magnitudes, several starts) over
 
 * ``ln k``, ``ln beta`` and ``n`` (``n`` optionally fixed), shared by every impact;
 * per impact, its onset time (the measured onset is only known to a fraction of a sample, and a
@@ -24,17 +25,19 @@ read: the starting stiffness comes from the measured contact durations through H
 measured restitution, and the fit starts from several damping indices (:data:`N_STARTS`) and keeps
 the best.
 
-Uncertainty: the covariance of every fitted parameter (the nuisances included) is
-:func:`impactid.covariance.covariance_from_jacobian` of the weighted residuals' Jacobian at the
-optimum, scaled by the residual variance (the reduced chi-square): a residual larger than the
-noise (a lack of fit) widens the intervals by the same factor. Intervals are Student-t intervals on
-``ln k``, ``ln beta`` and ``n`` (mapped to ``k`` and ``beta``, hence asymmetric). Model check:
-the residual RMS of each channel against its noise between impacts (each recording's residual
-divided by its own noise); above :data:`LACK_OF_FIT_FACTOR` times the noise the notes report a lack
-of fit, and a smaller but statistically significant excess (a mean square above
-``1 + max(4 sqrt(2/m), 0.1)`` times the noise's for ``m`` samples) is reported as a systematic misfit
-below the noise level. Either way the intervals are the model's: a wrong model can give intervals
-that miss the truth however they are widened (``docs/drop.md`` shows one).
+Uncertainty (:func:`impactid.engine.uncertainty`): the covariance of every fitted parameter (the
+nuisances included) from the weighted residuals' Jacobian at the optimum by the shared rule of
+:func:`impactid.covariance.covariance_from_jacobian`, scaled by the residual variance (the reduced
+chi-square): a residual larger than the noise (a lack of fit) widens the intervals by the same
+factor. Intervals are Student-t intervals on ``ln k``, ``ln beta`` and ``n`` (mapped to ``k`` and
+``beta``, hence asymmetric); a parameter on a bound of the search is reported. Model check
+(:func:`impactid.engine.residual_against_noise`): the residual of each channel against its noise
+between impacts (each recording's residual divided by its own noise); above
+:data:`LACK_OF_FIT_FACTOR` times the noise the notes report a lack of fit, and a smaller but
+statistically significant excess (a mean square above ``1 + max(3 sqrt(2/m), 0.02)`` times the
+noise's for ``m`` samples) is reported as a systematic misfit below the noise level. Either way the
+intervals are the model's: a wrong model can give intervals that miss the truth however they are
+widened (``docs/drop.md`` shows one).
 """
 
 from __future__ import annotations
@@ -47,9 +50,16 @@ from typing import ClassVar
 
 import numpy as np
 import pandas as pd
-from scipy import optimize, stats
 
-from impactid.covariance import covariance_from_jacobian
+from impactid.engine import (
+    LACK_OF_FIT_FACTOR,
+    SIGNIFICANT_EXCESS_FLOOR,
+    SIGNIFICANT_EXCESS_SIGMAS,
+    Free,
+    residual_against_noise,
+    search,
+    uncertainty,
+)
 from impactid.errors import ImpactidError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.drop.measure import NOISE_FLOOR, ImpactObservations, measure_impacts
@@ -68,12 +78,8 @@ from impactid.rigs.drop.simulate import Tolerances, replay_impacts
 __all__ = ["FIT_TOLERANCES", "LACK_OF_FIT_FACTOR", "N_BOUNDS", "N_STARTS", "SIGNIFICANT_EXCESS_FLOOR",
            "SIGNIFICANT_EXCESS_SIGMAS", "DropFit", "IdentificationError", "fit_drop"]
 
-#: The residual RMS of a channel above this many times its noise is reported as a lack of fit.
-LACK_OF_FIT_FACTOR = 1.5
-#: A mean-square residual above ``1 + max(4 sqrt(2/m), 0.1)`` times the noise's (``m`` samples: a 4-sigma
-#: excess of a chi-square, and 10 % for the uncertainty of the noise estimate) is reported too.
-SIGNIFICANT_EXCESS_SIGMAS = 4.0
-SIGNIFICANT_EXCESS_FLOOR = 0.1
+# LACK_OF_FIT_FACTOR, SIGNIFICANT_EXCESS_SIGMAS and SIGNIFICANT_EXCESS_FLOOR are the engine's
+# (impactid.engine), re-exported: the model check is impactid.engine.residual_against_noise.
 #: Damping indices the fit starts from (the best end point is kept).
 N_STARTS = (1.0, 1.5, 2.0)
 #: The stiffness is searched within this factor of its Hertz starting value, the damping within
@@ -149,12 +155,6 @@ def _observations(recordings, rig, max_impacts, snr_min) -> list[ImpactObservati
     return out
 
 
-def _interval(value: float, se: float, q: float) -> tuple[float, float]:
-    if not (math.isfinite(se) and math.isfinite(value)):
-        return (math.nan, math.nan)
-    return (value - q * se, value + q * se)
-
-
 def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] | None = None,
              max_impacts: int | None = 4, speeds: str = "fit", confidence: float = 0.95, rig: DropRig | None = None,
              n_starts: Sequence[float] = N_STARTS, snr_min: float = 20.0,
@@ -226,9 +226,9 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
     n_imp = len(impacts)
     fit_n = fix_n is None
     free_speeds = speeds == "fit"
-    n_law = 3 if fit_n else 2
-    names = ["ln_k", "ln_beta"] + (["n"] if fit_n else []) + [f"t0_{j}" for j in range(n_imp)] + (
-        [f"v0_{j}" for j in range(n_imp)] if free_speeds else [])
+    # every parameter in the engine's order (the index n and the speeds are held when not fitted)
+    n_law = 3
+    names = ["k", "beta", "n"] + [f"t0_{j}" for j in range(n_imp)] + [f"v0_{j}" for j in range(n_imp)]
     # ---- starting values from the measured durations and restitution (Hertz; never the rig's k) ----
     masses = np.array([imp.rig.mass for imp in impacts])
     v_meas = np.array([imp.speed for imp in impacts])
@@ -254,11 +254,15 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
     ln_beta_hi = max(math.log(beta_start(N_BOUNDS[0])), math.log(beta_start(N_BOUNDS[1])), math.log(beta_start(
         starts[0]))) + math.log(BETA_RANGE)
     dt = np.array([1.0 / _rate(imp) for imp in impacts])
-    lower = [math.log(k0) - math.log(K_RANGE), ln_beta_lo] + ([N_BOUNDS[0]] if fit_n else []) + list(
-        t0_meas - ONSET_SHIFT_SAMPLES * dt) + (list(SPEED_RANGE[0] * v_meas) if free_speeds else [])
-    upper = [math.log(k0) + math.log(K_RANGE), ln_beta_hi] + ([N_BOUNDS[1]] if fit_n else []) + list(
-        t0_meas + ONSET_SHIFT_SAMPLES * dt) + (list(SPEED_RANGE[1] * v_meas) if free_speeds else [])
-    lower, upper = np.array(lower), np.array(upper)
+    free = [Free("k", k0, k0 / K_RANGE, k0 * K_RANGE, unit=f"N/m^{p:g}", log=True),
+            Free("beta", beta_start(starts[0]), math.exp(ln_beta_lo), math.exp(ln_beta_hi), unit="N s/m^(n+1)",
+                 log=True),
+            Free("n", starts[0], *(N_BOUNDS if fit_n else (0.0, N_MAX)), vary=fit_n)]
+    free += [Free(f"t0_{j}", float(t0_meas[j]), float(t0_meas[j] - ONSET_SHIFT_SAMPLES * dt[j]),
+                  float(t0_meas[j] + ONSET_SHIFT_SAMPLES * dt[j]), unit="s", report=False) for j in range(n_imp)]
+    free += [Free(f"v0_{j}", float(v_meas[j]), float(SPEED_RANGE[0] * v_meas[j]), float(SPEED_RANGE[1] * v_meas[j]),
+                  vary=free_speeds, unit="m/s", report=False) for j in range(n_imp)]
+    n_varying = sum(f.vary for f in free)
     # ---- the model: replays grouped by impactor (mass, gravity) ----
     groups: dict[tuple[float, float], list[int]] = {}
     for j, imp in enumerate(impacts):
@@ -272,15 +276,13 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
     n_data = start
     y_all = np.concatenate([impacts[j].y[c] for j, c, _, _ in blocks])
     w_all = np.concatenate([np.full(impacts[j].t.size, 1.0 / impacts[j].sigma[c]) for j, c, _, _ in blocks])
-    if n_data <= len(names):
-        raise IdentificationError(f"{n_data} samples for {len(names)} parameters: too few to fit")
+    if n_data <= n_varying:
+        raise IdentificationError(f"{n_data} samples for {n_varying} parameters: too few to fit")
 
     def unpack(u):
-        k, beta = math.exp(u[0]), math.exp(u[1])
-        n_value = u[2] if fit_n else float(fix_n)
-        t0 = u[n_law:n_law + n_imp]
-        v0 = u[n_law + n_imp:n_law + 2 * n_imp] if free_speeds else v_meas
-        return k, beta, n_value, t0, v0
+        """k, beta, n, onset times and speeds from the engine's coordinates (ln k, ln beta, n, t0, v0)."""
+        return (math.exp(u[0]), math.exp(u[1]), float(u[2]), u[n_law:n_law + n_imp],
+                u[n_law + n_imp:n_law + 2 * n_imp])
 
     def model(u, jacobian: bool):
         k, beta, n_value, t0, v0 = unpack(u)
@@ -306,11 +308,9 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
             if jacobian:
                 jac[lo:hi, 0] = scale * dforce[j][:, 0]
                 jac[lo:hi, 1] = scale * dforce[j][:, 1]
-                if fit_n:
-                    jac[lo:hi, 2] = scale * dforce[j][:, 2]
+                jac[lo:hi, 2] = scale * dforce[j][:, 2]
                 jac[lo:hi, n_law + j] = -scale * rate[j]
-                if free_speeds:
-                    jac[lo:hi, n_law + n_imp + j] = scale * dforce[j][:, 3]
+                jac[lo:hi, n_law + n_imp + j] = scale * dforce[j][:, 3]
         return out, jac
 
     cache: dict = {}
@@ -322,89 +322,51 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
             cache.update(key=key, r=w_all * (y_all - out), J=-w_all[:, None] * jac)
         return cache["r"], cache["J"]
 
-    best = None
-    tried = []
-    for n_start in starts:
-        u0 = np.concatenate([[math.log(k0), math.log(beta_start(n_start))], [n_start] if fit_n else [], t0_meas,
-                             v_meas if free_speeds else []])
-        u0 = np.clip(u0, lower + 1e-12 * np.abs(lower), upper - 1e-12 * np.abs(upper))
-        sol = optimize.least_squares(lambda u: evaluate(u)[0], u0, jac=lambda u: evaluate(u)[1],
-                                     bounds=(lower, upper), method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12,
-                                     gtol=1e-12, max_nfev=300)
-        tried.append({"n_start": n_start, "cost": float(sol.cost), "nfev": int(sol.nfev), "success": bool(sol.success)})
-        if best is None or sol.cost < best[0].cost:
-            best = (sol, n_start)
-    sol, n_won = best
-    u = sol.x
-    r, J = evaluate(u)
+    # ---- the engine: search from every damping index, covariance, intervals, bound hits ----
+    begin = [{"n": s, "beta": beta_start(s)} for s in starts] if fit_n else [{}]
+    found = search(lambda u: evaluate(u)[0], free, jacobian=lambda u: evaluate(u)[1], starts=begin, max_nfev=300)
+    fit = uncertainty(found, confidence=confidence)
+    notes.extend(fit.notes)
+    values = found.values()
+    u = np.array([f.coordinate(values[f.name]) for f in free])
     fitted, _ = model(u, False)
     k, beta, n_value, t0, v0 = unpack(u)
-    # ---- uncertainty ----
-    dof = n_data - len(names)
-    s2 = float(np.sum(r**2) / dof)
-    covariance = covariance_from_jacobian(J, s2, names=tuple(names))
-    if covariance.reason:
-        notes.append(covariance.reason)
-    q = float(stats.t.ppf(0.5 + 0.5 * confidence, dof))
-    se = covariance.stderr
-    near = 1e-6 * np.maximum(1.0, np.maximum(np.abs(lower), np.abs(upper)))
-    at_bound = [names[i] for i in range(n_law) if abs(u[i] - lower[i]) <= near[i] or abs(u[i] - upper[i]) <= near[i]]
-    if at_bound:
-        notes.append(f"{', '.join(at_bound)} at the bound of the search: the data do not bound them inside "
-                     f"(intervals not reliable)")
-    params = []
-    for name, value_ln, idx, unit in (("k", u[0], 0, f"N/m^{p:g}"), ("beta", u[1], 1, "N s/m^(n+1)")):
-        lo, hi = _interval(value_ln, se[idx], q)
-        value = math.exp(value_ln)
-        params.append(Parameter(name, value, value * se[idx], (math.exp(lo), math.exp(hi)) if math.isfinite(lo) else (
-            math.nan, math.nan), confidence, False, unit, "" if math.isfinite(se[idx]) else "undetermined"))
-    if fit_n:
-        params.append(Parameter("n", float(u[2]), float(se[2]), _interval(float(u[2]), float(se[2]), q), confidence,
-                                False, "", "" if math.isfinite(se[2]) else "undetermined"))
-    else:
-        params.append(Parameter("n", float(fix_n), 0.0, (float(fix_n), float(fix_n)), confidence, True, "",
-                                "fixed"))
+    se = {name: fit.stderr(name) if name in fit.names else 0.0 for name in names}
+    tried = [{"n_start": float(t.get("n", starts[0])), "cost": t["cost"], "nfev": t["nfev"], "success": t["success"]}
+             for t in found.starts]
+    n_won = tried[int(np.argmin([t["cost"] for t in tried]))]["n_start"]
+    s2 = fit.scale
+    params = list(fit.parameters)
     params.append(Parameter("p", p, 0.0, (p, p), confidence, True, "", "the rig's stiffness exponent"))
     # ---- model check: residual against the noise between impacts ----
-    stats_: dict = {"ndata": n_data, "nvarys": len(names), "nfev": int(sum(t["nfev"] for t in tried)),
+    stats_: dict = {"ndata": n_data, "nvarys": n_varying, "nfev": found.nfev,
                     "n_recordings": len(observations), "n_impacts": n_imp, "channels": ",".join(all_channels),
                     "speeds": speeds}
     residual = y_all - fitted
     for c in all_channels:
         sel = np.concatenate([np.arange(lo, hi) for j, cc, lo, hi in blocks if cc == c])
-        rms = float(np.sqrt(np.mean(residual[sel] ** 2)))
         # each recording's residual against its own noise (noise levels differ between recordings)
-        ratio = float(np.sqrt(np.mean((residual[sel] * w_all[sel]) ** 2)))
+        check, check_notes = residual_against_noise(residual[sel], 1.0 / w_all[sel], what=c, unit=_UNITS[c])
         floored = [imp for imp in impacts if c in imp.noise and imp.noise[c] < imp.sigma[c]]
-        stats_[f"residual_rms_{c}"] = rms
+        stats_[f"residual_rms_{c}"] = check["residual_rms"]
         stats_[f"noise_sd_{c}"] = float(np.median([imp.noise[c] for imp in impacts if c in imp.noise]))
-        stats_[f"residual_over_noise_{c}"] = ratio
+        stats_[f"residual_over_noise_{c}"] = check["residual_over_noise"]
         if floored:
             notes.append(f"channel {c!r} is noise-free between impacts in {len({i.source for i in floored})} "
                          f"recording(s) (noise below {NOISE_FLOOR:g} of its peak, the floor of the simulator's "
                          "accuracy): its residual there is compared with that floor")
-        n_c = int(sel.size)
-        excess = max(SIGNIFICANT_EXCESS_SIGMAS * math.sqrt(2.0 / n_c), SIGNIFICANT_EXCESS_FLOOR)
-        if ratio > LACK_OF_FIT_FACTOR:
-            notes.append(f"lack of fit: the residual RMS of {c!r} ({rms:.4g} {_UNITS[c]}) is {ratio:.3g} times its "
-                         f"noise between impacts (more than {LACK_OF_FIT_FACTOR:g}): the model does not describe "
-                         "everything in the contact signals (sensor dynamics or filtering, a second contact, another "
-                         f"force law); the intervals are widened by the lack of fit (x {math.sqrt(s2):.3g}) and "
-                         "still assume the model")
-        elif ratio**2 > 1.0 + excess:
-            notes.append(f"the residual of {c!r} exceeds its noise between impacts significantly (mean square "
-                         f"{ratio**2:.3g} times the noise's, more than 1 + {excess:.2g} for {n_c} samples): a "
-                         "systematic misfit below the noise level; the intervals are widened by it "
-                         f"(x {math.sqrt(max(s2, 1.0)):.3g}) and still assume the model")
-    stats_.update(reduced_chi_square=s2, interval_inflation=math.sqrt(max(s2, 0.0)), dof=dof,
-                  condition_number=covariance.condition, success=bool(sol.success), cost=float(sol.cost),
+        for note in check_notes:
+            notes.append(f"{note} (in the contact signals: sensor dynamics or filtering, a second contact, another "
+                         f"force law?); the intervals are widened by the misfit (x {math.sqrt(max(s2, 1.0)):.3g})")
+    stats_.update(reduced_chi_square=s2, interval_inflation=math.sqrt(max(s2, 0.0)), dof=fit.dof,
+                  condition_number=fit.statistics["condition_number"], success=found.success, cost=found.cost,
                   n_start=float(n_won))
     # ---- speeds: the first impact's fitted speed against the drop height's ----
     if free_speeds:
         for j, imp in enumerate(impacts):
             if imp.speed_from != "drop height":
                 continue
-            se_v = se[n_law + n_imp + j]
+            se_v = se[f"v0_{j}"]
             off = v0[j] / imp.speed - 1.0
             if abs(off) > 0.01 and (not math.isfinite(se_v) or abs(v0[j] - imp.speed) > 3.0 * se_v):
                 notes.append(f"{imp.source}: the first impact's fitted speed {v0[j]:.5g} m/s differs from the drop "
@@ -415,10 +377,10 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
     curves = []
     for j, imp in enumerate(impacts):
         row = {"recording": imp.source, "impact": imp.index, "onset_time_measured_s": imp.onset,
-               "onset_time_fitted_s": float(t0[j]), "onset_time_stderr_s": float(se[n_law + j]),
+               "onset_time_fitted_s": float(t0[j]), "onset_time_stderr_s": se[f"t0_{j}"],
                "approach_speed_measured_m_s": imp.speed, "approach_speed_from": imp.speed_from,
                "approach_speed_fitted_m_s": float(v0[j]),
-               "approach_speed_stderr_m_s": float(se[n_law + n_imp + j]) if free_speeds else 0.0,
+               "approach_speed_stderr_m_s": se[f"v0_{j}"],
                "contact_duration_s": float(imp.row["contact_duration_s"]),
                "separation_speed_m_s": float(imp.row["separation_speed_m_s"]),
                "peak_force_measured_n": float(imp.row["peak_force_n"]), "samples": int(imp.t.size)}
@@ -437,11 +399,12 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
                                     "noise_sd": imp.sigma[c], "unit": _UNITS[c]}
         rows.append(row)
         curves.append(curve)
-    cov_law = covariance.matrix[:n_law, :n_law]
+    n_law_varying = 3 if fit_n else 2
+    cov_law = fit.covariance.matrix[:n_law_varying, :n_law_varying]
     return DropFit(params=params, statistics=stats_, notes=tuple(dict.fromkeys(notes)),
                    tables={"impacts": pd.DataFrame(rows), "starts": pd.DataFrame(tried)},
                    details={"curves": curves, "covariance_ln_k_ln_beta_n": cov_law.tolist(),
-                            "names": names[:n_law], "k_start": k0, "confidence": confidence},
+                            "names": ["ln_k", "ln_beta", "n"][:n_law_varying], "k_start": k0, "confidence": confidence},
                    provenance=tuple(f"fit_drop: {o.source}: {len(o.impacts)} impact(s) of {', '.join(o.channels)}"
                                     for o in observations))
 

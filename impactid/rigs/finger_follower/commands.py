@@ -27,6 +27,7 @@ from typing import Any
 
 from impactid.commandline import integer_in, positive, refuse_foreign_options
 from impactid.errors import RigParameterError, SimulationError, SimulationInputError
+from impactid.results import FitResult
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["COMMANDS"]
@@ -386,17 +387,24 @@ def _read(paths, args):
     return recs
 
 
+def _document(result, paths) -> dict:
+    """The JSON document of a fit command: the result's (the FitResult schema, docs/formats.md) and the
+    recordings read (``recordings_read``); ``--plots`` adds ``plots``."""
+    return {**result.to_dict(), "recordings_read": [str(p) for p in paths]}
+
+
 def run_fit_tappet(args, model) -> int:
     """``impactid valvetrain fit-tappet REC [REC ...]``: the tappet drag (alpha, beta; c_t, k_t).
 
-    One fit per recording (default) or one joint fit (``--joint``). Without ``--joint`` a recording
-    that cannot be fitted does not take the others with it: it is listed under ``failed`` (and in
-    an ``impactid: warning:`` line) and the command exits with 1; 2 when none could be fitted.
+    One fit of all recordings (``--joint``, or one recording: a ``TappetFit``) or one fit per
+    recording (a :class:`TappetFitSet`). Without ``--joint`` a recording that cannot be fitted does
+    not take the others with it: it is listed under ``details.failed`` (and in an ``impactid: warning:``
+    line) and the command exits with 1; 2 when none could be fitted.
     """
     from impactid._files import check_distinct_inputs
     from impactid.errors import ImpactidError
     from impactid.rigs.finger_follower.cam import read_lift
-    from impactid.rigs.finger_follower.identify import IdentificationError, fit_tappet_drag
+    from impactid.rigs.finger_follower.identify import IdentificationError, TappetFitSet, fit_tappet_drag
 
     _own_options(args, model)
     paths = list(args.recordings)
@@ -407,6 +415,7 @@ def run_fit_tappet(args, model) -> int:
     failed: list[dict] = []
     if args.joint or len(paths) == 1:
         fits = [fit_tappet_drag(_read(paths, args), lift=lift, joint=True)]
+        result = fits[0]
     else:
         fits = []
         for path in paths:
@@ -416,12 +425,8 @@ def run_fit_tappet(args, model) -> int:
                 failed.append({"recording": str(path), "reason": str(exc)})
         if not fits:
             raise IdentificationError("no recording could be fitted: " + "; ".join(f["reason"] for f in failed))
-    data = {"rig": MODEL_NAME, "joint": bool(args.joint),
-            "fits": [{"recordings": [c["source"] for c in f.details["cycles"]],
-                      "rpm": [c["rpm"] for c in f.details["cycles"]], **f.to_dict()} for f in fits],
-            "failed": failed}
-    for entry in data["fits"]:
-        entry.pop("tables", None)
+        result = TappetFitSet.of(fits, failed)
+    data = _document(result, paths)
     figures = [(f"tappet_fit_{k}.png", (lambda f=f: f.plot())) for k, f in enumerate(fits)]
     _deliver(args, data, inputs, figures)
     for f in fits:
@@ -444,9 +449,30 @@ def run_fit_lift(args, model) -> int:
     _check(args, inputs)
     rec = _read([args.recording], args)[0]
     fit = fit_cam_lift(rec)
-    data = {"rig": MODEL_NAME, "recording": str(args.recording), **fit.to_dict()}
-    data.pop("tables", None)
+    data = _document(fit, [args.recording])
     _deliver(args, data, inputs, [("lift_fit.png", fit.plot)])
+    for note in fit.notes:
+        warnings.warn(note, stacklevel=2)
+    if not args.json:
+        print(fit.report())
+    return 0
+
+
+def run_fit_damping(args, model) -> int:
+    """``impactid valvetrain fit-damping REC``: the contact and valve-spring damping ratios from the
+    valve's ringing at closure (the tappet drag is the rig's: fit it first and put it in the rig file)."""
+    from impactid.rigs.finger_follower.cam import read_lift
+    from impactid.rigs.finger_follower.identify import fit_damping
+
+    _own_options(args, model)
+    inputs = _inputs(args, [args.recording])
+    _check(args, inputs)
+    lift = read_lift(args.lift) if getattr(args, "lift", None) else None
+    rec = _read([args.recording], args)[0]
+    fit = fit_damping(rec, lift=lift)
+    data = _document(fit, [args.recording])
+    figures = [("damping_fit.png", fit.plot)] if type(fit).plot is not FitResult.plot else []
+    _deliver(args, data, inputs, figures)
     for note in fit.notes:
         warnings.warn(note, stacklevel=2)
     if not args.json:
@@ -502,4 +528,9 @@ COMMANDS = (
                 (Argument(("recording",), {"help": "recording at low speed (HDF5, or CSV with a TOML rig file)"}),
                  JSON, OUT, PLOTS, RIG_FILE),
                 run_fit_lift),
+    CommandSpec("valvetrain", "fit-damping", "fit the contact and valve-spring damping ratios to the valve's ringing",
+                (Argument(("recording",), {"help": "recording at a speed where the valve rings at closure (HDF5, or "
+                                                   "CSV with a TOML rig file)"}),
+                 JSON, OUT, PLOTS, RIG_FILE, LIFT),
+                run_fit_damping),
 )

@@ -25,14 +25,21 @@ attribute, a recording whose cam speed (operating point, else encoder) lies outs
 constant or zero or shorter than a revolution, and, after the fit, a channel the fitted model
 explains no better than noise alone (:func:`impactid.rigs.valvespring.check_model_explains`).
 
-Intervals
----------
-Linearised (Gauss-Newton) intervals at the optimum: covariance ``s^2 (J^T J)^-1`` with the
-residual variance ``s^2 = SSR / (n - p)`` (``p`` counts the eliminated offsets), and Student-t
-quantiles for the chosen confidence. The averaged samples are independent when the sensor noise
-is white, which is the assumption these intervals rest on; they say nothing about model error
-(a wrong cam or wrong masses), which the residual RMS and the notes report instead. When the two
-tappet parameters are correlated beyond ``|rho| > 0.995`` or one is determined to worse than
+Search, intervals, model check
+-----------------------------
+Every fit runs on the identification engine (:mod:`impactid.engine`): the search
+(:func:`~impactid.engine.search`, trust-region reflective, central differences, in logarithms of the
+positive parameters), linearised (Gauss-Newton) intervals at the optimum
+(:func:`~impactid.engine.uncertainty`: covariance ``s^2 (J^T J)^-1`` by the shared rule of
+:func:`impactid.covariance.covariance_from_jacobian`, with the residual variance
+``s^2 = SSR / (n - p)`` where ``p`` counts the eliminated offsets, Student-t quantiles for the chosen
+confidence, mapped back from the logarithms), and the model check
+(:func:`~impactid.engine.residual_against_noise`): the residual against the recording's own noise,
+the scatter of the synchronous average over the revolutions (the pooled standard error of the bins;
+a recording of one revolution has none, and is not checked). The averaged samples are independent
+when the sensor noise is white, which is the assumption these intervals rest on; they say nothing
+about model error (a wrong cam or wrong masses), which the model check reports instead. When the
+two tappet parameters are correlated beyond ``|rho| > 0.995`` or one is determined to worse than
 50 %, the result says they are not separable.
 """
 
@@ -40,23 +47,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, ClassVar
 
 import numpy as np
 import pandas as pd
-from scipy import optimize, stats
+from scipy import stats
 
-from impactid.covariance import covariance_from_jacobian
+from impactid.engine import Free, Search, Uncertainty, residual_against_noise, search, uncertainty
 from impactid.errors import ImpactidError, SimulationError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.finger_follower.cam import CycloidalLift
 from impactid.rigs.finger_follower.simulate import DEFAULT_TOLERANCES, prepare, speed_range, steady_state
 from impactid.rigs.valvespring import check_fit_channel, check_model_explains
 
-__all__ = ["AveragedCycle", "DampingFit", "IdentificationError", "LiftFit", "TappetFit", "fit_cam_lift", "fit_damping",
-           "fit_tappet_drag",
-           "synchronous_average"]
+__all__ = ["AveragedCycle", "DampingFit", "IdentificationError", "LiftFit", "TappetFit", "TappetFitSet", "fit_cam_lift",
+           "fit_damping", "fit_tappet_drag", "synchronous_average"]
 
 TWO_PI = 2.0 * math.pi
 DEG = math.pi / 180.0
@@ -316,16 +322,42 @@ def _fit_cycle(recording, channels: Sequence[str], train, bins: int | None) -> A
 # --------------------------------------------------------------------------------------------
 
 
-def _intervals(jac: np.ndarray, residual: np.ndarray, n_linear: int, confidence: float):
-    """Covariance, standard errors, t quantile and degrees of freedom of a least-squares optimum."""
-    n, p = jac.shape
-    dof = n - p - n_linear
+def _engine_fit(residual, free: Sequence[Free], n_linear: int, confidence: float, **options
+                ) -> tuple[Search, Uncertainty, int]:
+    """The engine's search and uncertainty, the residual variance counting the ``n_linear`` offsets
+    eliminated in closed form (``s^2 = SSR / (n - p - n_linear)``). Returns the search, the
+    uncertainty and the degrees of freedom."""
+    found = search(residual, free, **options)
+    dof = found.residual.size - len(found.varying) - n_linear
     if dof <= 0:
-        return np.full((p, p), np.nan), np.full(p, np.nan), math.nan, dof
-    s2 = float(residual @ residual) / dof
-    covariance = covariance_from_jacobian(jac, s2)  # undetermined (NaN) above impactid.covariance.CONDITION_LIMIT
-    q = float(stats.t.ppf(0.5 + 0.5 * confidence, dof))
-    return covariance.matrix, covariance.stderr, q, dof
+        raise IdentificationError(f"{found.residual.size} averaged samples cannot determine "
+                                  f"{len(found.varying) + n_linear} parameters")
+    return found, uncertainty(found, confidence=confidence, dof=dof), dof
+
+
+def _derived_log_parameter(name: str, log_value: float, log_se: float, fit: Uncertainty, unit: str,
+                           note: str = "") -> Parameter:
+    """A parameter derived from the searched logarithms (``tau = c_t / k_t``): Student-t interval
+    with the fit's degrees of freedom, mapped back from the logarithm."""
+    value = math.exp(log_value)
+    if not math.isfinite(log_se):
+        return Parameter(name, value, confidence=fit.confidence, unit=unit, note=note or "undetermined", min=0.0)
+    q = float(stats.t.ppf(0.5 + 0.5 * fit.confidence, fit.dof))
+    return Parameter(name, value, value * log_se, (math.exp(log_value - q * log_se), math.exp(log_value + q * log_se)),
+                     fit.confidence, unit=unit, note=note, min=0.0)
+
+
+def _noise_check(residual: np.ndarray, stderr: np.ndarray, *, what: str, unit: str):
+    """The residual against the recording's own noise: the pooled standard error of the synchronous
+    average's bins (:func:`impactid.engine.residual_against_noise`). A cycle without repeated
+    revolutions has no noise estimate: then the statistics are NaN and there is no note."""
+    se = np.asarray(stderr, dtype=float)
+    se = se[np.isfinite(se)]
+    noise = float(np.sqrt(np.mean(se**2))) if se.size >= max(1, residual.size // 2) else math.nan
+    if not noise > 0.0:
+        rms = float(np.sqrt(np.mean(np.asarray(residual) ** 2)))
+        return {"residual_rms": rms, "noise_sd": math.nan, "residual_over_noise": math.nan}, ()
+    return residual_against_noise(residual, noise, what=what, unit=unit)
 
 
 def _project(r: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
@@ -334,15 +366,6 @@ def _project(r: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
     for g in groups:
         out[g] -= out[g].mean()
     return out
-
-
-def _log_parameter(name, log_value, log_se, q, unit, confidence, note="") -> Parameter:
-    value = math.exp(log_value)
-    if math.isfinite(log_se):
-        return Parameter(name, value, stderr=value * log_se, interval=(math.exp(log_value - q * log_se),
-                                                                        math.exp(log_value + q * log_se)),
-                         confidence=confidence, unit=unit, note=note)
-    return Parameter(name, value, confidence=confidence, unit=unit, note=note or "undetermined")
 
 
 # --------------------------------------------------------------------------------------------
@@ -449,18 +472,19 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
     c0, k0 = start if start is not None else (0.005 * rig.C_d_plus, 0.5 * rig.K_e)
     if not (c0 > 0.0 and k0 > 0.0):
         raise IdentificationError(f"start values must be positive, got c_t = {c0!r}, k_t = {k0!r}")
-    x0 = np.log([c0, k0])
-    sol = optimize.least_squares(residual, x0, method="trf", x_scale=1.0, diff_step=1e-5, xtol=1e-12, ftol=1e-12,
-                                 gtol=1e-12, max_nfev=200)
-    r = sol.fun * scale
+    free = (Free("c_t", c0, 0.0, math.inf, unit="N s/m", log=True),
+            Free("k_t", k0, 0.0, math.inf, unit="N/m", log=True))
+    found, fit, dof = _engine_fit(residual, free, len(cycles), confidence, x_scale=1.0, diff_step=1e-5, xtol=1e-12,
+                                  ftol=1e-12, gtol=1e-12, max_nfev=200)
+    x = found.x
+    r = found.residual * scale
     sources = ", ".join(dict.fromkeys(c.source or "recording" for c in cycles))
     check_model_explains(float(np.sum(_project(data, groups) ** 2)), float(r @ r), r.size, 2,
                          null_params=len(groups), where=sources, channel="tappet_displacement",
                          error=IdentificationError)
-    jac = sol.jac * scale
-    cov, se, q, dof = _intervals(jac, r, len(cycles), confidence)
-    rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
-    notes = [n for c in cycles for n in c.notes]
+    cov, se = fit.covariance.matrix, fit.covariance.stderr  # of ln c_t and ln k_t
+    rho = float(fit.correlation[0, 1])
+    notes = [n for c in cycles for n in c.notes] + list(fit.notes)
     separable = True
     if not math.isfinite(rho) or abs(rho) > SEPARABILITY_CORRELATION:
         separable = False
@@ -472,24 +496,28 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
             notes.append(f"{name} is not determined by these data (relative standard error {100 * err:.3g} %): "
                          "c_t and k_t are not separable here; average more revolutions, fit several speeds or "
                          "fix one of them")
-    if not sol.success:
-        notes.append(f"the optimiser stopped without converging: {sol.message}")
+    if not found.success:
+        notes.append(f"the optimiser stopped without converging: {found.message}")
     if failed[0]:
         notes.append(f"{failed[0]} trial parameter set(s) could not be simulated and were penalised")
+    # the model check: the residual against the scatter of the averages over the revolutions
+    check, check_notes = _noise_check(r, np.concatenate([c.stderr["tappet_displacement"] for c in cycles]),
+                                      what="tappet_displacement", unit="m")
+    notes.extend(check_notes)
     bound_note = "" if separable else "not separable"
-    c_t = _log_parameter("c_t", sol.x[0], se[0], q, "N s/m", confidence, bound_note)
-    k_t = _log_parameter("k_t", sol.x[1], se[1], q, "N/m", confidence, bound_note)
+    c_t, k_t = (replace(p, note=bound_note or p.note) for p in fit.parameters)
     alpha = Parameter("alpha", c_t.value / rig.C_d_plus, c_t.stderr / rig.C_d_plus,
-                      tuple(v / rig.C_d_plus for v in c_t.interval), confidence, unit="", note=bound_note)
+                      tuple(v / rig.C_d_plus for v in c_t.interval), confidence, unit="", note=bound_note,
+                      min=0.0)
     beta = Parameter("beta", k_t.value / rig.K_e, k_t.stderr / rig.K_e, tuple(v / rig.K_e for v in k_t.interval),
-                     confidence, unit="", note=bound_note)
+                     confidence, unit="", note=bound_note, min=0.0)
     tau_log_se = math.sqrt(max(cov[0, 0] + cov[1, 1] - 2 * cov[0, 1], 0.0)) if np.all(np.isfinite(cov)) else math.nan
-    tau = _log_parameter("tau", sol.x[0] - sol.x[1], tau_log_se, q, "s", confidence)
+    tau = _derived_log_parameter("tau", x[0] - x[1], tau_log_se, fit, "s")
     params = [c_t, k_t, alpha, beta, tau]
     rows = []
     sims = []
     for k, (cycle, g) in enumerate(zip(cycles, groups)):
-        sim = model(sol.x, k, cycle)
+        sim = model(x, k, cycle)
         offset = float(np.mean(data[g] - sim))
         sims.append(sim + offset)
         name = "offset" if len(cycles) == 1 else f"offset_{k}"
@@ -500,7 +528,9 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
     rms = float(np.sqrt(np.mean(r * r)))
     statistics = {"n_data": int(r.size), "dof": int(dof), "residual_rms_m": rms, "correlation_c_t_k_t": float(rho),
                   "separable": separable, "evaluations": int(n_eval[0]), "failed_evaluations": int(failed[0]),
-                  "cost": float(0.5 * r @ r),
+                  "cost": float(0.5 * r @ r), "noise_sd_m": check["noise_sd"],
+                  "residual_over_noise": check["residual_over_noise"],
+                  "condition_number": fit.statistics["condition_number"], "success": found.success,
                   "speeds_rpm": ", ".join(f"{c.rpm:.6g}" for c in cycles)}
     details = {"cycles": [{"rpm": c.rpm, "revolutions": c.revolutions, "sampling": c.sampling, "source": c.source,
                            "bins": int(c.theta.size)} for c in cycles],
@@ -622,28 +652,30 @@ def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, con
             return np.full(y.size, 10.0)  # a trial cam the train cannot follow (not convex, no contact)
         return _project(y - sim, [np.arange(y.size)]) / scale
 
-    x0 = np.array([math.log(start.S_K), math.log(start.beta_open), math.log(start.beta_close), phase0])
-    sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-6, xtol=LIFT_XTOL,
-                                 ftol=1e-10, gtol=1e-10, max_nfev=300)
-    r = sol.fun * scale
+    free = (Free("S_K", start.S_K, 0.0, math.inf, unit="m", log=True),
+            Free("beta_open", start.beta_open, 0.0, math.inf, unit="rad", log=True),
+            Free("beta_close", start.beta_close, 0.0, math.inf, unit="rad", log=True),
+            Free("phase", phase0, unit="rad"))
+    found, fit, dof = _engine_fit(residual, free, 1, confidence, diff_step=1e-6, xtol=LIFT_XTOL, ftol=1e-10,
+                                  gtol=1e-10, max_nfev=300)
+    x = found.x
+    r = found.residual * scale
     check_model_explains(float(np.sum((y - y.mean()) ** 2)), float(r @ r), r.size, 4, where=where,
                          channel="valve_displacement", error=IdentificationError)
-    jac = sol.jac * scale
-    cov, se, q, dof = _intervals(jac, r, 1, confidence)
-    params = [_log_parameter("S_K", sol.x[0], se[0], q, "m", confidence),
-              _log_parameter("beta_open", sol.x[1], se[1], q, "rad", confidence),
-              _log_parameter("beta_close", sol.x[2], se[2], q, "rad", confidence),
-              Parameter("phase", sol.x[3], se[3], (sol.x[3] - q * se[3], sol.x[3] + q * se[3]), confidence,
-                        unit="rad")]
-    sim = simulate_lift(sol.x)
+    params = list(fit.parameters)
+    sim = simulate_lift(x)
     offset = float(np.mean(y - sim))
     params.append(Parameter("offset", offset, unit="m", note="valve-sensor zero, eliminated in closed form"))
-    notes = list(cycle.notes)
-    if not sol.success:
-        notes.append(f"the optimiser stopped without converging: {sol.message}")
-    corr = cov / np.outer(se, se) if np.all(se > 0) else np.full_like(cov, np.nan)
+    notes = list(cycle.notes) + list(fit.notes)
+    if not found.success:
+        notes.append(f"the optimiser stopped without converging: {found.message}")
+    check, check_notes = _noise_check(r, cycle.stderr["valve_displacement"], what="valve_displacement", unit="m")
+    notes.extend(check_notes)
+    corr = fit.correlation
     statistics = {"n_data": int(r.size), "dof": int(dof), "residual_rms_m": float(np.sqrt(np.mean(r * r))),
-                  "rpm": cycle.rpm, "evaluations": int(state["n"]), "cost": float(0.5 * r @ r)}
+                  "rpm": cycle.rpm, "evaluations": int(state["n"]), "cost": float(0.5 * r @ r),
+                  "noise_sd_m": check["noise_sd"], "residual_over_noise": check["residual_over_noise"],
+                  "condition_number": fit.statistics["condition_number"], "success": found.success}
     table = pd.DataFrame({"cam_angle_deg": theta_deg, "measured_m": y, "fitted_m": sim + offset})
     return LiftFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": table},
                    details={"correlation": corr.tolist(), "start": start.to_dict() | {"phase": phase0},
@@ -741,27 +773,34 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
             state["failed"] += 1
             return np.full(data.size, 1e3)
 
-    x0 = np.log([0.03, 0.08])
-    sol = optimize.least_squares(residual, x0, method="trf", x_scale="jac", diff_step=1e-5, xtol=1e-10,
-                                 ftol=1e-12, gtol=1e-12, max_nfev=100)
-    check_model_explains(float(np.sum(_project(data, [groups[0]]) ** 2)), float(sol.fun @ sol.fun), sol.fun.size, 2,
+    free = (Free("zeta_contact", 0.03, 0.0, math.inf, log=True), Free("zeta_spring", 0.08, 0.0, math.inf, log=True))
+    found, fit, dof = _engine_fit(residual, free, 1, confidence, diff_step=1e-5, xtol=1e-10, ftol=1e-12, gtol=1e-12,
+                                  max_nfev=100)
+    x, r = found.x, found.residual
+    check_model_explains(float(np.sum(_project(data, [groups[0]]) ** 2)), float(r @ r), r.size, 2,
                          where=where, channel=", ".join(names), error=IdentificationError)
-    cov, se, q, dof = _intervals(sol.jac, sol.fun, 1, confidence)
-    notes = list(cycle.notes)
+    se = fit.covariance.stderr  # of the logarithms: relative errors
+    notes = list(cycle.notes) + list(fit.notes)
     params = []
-    for k, name in enumerate(("zeta_contact", "zeta_spring")):
-        note = ""
+    for k, p in enumerate(fit.parameters):
+        note = p.note
         if not se[k] <= SEPARABILITY_RELATIVE_ERROR:
             note = "not determined"
-            notes.append(f"{name} is not determined by these data (relative standard error {100 * se[k]:.3g} %): "
+            notes.append(f"{p.name} is not determined by these data (relative standard error {100 * se[k]:.3g} %): "
                          "the ringing after closure does not carry it")
-        params.append(_log_parameter(name, sol.x[k], se[k], q, "", confidence, note))
+        params.append(replace(p, note=note))
     if state["failed"]:
         notes.append(f"{state['failed']} trial parameter set(s) could not be simulated and were penalised")
-    if not sol.success:
-        notes.append(f"the optimiser stopped without converging: {sol.message}")
-    rho = cov[0, 1] / (se[0] * se[1]) if np.all(se > 0) else math.nan
-    fitted = model(sol.x)
+    if not found.success:
+        notes.append(f"the optimiser stopped without converging: {found.message}")
+    # the model check, per channel: the residual against the scatter of the averages over the revolutions
+    checks = {}
+    for k, c in enumerate(names):
+        checks[c], check_notes = _noise_check(r[groups[k]] / weights[c], cycle.stderr[c][mask], what=c,
+                                              unit=_UNITS[c])
+        notes.extend(check_notes)
+    rho = float(fit.correlation[0, 1])
+    fitted = model(x)
     table = {"cam_angle_deg": cycle.theta_deg[mask]}
     for k, c in enumerate(names):
         g = groups[k]
@@ -770,8 +809,55 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
         table[f"{c}_fitted"] = (fitted[g] + offset) / weights[c]
     statistics = {"n_data": int(data.size), "dof": int(dof), "rpm": cycle.rpm, "channels": ", ".join(names),
                   "closing_deg": math.degrees(closing), "correlation": float(rho), "evaluations": state["n"],
-                  "failed_evaluations": state["failed"], "weighted_rms": float(np.sqrt(np.mean(sol.fun ** 2)))}
+                  "failed_evaluations": state["failed"], "weighted_rms": float(np.sqrt(np.mean(r**2))),
+                  "condition_number": fit.statistics["condition_number"], "success": found.success}
+    for c in names:
+        statistics[f"residual_over_noise_{c}"] = checks[c]["residual_over_noise"]
     return DampingFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": pd.DataFrame(table)},
                       details={"window_deg": list(window_deg), "confidence": confidence,
                                "weights": {c: w for c, w in weights.items()}},
                       provenance=(f"fit_damping({where}, {cycle.rpm:.6g} rpm)",))
+
+
+class TappetFitSet(FitResult):
+    """``impactid valvetrain fit-tappet`` with several recordings, one fit per recording (not ``--joint``).
+
+    Parameters: each fit's, named ``fit<k>.<name>`` (``fit0.alpha``, ``fit0.beta``, ``fit1.alpha``, ...;
+    ``k`` numbers the fits in the order of the recordings, failures left out). Statistics: ``fits`` and
+    ``failed`` (numbers). Tables: ``fits`` (one row per fit: ``fit``, ``recordings``, ``rpm`` and its
+    statistics). Details: ``fits`` (each fit's whole document: :attr:`fits` rebuilds the
+    :class:`~impactid.rigs.finger_follower.identify.TappetFit` objects) and ``failed`` (``recording``,
+    ``reason`` of each recording that could not be fitted). Notes: each fit's, prefixed with ``fit<k>``.
+    """
+
+    kind = "finger_follower_tappet_set"
+    title = "tappet drag, one fit per recording"
+
+    @classmethod
+    def of(cls, fits, failed) -> TappetFitSet:
+        """The set of ``fits`` (:class:`TappetFit`) and the recordings that ``failed`` (``recording``, ``reason``)."""
+        params, rows, notes, provenance = [], [], [], []
+        for k, fit in enumerate(fits):
+            params += [replace(p, name=f"fit{k}.{p.name}") for p in fit.params.values()]
+            recordings, rpm = _fit_recordings(fit)
+            rows.append({"fit": f"fit{k}", "recordings": ";".join(recordings), "rpm": ";".join(f"{r:g}" for r in rpm),
+                         **{key: value for key, value in fit.statistics.items()
+                            if isinstance(value, (int, float, str, bool)) or value is None}})
+            notes += [f"fit{k} ({', '.join(recordings)}): {note}" for note in fit.notes]
+            provenance += list(fit.provenance)
+        notes += [f"not fitted (the other recordings were): {f['reason']}" for f in failed]
+        return cls(params=params, statistics={"fits": len(fits), "failed": len(failed)}, notes=notes,
+                   tables={"fits": pd.DataFrame(rows)},
+                   details={"fits": [fit.to_dict() for fit in fits], "failed": [dict(f) for f in failed]},
+                   provenance=provenance + ["impactid valvetrain fit-tappet: one fit per recording"])
+
+    @property
+    def fits(self) -> tuple:
+        """The per-recording fits (:class:`~impactid.rigs.finger_follower.identify.TappetFit`)."""
+        return tuple(FitResult.from_dict(d) for d in self.details.get("fits", ()))
+
+
+def _fit_recordings(fit) -> tuple[list[str], list[float]]:
+    """The recordings and speeds [rpm] of a tappet fit."""
+    cycles = fit.details.get("cycles", ())
+    return [str(c["source"]) for c in cycles], [float(c["rpm"]) for c in cycles]

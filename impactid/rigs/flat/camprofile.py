@@ -52,16 +52,22 @@ Fitting a profile to encoder data (:func:`fit_cam_profile`)
    convention, reduced to ``[0, 2 pi)``; no offset parameter is needed because the model is
    periodic. :func:`compare_profiles` finds the offset (and direction) to another convention, e.g.
    the analytic contact angle (A-17) of the rig.
-4. *Least squares* by variable projection with lmfit: for fixed centres and widths the amplitudes
-   are linear, so lmfit (``Minimizer.least_squares``, trust-region reflective with native bounds)
-   varies only ``b_i`` and ``c_i`` while each trial's amplitudes are the (non-negative) linear
-   least-squares solution, with Kaufman's analytic Jacobian. Eliminating the amplitudes removes the
-   long, flat valleys of the full 3N-parameter problem (broad Gaussians trade amplitude for width),
-   which cost thousands of evaluations there. Chi-square, AIC, BIC and the standard errors are then
-   computed for all 3N coefficients from the full analytic Jacobian. Bounds: ``c_min <= c_i <= C_MAX``
+4. *Least squares* by variable projection on the identification engine (:mod:`impactid.engine`):
+   for fixed centres and widths the amplitudes are linear, so the search (the engine's, trust-region
+   reflective with native bounds, from the seeds of step 5, with the LSMR subproblem solver in the
+   parameters' own coordinates: :func:`_search_lsmr`) varies only ``b_i`` and ``c_i`` while
+   each trial's amplitudes are the (non-negative) linear least-squares solution, with Kaufman's
+   analytic Jacobian. Eliminating the amplitudes removes the long, flat valleys of the full
+   3N-parameter problem (broad Gaussians trade amplitude for width), which cost thousands of
+   evaluations there. Chi-square, AIC and BIC are computed for all 3N coefficients, and the
+   engine's uncertainty (standard errors, intervals, bound hits, correlations, the shared covariance
+   rule) from the full analytic Jacobian at the optimum. Bounds: ``c_min <= c_i <= C_MAX``
    (``C_MIN`` = 0.05 rad by default; ``C_MAX`` keeps the wrapping exact) and ``a_i >= 0``
    (``nonnegative``: a positive follower angle as a sum of bumps, without large cancelling terms;
    ``nonnegative=False`` for signed amplitudes). Centres are free (the model is periodic in them).
+   The residual is then checked against the recording's own noise (the edges' timing error times
+   the profile's slope, or the follower channel's noise floor for means): a profile that misses
+   the data by more than their noise is noted as a lack of fit.
 5. *Seeding*: candidates are ``N`` equally spaced centres at several phases with common widths of
    0.5 to 1.4 times the spacing (translation-invariant, so they work for any cam zero offset; seven
    such terms span the harmonics 0..3 of a profile), and in ``terms="auto"`` also the previous
@@ -79,19 +85,16 @@ import json
 import math
 import os
 import time
-import warnings
 from dataclasses import dataclass, field
-from typing import Any
 
-import lmfit
 import numpy as np
 import pandas as pd
 from scipy.optimize import minimize_scalar, nnls
 
-from impactid.covariance import covariance_from_jacobian
+from impactid.engine import Free, Search, residual_against_noise, search, uncertainty
 from impactid.errors import ImpactidError
 from impactid.io import Recording, read_recording
-from impactid.results import FitResult, Parameter
+from impactid.results import FitResult
 from impactid.rigs.flat.encoders import (
     COUNTERS,
     TWO_PI,
@@ -102,12 +105,13 @@ from impactid.rigs.flat.encoders import (
     pulses_per_revolution,
     read_counter,
 )
+from impactid.rigs.flat.figures import plot_cam_fit
 from impactid.signal import noise_floor
 
 __all__ = ["ALZATE2007_CAM", "CAM_EDGE_WINDOW", "CRITERIA", "C_MAX", "C_MIN", "DEFAULT_STARTS",
            "DEFAULT_TERMS", "DEPARTURE_BINS", "DEPARTURE_FLOOR", "FIT_BINS", "FIT_TOLERANCE",
            "MAX_NFEV_PER_PARAMETER", "MAX_TERMS", "NEGLIGIBLE_U", "SPEED_SECTORS", "SPEED_TOLERANCE",
-           "WRAP_IMAGES", "CamProfileData", "CamProfileError", "CamProfileFit", "CamProfileResult",
+           "WRAP_IMAGES", "CamProfileData", "CamProfileError", "CamProfileResult",
            "GaussianSumProfile", "ProfileComparison", "compare_profiles", "fit_cam_profile", "gaussian_sum",
            "load_profile_json", "select_cam_profile_data"]
 
@@ -289,8 +293,10 @@ class GaussianSumProfile:
 
 
 def load_profile_json(path: str | os.PathLike[str]) -> GaussianSumProfile:
-    """Read the profile of an ``impactid cam-fit`` result (``fit.json``): keys ``a``, ``b``, ``c``
-    (lists, radians) and optionally ``periodic`` (default True).
+    """Read the profile of an ``impactid cam-fit`` result (``fit.json``): a
+    :class:`CamProfileResult` in the fit-result schema (``kind`` ``"cam-profile"``, parameters
+    ``a1..aN``, ``b1..bN``, ``c1..cN`` in radians, ``details.periodic``), or a plain object with
+    coefficient lists ``a``, ``b``, ``c`` (radians) and optionally ``periodic`` (default True).
 
     Raises
     ------
@@ -308,14 +314,33 @@ def load_profile_json(path: str | os.PathLike[str]) -> GaussianSumProfile:
     except (OSError, ValueError) as exc:
         raise CamProfileError(f"{path}: not a readable JSON cam-profile file ({exc})") from None
     if not isinstance(data, dict):
-        raise CamProfileError(f"{path}: expected a JSON object with keys a, b, c")
-    missing = [k for k in ("a", "b", "c") if not isinstance(data.get(k), list)]
-    if missing:
-        raise CamProfileError(f"{path}: no coefficient list(s) {', '.join(missing)} (expected the output of "
-                              "impactid cam-fit --out)")
+        raise CamProfileError(f"{path}: expected a JSON object (the output of impactid cam-fit --out)")
+    if "params" in data or "kind" in data:
+        if data.get("kind") != CamProfileResult.kind or not isinstance(data.get("params"), dict):
+            raise CamProfileError(f"{path}: a fit result of kind {data.get('kind')!r}, not a cam profile "
+                                  f"({CamProfileResult.kind!r}, the output of impactid cam-fit --out)")
+        params = data["params"]
+        coefficients = {}
+        for kind in "abc":
+            values, k = [], 1
+            while f"{kind}{k}" in params:
+                entry = params[f"{kind}{k}"]
+                values.append(entry.get("value") if isinstance(entry, dict) else None)
+                k += 1
+            coefficients[kind] = values
+        missing = [f"{k}1" for k in "abc" if not coefficients[k]]
+        if missing:
+            raise CamProfileError(f"{path}: no parameter(s) {', '.join(missing)} in params")
+        details = data.get("details") if isinstance(data.get("details"), dict) else {}
+        a, b, c, periodic = coefficients["a"], coefficients["b"], coefficients["c"], details.get("periodic", True)
+    else:
+        missing = [k for k in ("a", "b", "c") if not isinstance(data.get(k), list)]
+        if missing:
+            raise CamProfileError(f"{path}: no coefficient list(s) {', '.join(missing)} (expected the output of "
+                                  "impactid cam-fit --out)")
+        a, b, c, periodic = data["a"], data["b"], data["c"], data.get("periodic", True)
     try:
-        return GaussianSumProfile(tuple(data["a"]), tuple(data["b"]), tuple(data["c"]),
-                                  bool(data.get("periodic", True)))
+        return GaussianSumProfile(tuple(a), tuple(b), tuple(c), bool(periodic))
     except (TypeError, ValueError) as exc:
         raise CamProfileError(f"{path}: invalid cam-profile coefficients: {exc}") from None
 
@@ -365,6 +390,11 @@ class CamProfileData:
     source : file the recording came from.
     window : ``(t0, t1)`` [s] when the selection was limited to a time window.
     notes : what was done, one line per step.
+    edge_timing_sd : for follower edges, the standard deviation of the cam angle assigned to an edge
+        from its timing alone (uniform over one sample interval: ``omega dt / sqrt(12)``) [rad of cam
+        angle]; None for means.
+    fit_noise : for means, the standard deviation of each mean from the follower channel's own noise
+        (:func:`impactid.signal.noise_floor` over the samples of the mean) [rad]; None for edges.
     """
 
     cam_angle: np.ndarray
@@ -383,6 +413,8 @@ class CamProfileData:
     source: str = ""
     window: tuple[float, float] | None = None
     notes: tuple[str, ...] = ()
+    edge_timing_sd: float | None = None
+    fit_noise: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def nsamples(self) -> int:
@@ -573,19 +605,21 @@ def _no_usable_revolution(where: str, reasons: list[str], span: str) -> CamProfi
 @dataclass(frozen=True)
 class _FitPoints:
     """The points a profile is fitted to: cam angle [rad] (ascending), follower angle [rad], weight,
-    which points (``CamProfileData.fit_points``) and a note on how they were made."""
+    which points (``CamProfileData.fit_points``), a note on how they were made and, for means, the
+    samples in each."""
 
     cam_angle: np.ndarray
     follower_angle: np.ndarray
     weight: np.ndarray
     kind: str
     note: str
+    count: np.ndarray | None = None
 
     def ordered(self) -> _FitPoints:
         """The points by ascending cam angle."""
         order = np.argsort(self.cam_angle, kind="stable")
         return _FitPoints(self.cam_angle[order], self.follower_angle[order], self.weight[order], self.kind,
-                          self.note)
+                          self.note, None if self.count is None else self.count[order])
 
 
 def _follower_edge_points(cam: CounterReading, follower: CounterReading, raw_cam: np.ndarray,
@@ -636,7 +670,7 @@ def _sample_mean_points(cam: CounterReading, raw_cam: np.ndarray, phase: np.ndar
         kind = "cam-angle bin means"
     fy = sums[keep] / counts[keep]
     fw = np.sqrt(counts[keep] / np.mean(counts[keep]))
-    return _FitPoints(fx, fy, fw, kind, f"{idx.size} samples averaged into {fx.size} {kind}")
+    return _FitPoints(fx, fy, fw, kind, f"{idx.size} samples averaged into {fx.size} {kind}", counts[keep])
 
 
 def select_cam_profile_data(recording: Recording, *, window: tuple[float, float] | None = None,
@@ -717,12 +751,20 @@ def select_cam_profile_data(recording: Recording, *, window: tuple[float, float]
         points = _sample_mean_points(cam, raw_cam, phase, follower.angle, idx)
     notes.append(points.note)
     points = points.ordered()
+    edge_timing_sd, fit_noise = None, None
+    if points.count is None:  # edges: timing uniform over one sample interval, at the used cam speed
+        speed = float(np.median(table.loc[table["used"], "speed_hz"]))
+        edge_timing_sd = TWO_PI * speed / rec.sample_rate_hz / math.sqrt(12.0)
+    else:  # means: the follower channel's own noise over the samples of each
+        sigma = noise_floor(follower.angle[idx], subtract_curvature=True)
+        fit_noise = sigma / np.sqrt(points.count)
     return CamProfileData(
         cam_angle=phase[idx], follower_angle=follower.angle[idx], fit_cam_angle=points.cam_angle,
         fit_follower_angle=points.follower_angle, fit_weight=points.weight, fit_points=points.kind,
         revolutions=table, cam_step=cam.step, follower_step=follower.step, counter=counter,
         speed_tolerance=float(speed_tolerance), departure_tolerance=departures.tolerance,
-        detachment_speed_hz=detachment_speed_hz, source=recording.source, window=windowed.window, notes=tuple(notes))
+        detachment_speed_hz=detachment_speed_hz, source=recording.source, window=windowed.window, notes=tuple(notes),
+        edge_timing_sd=edge_timing_sd, fit_noise=fit_noise)
 
 
 # --------------------------------------------------------------------------------------------
@@ -730,182 +772,193 @@ def select_cam_profile_data(recording: Recording, *, window: tuple[float, float]
 # --------------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
 class CamProfileResult(FitResult):
-    """A Gaussian-sum cam profile fit (:func:`fit_cam_profile`) as a shared fit result."""
+    """A Gaussian-sum cam profile fitted to encoder data (:func:`fit_cam_profile`).
+
+    ``params``: ``a1..aN``, ``b1..bN``, ``c1..cN`` [rad] (amplitudes, centres, widths), terms sorted
+    by centre; the centres are in the recording's cam-angle convention (see :class:`CamProfileData`),
+    in ``[0, 2 pi)``. Their standard errors come from the full Jacobian at the optimum (the engine's
+    :func:`impactid.engine.uncertainty`, scaled by the reduced chi-square as lmfit does); they are
+    undetermined (NaN, ``null``) for the centre and width of a zero-amplitude term, and for every
+    coefficient when the condition number of ``J^T J`` exceeds
+    :data:`impactid.covariance.CONDITION_LIMIT` (overlapping terms: only the profile they add up to
+    is determined; the notes say which and why). They treat the residuals as independent: read
+    them as indicative.
+
+    ``statistics``: the engine's (``ndata``, ``nvarys``, ``dof``, ``reduced_chi_square``,
+    ``variance_scale``, ``condition_number``, ``cost``, ``nfev``: evaluations of the chosen order's
+    refinements, ``success``), ``terms``, ``nsamples``, ``chisqr`` [rad^2] (sum of squared weighted
+    residuals), ``aic``, ``bic`` (lmfit's definitions, ``nvarys = 3 terms``), ``rms_residual``,
+    ``max_residual`` [rad] (weighted, over the fitted points), ``rms_sample_residual``,
+    ``max_sample_residual`` [rad] (over all used samples: for quantised data this includes the
+    quantisation error), ``nfev_total`` (all orders), ``starts``, and the model check against the
+    recording's own noise (``noise_sd`` [rad], ``residual_over_noise``).
+
+    ``tables``: ``revolutions`` (the selection, :attr:`CamProfileData.revolutions`) and, with
+    ``terms="auto"``, ``orders`` (``terms``, ``nvarys``, ``chisqr``, ``rms``, ``aic``, ``bic``,
+    ``success``, ``chosen``). ``details``: ``model``, ``source``, ``window``, ``periodic``,
+    ``criterion``, ``fit_points``, ``cam_angle_convention``, ``message`` (the optimiser's),
+    ``quantisation``, ``selection``, ``revolutions_used``, ``revolutions_rejected``, ``units``,
+    ``seconds`` (wall time of the fit) and ``profile`` (the profile sampled on 3600 uniform cam
+    angles over one revolution: ``cam_angle``, ``follower_angle`` [rad]).
+
+    Attributes
+    ----------
+    data : the selected data the profile was fitted to (not part of the JSON form: None after
+        :meth:`~impactid.results.FitResult.from_json`).
+    """
 
     kind = "cam-profile"
     title = "Gaussian-sum cam profile"
 
+    data: CamProfileData | None = field(default=None, repr=False, compare=False)
 
-@dataclass(frozen=True)
-class CamProfileFit:
-    """A Gaussian-sum cam profile fitted to encoder data, with its statistics.
-
-    Attributes
-    ----------
-    profile : the fitted (periodic) profile; centres ``b`` in the recording's cam-angle convention
-        (see :class:`CamProfileData`), in ``[0, 2 pi)``, terms sorted by centre.
-    stderr_a, stderr_b, stderr_c : standard errors of the coefficients [rad] from the covariance of
-        the least-squares fit (scaled by the reduced chi-square, as lmfit does); NaN where it is not
-        available: the centre and width of a zero-amplitude term, and every coefficient when the
-        condition number of ``J^T J`` exceeds :data:`impactid.covariance.CONDITION_LIMIT`
-        (``stderr_note`` says which and why). They treat the residuals as independent: read them as
-        indicative.
-    covariance_condition : condition number of the column-scaled ``J^T J`` [-].
-    stderr_note : empty when every standard error is a number, else the reason some are not.
-    rms_residual, max_residual : weighted RMS and largest absolute residual ``data - profile`` over
-        the fitted points [rad].
-    rms_sample_residual, max_sample_residual : the same over all used samples [rad]; for quantised
-        data this includes the quantisation error (RMS ``step / sqrt(12)``).
-    chisqr, redchi : chi-square of the weighted fit (no measurement sigma: the sum of squared
-        weighted residuals) [rad^2] and its reduced value.
-    aic, bic : Akaike and Bayesian information criteria (lmfit's definitions, ``ndata`` points,
-        ``nvarys = 3 terms``).
-    ndata : number of points fitted; nsamples : number of samples used; nvarys : free coefficients.
-    nfev : function evaluations of the refinements of the chosen order (all starts); ``nfev_total``
-        counts all orders tried.
-    success, message : the optimiser's status for the best start of the chosen order.
-    starts : refinements run for the chosen order (from the best seeds).
-    seconds : wall time of the fit [s] (data selection excluded).
-    criterion : ``"aic"`` or ``"bic"`` when the order was selected automatically, else None.
-    order_table : with ``terms="auto"``: one row per order tried (``terms``, ``nvarys``, ``chisqr``,
-        ``rms`` [rad], ``aic``, ``bic``, ``success``, ``chosen``); else None.
-    data : the selected data the profile was fitted to.
-    """
-
-    profile: GaussianSumProfile
-    stderr_a: tuple[float, ...]
-    stderr_b: tuple[float, ...]
-    stderr_c: tuple[float, ...]
-    rms_residual: float
-    max_residual: float
-    rms_sample_residual: float
-    max_sample_residual: float
-    chisqr: float
-    redchi: float
-    aic: float
-    bic: float
-    ndata: int
-    nsamples: int
-    nvarys: int
-    nfev: int
-    nfev_total: int
-    success: bool
-    message: str
-    starts: int
-    seconds: float
-    data: CamProfileData = field(repr=False)
-    criterion: str | None = None
-    order_table: pd.DataFrame | None = field(default=None, repr=False)
-    covariance_condition: float = math.nan
-    stderr_note: str = ""
-
+    # ---- the profile ---------------------------------------------------------------------------
     @property
     def terms(self) -> int:
         """Number of Gaussian terms."""
-        return self.profile.terms
+        return int(self.statistics["terms"])
+
+    def _coefficients(self, kind: str) -> tuple[float, ...]:
+        return tuple(self.params[f"{kind}{k + 1}"].value for k in range(self.terms))
+
+    def _errors(self, kind: str) -> tuple[float, ...]:
+        return tuple(self.params[f"{kind}{k + 1}"].stderr for k in range(self.terms))
+
+    @property
+    def profile(self) -> GaussianSumProfile:
+        """The fitted (periodic) profile."""
+        return GaussianSumProfile(self._coefficients("a"), self._coefficients("b"), self._coefficients("c"),
+                                  bool(self.details.get("periodic", True)))
+
+    @property
+    def stderr_a(self) -> tuple[float, ...]:
+        """Standard errors of the amplitudes [rad] (NaN: undetermined)."""
+        return self._errors("a")
+
+    @property
+    def stderr_b(self) -> tuple[float, ...]:
+        """Standard errors of the centres [rad] (NaN: undetermined)."""
+        return self._errors("b")
+
+    @property
+    def stderr_c(self) -> tuple[float, ...]:
+        """Standard errors of the widths [rad] (NaN: undetermined)."""
+        return self._errors("c")
+
+    # ---- statistics ------------------------------------------------------------------------------
+    def _stat(self, name: str) -> float:
+        value = self.statistics.get(name)
+        return math.nan if value is None else float(value)
+
+    @property
+    def rms_residual(self) -> float:
+        return self._stat("rms_residual")
+
+    @property
+    def max_residual(self) -> float:
+        return self._stat("max_residual")
+
+    @property
+    def rms_sample_residual(self) -> float:
+        return self._stat("rms_sample_residual")
+
+    @property
+    def max_sample_residual(self) -> float:
+        return self._stat("max_sample_residual")
+
+    @property
+    def chisqr(self) -> float:
+        return self._stat("chisqr")
+
+    @property
+    def redchi(self) -> float:
+        return self._stat("reduced_chi_square")
+
+    @property
+    def aic(self) -> float:
+        return self._stat("aic")
+
+    @property
+    def bic(self) -> float:
+        return self._stat("bic")
+
+    @property
+    def ndata(self) -> int:
+        return int(self.statistics["ndata"])
+
+    @property
+    def nsamples(self) -> int:
+        return int(self.statistics["nsamples"])
+
+    @property
+    def nvarys(self) -> int:
+        return int(self.statistics["nvarys"])
+
+    @property
+    def nfev(self) -> int:
+        return int(self.statistics["nfev"])
+
+    @property
+    def success(self) -> bool:
+        return bool(self.statistics["success"])
+
+    @property
+    def covariance_condition(self) -> float:
+        """Condition number of the column-scaled ``J^T J`` [-]."""
+        return self._stat("condition_number")
+
+    @property
+    def criterion(self) -> str | None:
+        """``"aic"`` or ``"bic"`` when the order was selected automatically, else None."""
+        return self.details.get("criterion")
+
+    @property
+    def order_table(self) -> pd.DataFrame | None:
+        """With ``terms="auto"``: one row per order tried; else None."""
+        return self.tables.get("orders")
+
+    @property
+    def stderr_note(self) -> str:
+        """Why some standard errors are undetermined (empty when every one is a number)."""
+        return "; ".join(n for n in self.notes if "undetermined" in n or "condition number" in n)
 
     def residuals(self) -> np.ndarray:
         """``data - profile`` at the fitted points [rad] (unweighted)."""
+        if self.data is None:
+            raise CamProfileError("the fitted points are not kept in a result read from JSON")
         return self.data.fit_follower_angle - self.profile(self.data.fit_cam_angle)
 
-    def to_result(self) -> CamProfileResult:
-        """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
-        params = []
-        for name, values, errors in (("a", self.profile.a, self.stderr_a), ("b", self.profile.b, self.stderr_b),
-                                     ("c", self.profile.c, self.stderr_c)):
-            for k, (value, stderr) in enumerate(zip(values, errors)):
-                params.append(Parameter(f"{name}{k + 1}", value, stderr,
-                                        (value - 1.96 * stderr, value + 1.96 * stderr), unit="rad"))
-        statistics = {"terms": self.terms, "ndata": self.ndata, "nvarys": self.nvarys, "nfev": self.nfev,
-                      "chisqr": self.chisqr, "redchi": self.redchi, "aic": self.aic, "bic": self.bic,
-                      "rms_residual": self.rms_residual, "max_residual": self.max_residual,
-                      "covariance_condition": self.covariance_condition}
-        tables = {} if self.order_table is None else {"orders": self.order_table}
-        return CamProfileResult(params=params, statistics=statistics, tables=tables,
-                                details={"periodic": self.profile.periodic, "criterion": self.criterion,
-                                         "success": self.success, "message": self.message},
-                                notes=(self.stderr_note,) if self.stderr_note else ())
-
-    def fit_report(self) -> str:
-        """An lmfit-style fit report (of :meth:`to_result`); :meth:`report` is the short summary."""
-        return self.to_result().report()
-
-    def to_dict(self, samples: int = 3600) -> dict[str, Any]:
-        """Plain data for JSON: coefficients, statistics, revolutions and the profile sampled on
-        ``samples`` uniform cam angles over one revolution (``profile.cam_angle``,
-        ``profile.follower_angle``) [rad]; NaN is written as None."""
-
-        def clean(value):
-            if isinstance(value, (float, np.floating)):
-                return float(value) if math.isfinite(value) else None
-            if isinstance(value, (np.integer, np.bool_)):
-                return value.item()
-            return value
-
-        theta, value = self.profile.sample(samples)
-        data = self.data
-        return {
-            "model": "gaussian-sum cam profile (Alzate et al. (2007) eq. 1), periodic",
-            "source": data.source,
-            "window": list(data.window) if data.window else None,
-            "terms": self.terms,
-            "periodic": self.profile.periodic,
-            "a": list(self.profile.a), "b": list(self.profile.b), "c": list(self.profile.c),
-            "a_stderr": [clean(v) for v in self.stderr_a], "b_stderr": [clean(v) for v in self.stderr_b],
-            "c_stderr": [clean(v) for v in self.stderr_c],
-            "covariance_condition": clean(self.covariance_condition), "stderr_note": self.stderr_note,
-            "units": {"a": "rad", "b": "rad", "c": "rad", "residuals": "rad", "chisqr": "rad^2",
-                      "profile": "rad", "revolutions.t_start": "s", "revolutions.speed_hz": "Hz"},
-            "cam_angle_convention": "the recording's cam_angle, mod 2 pi" + (
-                f", read as a {data.counter} counter (angle = reading + {COUNTERS[data.counter]:g} count on average)"
-                if data.cam_step is not None else ""),
-            "fit_points": data.fit_points,
-            "rms_residual": self.rms_residual, "max_residual": self.max_residual,
-            "rms_sample_residual": self.rms_sample_residual, "max_sample_residual": self.max_sample_residual,
-            "chisqr": self.chisqr, "redchi": self.redchi, "aic": self.aic, "bic": self.bic,
-            "ndata": self.ndata, "nsamples": self.nsamples, "nvarys": self.nvarys, "nfev": self.nfev,
-            "nfev_total": self.nfev_total, "success": self.success, "message": self.message, "starts": self.starts,
-            "seconds": self.seconds, "criterion": self.criterion,
-            "order_table": ([{k: clean(v) for k, v in row.items()} for row in self.order_table.to_dict("records")]
-                            if self.order_table is not None else None),
-            "quantisation": {"counter": data.counter, "cam_step": data.cam_step,
-                             "cam_ppr": pulses_per_revolution(data.cam_step), "follower_step": data.follower_step,
-                             "follower_ppr": pulses_per_revolution(data.follower_step)},
-            "selection": {"speed_tolerance": data.speed_tolerance, "departure_tolerance": data.departure_tolerance,
-                          "detachment_speed_hz": data.detachment_speed_hz, "notes": list(data.notes)},
-            "revolutions_used": list(data.used_revolutions),
-            "revolutions_rejected": {str(k): v for k, v in data.rejected_revolutions.items()},
-            "revolutions": [{k: clean(v) for k, v in row.items()} for row in data.revolutions.to_dict("records")],
-            "profile": {"cam_angle": theta.tolist(), "follower_angle": value.tolist()},
-        }
-
-    def report(self) -> str:
-        """A short text report."""
-        data = self.data
+    # ---- text and figures --------------------------------------------------------------------------
+    def summary(self) -> str:
+        """A short text summary (the lmfit-style report is :meth:`report`)."""
+        d = self.details
+        used, total = len(d.get("revolutions_used", ())), len(self.tables.get("revolutions", ()))
         lines = [
-            f"{data.source or 'recording'}: {self.terms}-term Gaussian-sum cam profile"
+            f"{d.get('source') or 'recording'}: {self.terms}-term Gaussian-sum cam profile"
             + (f" (order chosen by {self.criterion.upper()})" if self.criterion else ""),
-            f"  revolutions used {len(data.used_revolutions)} of {len(data.revolutions)}; {self.ndata} "
-            f"{data.fit_points} fitted ({self.nsamples} samples)",
+            f"  revolutions used {used} of {total}; {self.ndata} {d.get('fit_points', 'points')} fitted "
+            f"({self.nsamples} samples)",
             f"  residual RMS {self.rms_residual * 1e3:.4g} mrad, max {self.max_residual * 1e3:.4g} mrad; over the "
             f"samples RMS {self.rms_sample_residual * 1e3:.4g} mrad, max {self.max_sample_residual * 1e3:.4g} mrad",
             f"  chi-square {self.chisqr:.4g} rad^2, AIC {self.aic:.6g}, BIC {self.bic:.6g}",
-            f"  {'converged' if self.success else 'NOT converged'}: {self.message} ({self.nfev} evaluations, "
-            f"{self.starts} start(s), {self.seconds:.2f} s)",
-            "   i        a [rad]        b [rad]        c [rad]",
+            f"  {'converged' if self.success else 'NOT converged'}: {d.get('message', '')} ({self.nfev} evaluations, "
+            f"{self.statistics.get('starts')} start(s), {float(d.get('seconds') or 0.0):.2f} s)",
         ]
-        for i, (a, b, c) in enumerate(zip(self.profile.a, self.profile.b, self.profile.c, strict=True)):
-            lines.append(f"  {i + 1:2d}  {a:13.6g}  {b:13.6g}  {c:13.6g}")
         if self.order_table is not None:
             lines.append("  order selection:")
             lines.extend("    " + line for line in self.order_table.to_string(
                 index=False, float_format=lambda v: f"{v:.6g}").splitlines())
-        if self.stderr_note:
-            lines.append(f"  standard errors: {self.stderr_note}")
-        for k, reason in data.rejected_revolutions.items():
-            lines.append(f"  revolution {k} rejected: {reason}")
         return "\n".join(lines)
+
+    def report(self) -> str:
+        """The summary, then the lmfit-style report (statistics, coefficients, notes)."""
+        return self.summary() + "\n" + super().report()
+
+    def plot(self, **kwargs):
+        """Data and fit, residuals, derivatives (:func:`impactid.rigs.flat.figures.plot_cam_fit`)."""
+        return plot_cam_fit(self)
 
 
 def _solve_amplitudes(E: np.ndarray, y: np.ndarray, w: np.ndarray, nonnegative: bool) -> tuple[np.ndarray, float]:
@@ -956,14 +1009,59 @@ def _greedy_seed(previous: GaussianSumProfile, x: np.ndarray, y: np.ndarray, c_l
     return np.append(previous.b, x[j]), np.append(previous.c, width)
 
 
-def _fit_order(x, y, w, terms, c_lo, c_hi, nonnegative, starts, extra_seeds=()):
-    """Seed and refine one order by variable projection (module doc, steps 4-5).
+class _Projection:
+    """Variable projection of one order (module doc, step 4): for centres and widths ``u = (b1, c1,
+    b2, c2, ...)`` the amplitudes are the (non-negative) linear least-squares solution, the residual
+    is ``P(b, c) y`` with ``P`` the projection off the active columns, and its Jacobian is Kaufman's
+    ``P dA/d(b, c) a``. The last point's basis and amplitudes are kept (the search asks for the
+    residual and the Jacobian at the same point)."""
 
-    lmfit varies the centres and widths; for each trial the amplitudes are the (non-negative)
-    linear least-squares solution, so the residual is ``P(b, c) y`` with ``P`` the projection off
-    the active columns, and its Jacobian is Kaufman's ``P dA/d(b, c) a``. Returns
-    ``(lmfit result, a, b, c, nfev of all starts, starts run)`` of the best refinement.
-    """
+    def __init__(self, x, y, w, terms, nonnegative):
+        self.x, self.y, self.w, self.terms, self.nonnegative = x, y, w, terms, nonnegative
+        self.key = None
+
+    def at(self, u: np.ndarray):
+        key = np.asarray(u, dtype=float).tobytes()
+        if key != self.key:
+            b, c = np.asarray(u[0::2], dtype=float), np.asarray(u[1::2], dtype=float)
+            self.E, self.Eb, self.Ec = _basis(self.x, b, c, jacobian=True)
+            self.a, _ = _solve_amplitudes(self.E, self.y, self.w, self.nonnegative)
+            self.key = key
+        return self
+
+    def residual(self, u):
+        p = self.at(u)
+        return self.w * (p.E @ p.a - self.y)
+
+    def jacobian(self, u):
+        p = self.at(u)
+        w = self.w[:, None]
+        J = np.empty((self.x.size, 2 * self.terms))
+        J[:, 0::2] = p.Eb * p.a * w
+        J[:, 1::2] = p.Ec * p.a * w
+        active = p.a != 0.0
+        if active.any():  # project off the active columns (normal equations: k x k solves only)
+            A = p.E[:, active] * w
+            J -= A @ np.linalg.lstsq(A.T @ A, A.T @ J, rcond=None)[0]
+        return J
+
+
+def _search_lsmr(residual, jacobian, free: list[Free], starts: list[dict], *, max_nfev: int) -> Search:
+    """The engine's search with the LSMR trust-region solver in the parameters' own coordinates.
+
+    On the 7-term problem (condition ~1e31) the stop along the model's flat valleys depends on
+    both: the exact solver in normalised coordinates stops 1.4e-3 lower in chi-square, with the
+    profile moved by 7.8e-7 rad and the coefficients by up to 70 %, beyond this fit's stated
+    tolerances (tests/golden/cam_fit.tolerances.toml), and 14 times slower."""
+    return search(residual, free, jacobian=jacobian, starts=starts, tr_solver="lsmr", normalise=False,
+                  xtol=FIT_TOLERANCE, ftol=FIT_TOLERANCE, gtol=FIT_TOLERANCE, max_nfev=max_nfev)
+
+
+def _fit_order(x, y, w, terms, c_lo, c_hi, nonnegative, starts, extra_seeds=()):
+    """Seed and refine one order (module doc, steps 4-5): the seeds are the rig's, each refinement
+    the engine's search (:func:`_search_lsmr`, trust-region reflective within the width bounds) over
+    the centres and widths of the variable projection (:class:`_Projection`). Returns
+    ``(search, a, b, c, starts run)`` of the best refinement."""
     candidates = []
     for b, c in list(extra_seeds) + _even_seeds(terms, c_lo, c_hi):
         _, cost = _solve_amplitudes(_basis(x, b, c), y, w, nonnegative)
@@ -975,135 +1073,94 @@ def _fit_order(x, y, w, terms, c_lo, c_hi, nonnegative, starts, extra_seeds=()):
             chosen.append(cand)
         if len(chosen) == starts:
             break
-
-    cache: dict = {}
-
-    def projected(params):
-        v = params.valuesdict()
-        key = tuple(v.values())
-        if cache.get("key") != key:
-            b = np.array([v[f"b{i}"] for i in range(terms)])
-            c = np.array([v[f"c{i}"] for i in range(terms)])
-            E, Eb, Ec = _basis(x, b, c, jacobian=True)
-            a, _ = _solve_amplitudes(E, y, w, nonnegative)
-            cache.update(key=key, a=a, E=E, Eb=Eb, Ec=Ec)
-        return cache
-
-    def residual(params, x, y, w):
-        p = projected(params)
-        return w * (p["E"] @ p["a"] - y)
-
-    def jacobian(params, x, y, w):
-        p = projected(params)
-        a = p["a"]
-        J = np.empty((x.size, 2 * terms))
-        J[:, 0::2] = p["Eb"] * a * w[:, None]
-        J[:, 1::2] = p["Ec"] * a * w[:, None]
-        active = a != 0.0
-        if active.any():  # project off the active columns (normal equations: k x k solves only)
-            A = p["E"][:, active] * w[:, None]
-            J -= A @ np.linalg.lstsq(A.T @ A, A.T @ J, rcond=None)[0]
-        return J
-
-    best, nfev = None, 0
+    free, seeds = [], []
     for _, b0, c0 in chosen:
-        params = lmfit.Parameters()
+        seed = {}
         for i in range(terms):
-            params.add(f"b{i}", value=float(b0[i]))
-            params.add(f"c{i}", value=float(min(max(c0[i], c_lo), c_hi)), min=c_lo, max=c_hi)
-        minimizer = lmfit.Minimizer(residual, params, fcn_args=(x, y, w), nan_policy="raise")
-        # trust-region reflective with native bounds; the LSMR subproblem solver avoids an SVD of
-        # the Jacobian per iteration (see _solve_amplitudes on tall LAPACK calls)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)  # lmfit's own covariance of (b, c): unused
-            result = minimizer.least_squares(jac=jacobian, x_scale="jac", tr_solver="lsmr", ftol=FIT_TOLERANCE,
-                                             xtol=FIT_TOLERANCE, gtol=FIT_TOLERANCE,
-                                             max_nfev=MAX_NFEV_PER_PARAMETER * (2 * terms + 1))
-        nfev += int(result.nfev)
-        if best is None or result.chisqr < best.chisqr:
-            best = result
-    v = best.params
-    b = np.array([v[f"b{i}"].value for i in range(terms)])
-    c = np.array([v[f"c{i}"].value for i in range(terms)])
+            seed[f"b{i + 1}"] = float(b0[i])
+            seed[f"c{i + 1}"] = float(min(max(c0[i], c_lo), c_hi))
+        seeds.append(seed)
+    for i in range(terms):
+        free.append(Free(f"b{i + 1}", seeds[0][f"b{i + 1}"], unit="rad"))
+        free.append(Free(f"c{i + 1}", seeds[0][f"c{i + 1}"], c_lo, c_hi, unit="rad"))
+    projection = _Projection(x, y, w, terms, nonnegative)
+    found = _search_lsmr(projection.residual, projection.jacobian, free, seeds,
+                         max_nfev=MAX_NFEV_PER_PARAMETER * (2 * terms + 1))
+    values = found.values()
+    b = np.array([values[f"b{i + 1}"] for i in range(terms)])
+    c = np.array([values[f"c{i + 1}"] for i in range(terms)])
     a, _ = _solve_amplitudes(_basis(x, b, c), y, w, nonnegative)
-    return best, a, b, c, nfev, len(chosen)
+    return found, a, b, c, len(chosen)
 
 
 @dataclass(frozen=True)
-class _FitStatistics:
-    """Statistics of one order's fit (:func:`_statistics`).
-
-    Attributes
-    ----------
-    chisqr : sum of squared weighted residuals [rad^2]; redchi : its reduced value.
-    aic, bic : information criteria (lmfit's definitions, ``nvarys = 3 terms``).
-    ndata, nvarys : points fitted and coefficients.
-    rms, max : weighted RMS and largest absolute residual [rad].
-    stderr : standard errors of ``(a, b, c)`` [rad], each of shape ``(terms,)`` (NaN: not available).
-    condition : condition number of the column-scaled ``J^T J`` [-].
-    stderr_note : why some standard errors are NaN (empty when none is).
-    """
+class _Criteria:
+    """Goodness of one order's fit: chi-square (sum of squared weighted residuals) [rad^2], AIC and
+    BIC (lmfit's definitions, ``nvarys = 3 terms``), weighted RMS and largest absolute residual
+    [rad]."""
 
     chisqr: float
-    redchi: float
     aic: float
     bic: float
-    ndata: int
-    nvarys: int
     rms: float
     max: float
-    stderr: tuple[np.ndarray, np.ndarray, np.ndarray]
-    condition: float
-    stderr_note: str
+    nvarys: int
 
 
-def _statistics(x, y, w, a, b, c) -> _FitStatistics:
-    """chi-square, AIC, BIC (lmfit's definitions with all ``3 N`` coefficients counted) and the
-    standard errors from the full Jacobian, ``sqrt(diag((J^T J)^-1) * redchi)`` as lmfit computes
-    them, through :func:`impactid.covariance.covariance_from_jacobian`: NaN for the centre and width
-    of a zero-amplitude term, and all NaN (with the reason) when the condition number of ``J^T J``
-    exceeds :data:`impactid.covariance.CONDITION_LIMIT` (overlapping terms of a high order)."""
-    terms = len(a)
-    E, Eb, Ec = _basis(x, b, c, jacobian=True)
-    r = w * (E @ a - y)
-    ndata, nvarys = x.size, 3 * terms
+def _criteria(x, y, w, a, b, c) -> _Criteria:
+    r = w * (_basis(x, b, c) @ a - y)
+    ndata, nvarys = x.size, 3 * len(a)
     chisqr = float(r @ r)
-    redchi = chisqr / max(ndata - nvarys, 1)
     neg2_log_likel = ndata * math.log(max(chisqr, 1e-300) / ndata)
-    J = np.empty((ndata, nvarys))
-    J[:, 0::3] = E
-    J[:, 1::3] = Eb * a
-    J[:, 2::3] = Ec * a
-    J *= w[:, None]
-    keep = np.ones(nvarys, dtype=bool)
-    keep[1::3] = keep[2::3] = a != 0.0
-    names = tuple(f"{kind}{k + 1}" for k in range(terms) for kind in "abc")
-    covariance = covariance_from_jacobian(J[:, keep], redchi, names=tuple(np.array(names)[keep]))
-    stderr = np.full(nvarys, np.nan)
-    stderr[keep] = covariance.stderr
-    note = covariance.reason
-    if not keep.all():
-        zero = ", ".join(f"term {k + 1}" for k in range(terms) if a[k] == 0.0)
-        note = "; ".join(filter(None, [note, f"centre and width undetermined for the zero-amplitude {zero}"]))
-    return _FitStatistics(chisqr=chisqr, redchi=redchi, aic=neg2_log_likel + 2.0 * nvarys,
-                          bic=neg2_log_likel + math.log(ndata) * nvarys, ndata=ndata, nvarys=nvarys,
-                          rms=math.sqrt(chisqr / float(np.sum(w * w))), max=float(np.max(np.abs(r / w))),
-                          stderr=(stderr[0::3], stderr[1::3], stderr[2::3]), condition=covariance.condition,
-                          stderr_note=note)
+    return _Criteria(chisqr=chisqr, aic=neg2_log_likel + 2.0 * nvarys, bic=neg2_log_likel + math.log(ndata) * nvarys,
+                     rms=math.sqrt(chisqr / float(np.sum(w * w))), max=float(np.max(np.abs(r / w))), nvarys=nvarys)
 
 
-def _sorted_profile(a, b, c, errors):
+def _coefficients_search(found: Search, x, y, w, a, b, c, c_lo: float, c_hi: float, nonnegative: bool) -> Search:
+    """The chosen order's optimum as a search over all ``3 N`` coefficients (``a1..aN, b1..bN,
+    c1..cN``, terms sorted by centre), with the full analytic Jacobian, for the engine's
+    uncertainty: the variable projection searched the centres and widths only, and the
+    amplitudes' errors (and their correlations with the rest) need the full Jacobian."""
     b = np.mod(np.asarray(b, dtype=float), TWO_PI)
     order = np.argsort(b, kind="stable")
-    profile = GaussianSumProfile(tuple(np.asarray(a)[order]), tuple(b[order]), tuple(np.asarray(c)[order]))
-    return profile, tuple(tuple(float(v) for v in np.asarray(e)[order]) for e in errors)
+    a, b, c = np.asarray(a, dtype=float)[order], b[order], np.asarray(c, dtype=float)[order]
+    E, Eb, Ec = _basis(x, b, c, jacobian=True)
+    r = w * (E @ a - y)
+    J = np.hstack((E, Eb * a, Ec * a)) * w[:, None]
+    n = len(a)
+    free = tuple([Free(f"a{k + 1}", float(a[k]), 0.0 if nonnegative else -math.inf, math.inf, unit="rad")
+                  for k in range(n)]
+                 + [Free(f"b{k + 1}", float(b[k]), unit="rad") for k in range(n)]
+                 + [Free(f"c{k + 1}", float(min(max(c[k], c_lo), c_hi)), c_lo, c_hi, unit="rad") for k in range(n)])
+    return Search(free=free, x=np.concatenate((a, b, c)), residual=r, jacobian=J, cost=0.5 * float(r @ r),
+                  nfev=found.nfev, success=found.success, message=found.message, starts=found.starts)
+
+
+def _noise_check(data: CamProfileData, profile: GaussianSumProfile) -> tuple[dict, tuple[str, ...]]:
+    """The residual at the fitted points against the recording's own noise
+    (:func:`impactid.engine.residual_against_noise`): for follower edges the timing error of an edge
+    (uniform over a sample: cam-angle SD ``omega dt / sqrt(12)``) times the profile's slope there, as
+    an RMS over the edges (an edge where the profile is flat has no timing error to speak of); for
+    means, the follower channel's noise floor over the samples of each mean."""
+    residual = data.fit_follower_angle - profile(data.fit_cam_angle)
+    if data.fit_noise is not None:
+        noise = np.asarray(data.fit_noise, dtype=float)
+    elif data.edge_timing_sd is not None and math.isfinite(data.edge_timing_sd):
+        _, slope = profile(data.fit_cam_angle, derivatives=1)
+        noise = np.array(data.edge_timing_sd * math.sqrt(float(np.mean(slope * slope))))
+    else:
+        noise = np.array(math.nan)
+    if not (np.all(np.isfinite(noise)) and np.all(noise > 0.0)):
+        return {}, ("the recording shows no noise to check the profile against (noise-free data): the model "
+                    "check is not made",)
+    return residual_against_noise(residual, noise, what="follower_angle", unit="rad")
 
 
 def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = "bic", max_terms: int = MAX_TERMS,
                     c_bounds: tuple[float, float] = (C_MIN, C_MAX), nonnegative: bool = True,
                     starts: int = DEFAULT_STARTS, window: tuple[float, float] | None = None,
                     speed_tolerance: float = SPEED_TOLERANCE, departure_tolerance: float | None = None,
-                    detachment_speed_hz: float | None = None, counter: str = "floor") -> CamProfileFit:
+                    detachment_speed_hz: float | None = None, counter: str = "floor") -> CamProfileResult:
     """Fit a periodic Gaussian-sum cam profile (Alzate et al. 2007, eq. 1) to encoder data by least squares.
 
     Parameters
@@ -1121,7 +1178,7 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
 
     Returns
     -------
-    CamProfileFit
+    CamProfileResult
 
     Raises
     ------
@@ -1167,31 +1224,72 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
     results, rows, previous = {}, [], None
     for order in orders:
         extra = [_greedy_seed(previous, x, y, c_lo, c_hi, nonnegative)] if previous is not None else []
-        result, a, b, c, nfev, runs = _fit_order(x, y, w, order, c_lo, c_hi, nonnegative, int(starts), extra)
-        stats = _statistics(x, y, w, a, b, c)
-        results[order] = (result, a, b, c, nfev, runs, stats)
+        found, a, b, c, runs = _fit_order(x, y, w, order, c_lo, c_hi, nonnegative, int(starts), extra)
+        crit = _criteria(x, y, w, a, b, c)
+        results[order] = (found, a, b, c, runs, crit)
         previous = GaussianSumProfile(a, b, c)
-        rows.append({"terms": order, "nvarys": stats.nvarys, "chisqr": stats.chisqr, "rms": stats.rms,
-                     "aic": stats.aic, "bic": stats.bic, "success": bool(result.success)})
+        rows.append({"terms": order, "nvarys": crit.nvarys, "chisqr": crit.chisqr, "rms": crit.rms,
+                     "aic": crit.aic, "bic": crit.bic, "success": bool(found.success)})
     if auto:
         table = pd.DataFrame(rows)
         pick = int(table.loc[table[criterion].idxmin(), "terms"])
         table["chosen"] = table["terms"] == pick
     else:
         table, pick = None, orders[0]
+    found, a, b, c, runs, crit = results[pick]
+    full = _coefficients_search(found, x, y, w, a, b, c, c_lo, c_hi, nonnegative)
+    fit = uncertainty(full)
     seconds = time.perf_counter() - start
-    result, a, b, c, nfev, runs, stats = results[pick]
-    profile, (ea, eb, ec) = _sorted_profile(a, b, c, stats.stderr)
+    values = full.values()
+    profile = GaussianSumProfile(tuple(values[f"a{k + 1}"] for k in range(pick)),
+                                 tuple(values[f"b{k + 1}"] for k in range(pick)),
+                                 tuple(values[f"c{k + 1}"] for k in range(pick)))
     res = data.follower_angle - profile(data.cam_angle)
-    return CamProfileFit(
-        profile=profile, stderr_a=ea, stderr_b=eb, stderr_c=ec, rms_residual=stats.rms,
-        max_residual=stats.max, rms_sample_residual=float(np.sqrt(np.mean(res * res))),
-        max_sample_residual=float(np.max(np.abs(res))), chisqr=stats.chisqr, redchi=stats.redchi,
-        aic=stats.aic, bic=stats.bic, ndata=stats.ndata, nsamples=data.nsamples, nvarys=stats.nvarys,
-        nfev=nfev, nfev_total=int(sum(r[4] for r in results.values())), success=bool(result.success),
-        message=str(result.message), starts=runs, seconds=seconds, data=data,
-        criterion=criterion if auto else None, order_table=table, covariance_condition=stats.condition,
-        stderr_note=stats.stderr_note)
+    check, check_notes = _noise_check(data, profile)
+    statistics = {**fit.statistics, "terms": pick, "nsamples": data.nsamples, "chisqr": crit.chisqr, "aic": crit.aic,
+                  "bic": crit.bic, "rms_residual": crit.rms, "max_residual": crit.max,
+                  "rms_sample_residual": float(np.sqrt(np.mean(res * res))),
+                  "max_sample_residual": float(np.max(np.abs(res))),
+                  "nfev_total": int(sum(r[0].nfev for r in results.values())), "starts": runs,
+                  **{k: v for k, v in check.items() if k != "residual_rms"}}
+    notes = list(fit.notes)
+    zero = [k + 1 for k in range(pick) if profile.a[k] == 0.0]
+    if zero:
+        notes.append(f"centre and width undetermined for the zero-amplitude term(s) {', '.join(map(str, zero))}")
+    notes += list(check_notes)
+    notes += [f"revolution {k} rejected: {reason}" for k, reason in data.rejected_revolutions.items()]
+    theta, value = profile.sample(3600)
+    details = {
+        "model": "gaussian-sum cam profile (Alzate et al. (2007) eq. 1), periodic",
+        "source": data.source,
+        "window": list(data.window) if data.window else None,
+        "periodic": profile.periodic,
+        "criterion": criterion if auto else None,
+        "fit_points": data.fit_points,
+        "cam_angle_convention": "the recording's cam_angle, mod 2 pi" + (
+            f", read as a {data.counter} counter (angle = reading + {COUNTERS[data.counter]:g} count on average)"
+            if data.cam_step is not None else ""),
+        "message": found.message,
+        "seconds": seconds,
+        "quantisation": {"counter": data.counter, "cam_step": data.cam_step,
+                         "cam_ppr": pulses_per_revolution(data.cam_step), "follower_step": data.follower_step,
+                         "follower_ppr": pulses_per_revolution(data.follower_step)},
+        "selection": {"speed_tolerance": data.speed_tolerance, "departure_tolerance": data.departure_tolerance,
+                      "detachment_speed_hz": data.detachment_speed_hz, "notes": list(data.notes)},
+        "revolutions_used": list(data.used_revolutions),
+        "revolutions_rejected": {str(k): v for k, v in data.rejected_revolutions.items()},
+        "units": {"a": "rad", "b": "rad", "c": "rad", "residuals": "rad", "chisqr": "rad^2", "profile": "rad",
+                  "noise_sd": "rad", "revolutions.t_start": "s", "revolutions.speed_hz": "Hz"},
+        "profile": {"cam_angle": theta, "follower_angle": value},
+    }
+    tables = {"revolutions": data.revolutions}
+    if table is not None:
+        tables["orders"] = table
+    provenance = (*data.notes, f"impactid.rigs.flat.camprofile.fit_cam_profile: {pick} terms"
+                  + (f" (chosen by {criterion.upper()} among 1..{orders[-1]})" if auto else "")
+                  + f", {runs} start(s), {found.nfev} evaluations")
+    return CamProfileResult(params=fit.parameters, statistics=statistics, notes=tuple(notes), tables=tables,
+                            details=details, provenance=provenance, data=data)
 
 
 # --------------------------------------------------------------------------------------------

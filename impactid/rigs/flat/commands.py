@@ -10,8 +10,8 @@ output paths are checked before any computation and written as transactions
 from __future__ import annotations
 
 import argparse
-import math
 import sys
+from dataclasses import replace
 
 import numpy as np
 
@@ -140,33 +140,29 @@ def run_restitution(args, model) -> int:
 
         profile = load_profile_json(args.profile)
     rig = resolve_rig(args.rig).rig if args.rig else None
-    points = []
-    notes = []
-    for path in args.recordings:
-        recording = read_recording(path)
-        point = restitution_at_speed(recording, profile, method=args.method, rig=rig, warn=False)
-        points.append(point)
-        notes += [f"{recording.source or 'recording'}: {note}" for note in point.warnings]
-    fit = fit_speed_law(points) if len(points) > 1 else None
-    data = {"method": args.method, "profile": args.profile or "analytic A-17 of the recording's rig",
-            "points": [p.to_dict() for p in points], "warnings": notes}
-    if fit is not None:
-        data["fit"] = fit.to_dict()["law"] | {"residual_rms": fit.residual_rms}
+    points = [restitution_at_speed(read_recording(path), profile, method=args.method, rig=rig, warn=False)
+              for path in args.recordings]
+    result = fit_speed_law(points)
+    result = replace(result, details={**result.details,
+                                      "profile": args.profile or "analytic A-17 of the recording's rig"})
+    data = result.to_dict()
+    data["recordings_read"] = [str(p) for p in args.recordings]
     if args.out:
         with StagedFiles(protect=inputs) as staged:
             staged.write_text(args.out, json_text(data))
     if args.json:
         print_json(data)
-    else:
-        for p in points:
-            print(f"{p.source}: {p.cam_speed_rpm:.2f} rpm, r = {num(p.restitution, '.4f')} +- {num(p.stderr, '.4f')} "
-                  f"({p.n_impacts} first impacts, {args.method})")
-        if fit is not None:
-            law = fit.law.to_dict()
-            print(f"r = {law['a']:.4f} + ({law['b_per_rpm']:.6f} +- {num(fit.stderr_b * 2 * math.pi / 60, '.6f')})"
-                  f" * rpm (residual RMS {fit.residual_rms:.2g})")
-        for note in notes:
-            print(f"impactid: warning: {note}", file=sys.stderr)
+        return 0
+    for p in points:
+        print(f"{p.source}: {p.cam_speed_rpm:.2f} rpm, r = {num(p.restitution, '.4f')} +- {num(p.stderr, '.4f')} "
+              f"({p.n_impacts} first impacts, {args.method})")
+    law = result.details["law"]
+    print(f"r = {law['a']:.4f} + ({law['b_per_rpm']:.6f} +- {num(result.details['stderr_b_per_rpm'], '.6f')})"
+          f" * rpm (residual RMS {result.residual_rms:.2g})")
+    for note in result.notes:
+        print(f"impactid: note: {note}", file=sys.stderr)
+    if args.out:
+        print(f"  result written to {args.out}")
     return 0
 
 
@@ -204,8 +200,8 @@ def run_cam_fit(args, model) -> int:
     rec = read_recording(path, rig=recording_rig(args))
     fit = fit_cam_profile(rec, terms, criterion=args.criterion, max_terms=args.max_terms, window=window,
                           nonnegative=not args.signed, counter=args.counter)
-    data = fit.to_dict(samples=3600)
-    data["recording"] = str(path)
+    data = fit.to_dict()
+    data["recordings_read"] = [str(path)]
     deliver(args, data, inputs, _cam_fit_figures(args, fit))
     if args.json:
         return 0
@@ -287,7 +283,8 @@ COMMANDS = (
                                           "no correction"}),
         Argument(("--signed",), {"action": "store_true", "help": "allow negative amplitudes (default a_i >= 0)"}),
         Argument(("--out",), {"metavar": "FIT.json",
-                              "help": "write coefficients, statistics and the sampled profile as JSON (atomically)"}),
+                              "help": "write the fit result (coefficients, statistics, the sampled profile) as JSON "
+                                        "(atomically)"}),
         Argument(("--plots",), {"metavar": "DIR",
                                 "help": "write figures (data and fit, residuals, derivatives, order selection)"}),
         Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})), run_cam_fit),

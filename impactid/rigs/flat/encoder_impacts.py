@@ -38,21 +38,22 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 from scipy import optimize
 
+from impactid.engine import Free, Uncertainty, residual_against_noise, search, uncertainty
 from impactid.errors import ImpactidError
 from impactid.io import Recording
-from impactid.results import FitResult, Parameter
+from impactid.results import FitResult
 from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
 from impactid.rigs.flat.encoders import CounterReading, read_counter
 
 __all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
            "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
-           "SpeedLawFit", "SpeedLawResult", "align_profile", "first_impacts", "fit_speed_law", "refine_offset",
+           "SpeedLawResult", "align_profile", "first_impacts", "fit_speed_law", "refine_offset",
            "relative_motion", "restitution_at_speed", "simulated_first_bounce"]
 
 #: Joint-fit window on each side of a first impact [s]: long enough for hundreds of samples, short
@@ -488,80 +489,129 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
                               source=recording.source or "", warnings=tuple(notes))
 
 
+@dataclass(frozen=True)
 class SpeedLawResult(FitResult):
-    """The speed-dependent restitution law ``r = a + b omega`` (:func:`fit_speed_law`) as a shared fit result."""
+    """The speed-dependent restitution law ``r = a + b omega`` fitted over cam speeds (:func:`fit_speed_law`).
+
+    ``params``: ``a`` [-] and ``b`` [s/rad] (per rad/s of cam speed; ``b`` is fixed at 0 when every
+    point is at one cam speed). ``tables["points"]``: one row per cam speed (the columns of
+    :meth:`RestitutionAtSpeed.to_dict`, ``notes`` joined). ``details``: ``method`` (of the points),
+    ``law`` (the law with its
+    slope per rad/s and per rpm), ``stderr_b_per_rpm``, ``covariance`` (how the standard errors were
+    made), ``correlation`` (of ``a`` and ``b``). ``statistics``: those of the engine
+    (:func:`impactid.engine.uncertainty`), ``speeds``, ``residual_rms`` [-] and the model check
+    against the points' own standard errors (``noise_sd``, ``residual_over_noise``).
+
+    Attributes
+    ----------
+    points : the per-speed measurements fitted (:class:`RestitutionAtSpeed`, with their per-impact
+        tables); not part of the JSON form (empty after :meth:`~impactid.results.FitResult.from_json`).
+    """
 
     kind = "speed-restitution"
     title = "restitution r = a + b omega"
 
+    points: tuple[RestitutionAtSpeed, ...] = field(default=(), repr=False, compare=False)
 
-@dataclass(frozen=True)
-class SpeedLawFit:
-    """Least-squares fit ``r = a + b omega`` over cam speeds.
+    @property
+    def law(self):
+        """The fitted :class:`~impactid.rigs.flat.simulate.SpeedRestitution` (``b`` per rad/s)."""
+        from impactid.rigs.flat.simulate import SpeedRestitution
 
-    Attributes
-    ----------
-    law : the fitted :class:`~impactid.rigs.flat.simulate.SpeedRestitution` (``b`` per rad/s)
-    stderr_a, stderr_b : standard errors [-, s/rad]
-    points : the per-speed measurements used
-    residual_rms : RMS of ``r_i - (a + b omega_i)`` [-]
+        return SpeedRestitution(a=self.value("a"), b=self.value("b"))
+
+    @property
+    def stderr_a(self) -> float:
+        """Standard error of ``a`` [-] (NaN: undetermined)."""
+        return self.params["a"].stderr
+
+    @property
+    def stderr_b(self) -> float:
+        """Standard error of ``b`` [s/rad] (NaN: undetermined or fixed at one speed)."""
+        return self.params["b"].stderr if not self.params["b"].fixed else math.nan
+
+    @property
+    def residual_rms(self) -> float:
+        """RMS of ``r_i - (a + b omega_i)`` over the speeds [-]."""
+        return float(self.statistics["residual_rms"])
+
+
+def fit_speed_law(points, *, confidence: float = 0.95) -> SpeedLawResult:
+    """Least squares of ``r = a + b omega`` (omega the cam speed [rad/s]) through the identification engine.
+
+    With more speeds than parameters: ordinary least squares, the standard errors from the
+    residual scatter (the reduced chi-square, lmfit's ``scale_covar``): the per-speed standard
+    errors reflect only the scatter between revolutions, not systematic errors (profile,
+    quantisation), and weighting by them would hand the fit to the most repeatable speed. With two
+    speeds the line is exact: it is fitted with the residuals weighted by the points' own standard
+    errors (known scale), which propagates them to ``a`` and ``b``. One cam speed: ``r`` is a
+    constant (``b`` fixed at 0; noted in the result).
+
+    The model is checked against the points' own noise (their standard errors,
+    :func:`impactid.engine.residual_against_noise`): a line that misses the points by more than
+    their repeatability is noted as a lack of fit.
+
+    Raises
+    ------
+    EncoderImpactError : no finite restitution estimate.
     """
-
-    law: object
-    stderr_a: float
-    stderr_b: float
-    points: tuple[RestitutionAtSpeed, ...]
-    residual_rms: float
-
-    def to_result(self) -> SpeedLawResult:
-        """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
-        a, b = self.law.a, self.law.b
-        params = [Parameter("a", a, self.stderr_a, (a - 1.96 * self.stderr_a, a + 1.96 * self.stderr_a)),
-                  Parameter("b", b, self.stderr_b, (b - 1.96 * self.stderr_b, b + 1.96 * self.stderr_b), unit="s/rad")]
-        table = pd.DataFrame([p.to_dict() for p in self.points])
-        return SpeedLawResult(params=params, statistics={"speeds": len(self.points), "residual_rms": self.residual_rms},
-                              tables={"points": table})
-
-    def report(self) -> str:
-        """An lmfit-style fit report (of :meth:`to_result`)."""
-        return self.to_result().report()
-
-    def to_dict(self) -> dict:
-        rpm = 2.0 * math.pi / 60.0
-        return {"law": {**self.law.to_dict(), "stderr_a": self.stderr_a, "stderr_b_per_rad_s": self.stderr_b,
-                        "stderr_b_per_rpm": self.stderr_b * rpm},
-                "residual_rms": self.residual_rms, "points": [p.to_dict() for p in self.points]}
-
-
-def fit_speed_law(points) -> SpeedLawFit:
-    """Least squares of ``r = a + b omega`` (omega the cam speed [rad/s]).
-
-    Ordinary least squares; the standard errors of ``a, b`` come from the residual scatter (from
-    the points' own standard errors with two speeds). One speed only: ``r`` is a constant (warned).
-    """
-    from impactid.rigs.flat.simulate import SpeedRestitution
-
     pts = tuple(p for p in points if math.isfinite(p.restitution))
     if not pts:
         raise EncoderImpactError("no finite restitution estimate to fit")
     omega = np.array([2.0 * math.pi * p.cam_speed_hz for p in pts])
     r = np.array([p.restitution for p in pts])
     se = np.array([p.stderr for p in pts])
-    if len(pts) == 1 or np.ptp(omega) < 1e-9:
-        warnings.warn("one cam speed only: r is fitted as a constant", EncoderImpactWarning, stacklevel=2)
-        a = float(np.mean(r))
-        sa = float(np.mean(se)) if np.all(np.isfinite(se)) else math.nan
-        return SpeedLawFit(SpeedRestitution(a=a), sa, math.nan, pts, float(np.std(r)))
-    # Ordinary least squares, covariance from the residual scatter: the per-speed standard errors
-    # reflect only the scatter between revolutions, not systematic errors (profile, quantisation),
-    # and weighting by them would hand the fit to the most repeatable speed.
-    design = np.column_stack((np.ones_like(omega), omega))
-    coef, *_ = np.linalg.lstsq(design, r, rcond=None)
-    resid = r - design @ coef
-    inverse = np.linalg.inv(design.T @ design)
-    if len(pts) > 2:
-        cov = inverse * float(np.sum(resid**2) / (len(pts) - 2))
-    else:  # two speeds: the line is exact; propagate their own standard errors
-        cov = inverse @ design.T @ np.diag(np.nan_to_num(se, nan=0.0) ** 2) @ design @ inverse
-    return SpeedLawFit(SpeedRestitution(a=float(coef[0]), b=float(coef[1])), float(math.sqrt(cov[0, 0])),
-                       float(math.sqrt(cov[1, 1])), pts, float(np.sqrt(np.mean(resid**2))))
+    notes = [f"{p.source or 'recording'}: {note}" for p in pts for note in p.warnings]
+    one_speed = len(pts) == 1 or float(np.ptp(omega)) < 1e-9
+    if one_speed:
+        notes.append("one cam speed only: r is fitted as a constant (b fixed at 0)")
+    free = (Free("a", float(np.mean(r)), unit=""),
+            Free("b", 0.0, vary=not one_speed, unit="s/rad"))
+    exact = len(pts) == (1 if one_speed else 2)
+    known = exact and bool(np.all(np.isfinite(se)) and np.all(se > 0.0))
+    weight = 1.0 / se if known else np.ones_like(r)
+
+    def residual(u):
+        return (r - (u[0] + u[1] * omega)) * weight
+
+    def jacobian(u):
+        return -np.column_stack((np.ones_like(omega), omega)) * weight[:, None]
+
+    found = search(residual, free, jacobian=jacobian)
+    if exact:
+        fit = uncertainty(found, confidence=confidence, scale=1.0)  # weighted by the points' own errors
+        if not known:
+            fit = _undetermined(fit, "the standard errors of the points are not known: those of the law are not")
+        how = "the points' own standard errors propagated (as many speeds as parameters: the law is exact)"
+    else:
+        fit = uncertainty(found, confidence=confidence)
+        how = "ordinary least squares, scaled by the residual scatter (reduced chi-square)"
+    values = found.values()
+    resid = r - (values["a"] + values["b"] * omega)
+    check_stats, check_notes = ({}, ())
+    if np.all(np.isfinite(se)) and np.all(se > 0.0):
+        check_stats, check_notes = residual_against_noise(resid, se, what="restitution")
+    else:
+        notes.append("the points' standard errors are not all known: the law is not checked against them")
+    statistics = {**fit.statistics, "speeds": len(pts), "residual_rms": float(np.sqrt(np.mean(resid**2))),
+                  **{k: v for k, v in check_stats.items() if k != "residual_rms"}}
+    b = values["b"]
+    rpm = 2.0 * math.pi / 60.0
+    stderr_b = fit.parameters[1].stderr if not one_speed else math.nan
+    details = {"method": ", ".join(sorted({p.method for p in pts})),
+               "law": {"a": values["a"], "b_per_rad_s": b, "b_per_rpm": b * rpm},
+               "stderr_b_per_rpm": stderr_b * rpm, "covariance": how,
+               "correlation": {"names": list(fit.names), "matrix": fit.correlation}}
+    table = pd.DataFrame([{**{k: v for k, v in p.to_dict().items() if k != "warnings"},
+                           "notes": "; ".join(p.warnings)} for p in pts])
+    return SpeedLawResult(params=fit.parameters, statistics=statistics, notes=(*notes, *fit.notes, *check_notes),
+                          tables={"points": table}, details=details, points=pts,
+                          provenance=(f"impactid.rigs.flat.encoder_impacts.fit_speed_law: {len(pts)} cam speed(s), "
+                                      f"{how}",))
+
+
+def _undetermined(fit: Uncertainty, reason: str) -> Uncertainty:
+    """``fit`` with every varying parameter's standard error and interval undetermined (``reason``)."""
+    parameters = tuple(p if p.fixed else replace(p, stderr=math.nan, interval=(math.nan, math.nan),
+                                                 note="undetermined by the data") for p in fit.parameters)
+    return replace(fit, parameters=parameters, notes=(*fit.notes, reason))

@@ -68,12 +68,15 @@ def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFil
 
 
 def plot_cam_fit(fit):
-    """Figure of a :class:`impactid.rigs.flat.camprofile.CamProfileFit`: follower angle against cam angle with the
-    fitted profile (top), residuals at the fitted points (middle), and the profile's analytic first
-    and second derivatives with respect to the cam angle (bottom)."""
+    """Figure of a :class:`impactid.rigs.flat.camprofile.CamProfileResult`: follower angle against cam angle with
+    the fitted profile (top), residuals at the fitted points (middle), and the profile's analytic first
+    and second derivatives with respect to the cam angle (bottom). Needs the fitted data (a result
+    of :func:`~impactid.rigs.flat.camprofile.fit_cam_profile`, not one read from JSON)."""
     from matplotlib.figure import Figure
 
     data = fit.data
+    if data is None:
+        raise ValueError("the cam-profile figure needs the fitted data, which a result read from JSON does not keep")
     theta, value = fit.profile.sample(3600)
     _, first, second = fit.profile(theta, derivatives=2)
     fig = Figure(figsize=(8.0, 9.0), constrained_layout=True)

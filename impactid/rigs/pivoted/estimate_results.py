@@ -12,15 +12,15 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 
 from impactid.results import FitResult, Parameter
 
-__all__ = ["ContactDampingResult", "DampingEstimate", "Estimate", "EstimationWarning", "Landscape", "Progress",
-           "RestitutionEstimate", "RestitutionResult"]
+__all__ = ["ContactDampingResult", "DampingEstimate", "Estimate", "EstimationWarning", "Landscape",
+           "PivotedEstimateResult", "Progress", "RestitutionEstimate", "RestitutionResult"]
 
 
 class EstimationWarning(UserWarning):
@@ -57,6 +57,14 @@ class ContactDampingResult(FitResult):
 
     kind = "contact-damping"
     title = "Hunt-Crossley contact damping"
+
+
+class PivotedEstimateResult(FitResult):
+    """Rig P's whole estimate (:meth:`Estimate.to_result`): the contact damping ``beta, n`` and the
+    restitution laws, with everything they rest on, as one shared fit result."""
+
+    kind = "pivoted-estimate"
+    title = "rig P estimate: Hunt-Crossley beta, n and the restitution law"
 
 
 class RestitutionResult(FitResult):
@@ -218,40 +226,80 @@ class Estimate:
             parts.append("[[Notes]]\n" + "\n".join(f"    - {w}" for w in self.warnings))
         return "\n".join(parts)
 
-    def to_dict(self, per_impact: bool = True) -> dict:
-        """The result as JSON-ready data: the keys of docs/formats.md (SI units) plus uncertainty and detail."""
+    def to_result(self, per_impact: bool = True) -> PivotedEstimateResult:
+        """The whole estimate as one shared :class:`~impactid.results.FitResult` (``pivoted-estimate``).
+
+        Parameters: ``beta`` [N s m^-(n+1)] and ``n`` of the contact damping (``min``/``max``: the search
+        bounds; ``beta``'s are the bounds of ``c`` divided by ``delta_ref^n`` at the estimated ``n``), and
+        the restitution laws' ``gamma`` [s/m] (``xi = 1 - gamma v_a``), ``r_constant``, ``intercept`` and
+        ``slope`` [s/m] (``xi = a - b v_a``; intervals +-1.96 standard errors; NaN, with the reason, when the
+        restitution law was not estimated). Statistics, notes (the warnings), tables (``per_impact``,
+        ``valley``, ``recordings``, ``calibration``), details (units, the uncertainty's detail, the contact
+        damping's method and reference, the restitution's, the pipeline's options) and provenance carry
+        everything else the estimate reports. ``per_impact=False`` leaves the per-impact table out.
+        """
         d, r = self.damping, self.restitution
-        out = {
-            "beta": d.beta, "n": d.n, "gamma": r.gamma if r else None, "xi_mean": r.xi_mean if r else None,
-            "va_mean": r.va_mean if r else None,
-            "impacts_used": int(len(d.per_event[np.isfinite(d.per_event["residual"])])),
-            "residual": d.residual, "objective": d.objective,
-            "units": {"beta": "N s m^-(n+1)", "gamma": "s/m", "va_mean": "m/s", "c_ref": "N s/m",
-                      "delta_ref": "m"},
-            "uncertainty": {
-                "beta_interval": list(d.beta_interval), "n_interval": list(d.n_interval),
-                "beta_bootstrap_95": list(d.beta_bootstrap_interval), "n_bootstrap_95": list(d.n_bootstrap_interval),
-                "objective_indifference": d.indifference, "separable": d.separable, "n_fixed": d.fixed_n,
-                "gamma_stderr": r.gamma_stderr if r else None, "beta_sd_from_cam_phase": d.phase_beta_sd,
-                "n_sd_from_cam_phase": d.phase_n_sd,
-            },
-            "contact_damping": {"method": d.method, "delta_ref": d.delta_ref, "c_ref": d.damping_at_reference,
-                                "simulations": d.n_simulations, "failed_simulations": d.n_failed_simulations,
-                                "seconds": d.seconds,
-                                "valley": d.valley[["n", "beta", "objective"]].to_dict(orient="list")},
-            "restitution": None if r is None else {
-                "gamma": r.gamma, "gamma_stderr": r.gamma_stderr, "r_constant": r.r_constant,
-                "r_constant_stderr": r.r_constant_stderr, "intercept": r.intercept,
-                "intercept_stderr": r.intercept_stderr, "slope": r.slope, "slope_stderr": r.slope_stderr,
-                "va_spread": r.va_spread, "beta_equivalent_n1.5": r.beta_equivalent,
-                "impacts_used": r.impacts_used},
-            "recordings": [dict(source=s, **op) for s, op in zip(self.sources, self.operating_points)],
-            "calibration": [dict(c) for c in self.calibration],
-            "warnings": list(self.warnings),
-            "provenance": list(self.provenance),
-        }
+        options = dict(self.pipeline)
+        c_lo, c_hi = options.get("c_bounds") or (math.nan, math.nan)
+        n_lo, n_hi = options.get("n_bounds") or (-math.inf, math.inf)
+        scale = d.delta_ref ** d.n
+        why = "" if d.separable in (None, True) else "beta and n are not separable from these data"
+        params = [
+            Parameter("beta", d.beta, stderr=d.beta_stderr, interval=d.beta_interval, unit=f"N s m^-({d.n:.4g}+1)",
+                      note=why, min=c_lo / scale if math.isfinite(c_lo) else -math.inf,
+                      max=c_hi / scale if math.isfinite(c_hi) else math.inf),
+            Parameter("n", d.n, stderr=0.0 if d.fixed_n else d.n_stderr, interval=tuple(d.n_interval),
+                      fixed=d.fixed_n, note=why, min=-math.inf if d.fixed_n else n_lo,
+                      max=math.inf if d.fixed_n else n_hi),
+        ]
+        if not math.isfinite(params[0].stderr) and not params[0].note:
+            params[0] = replace(params[0], note=f"no standard error from the {d.method} method: the interval is "
+                                                "the uncertainty")
+        if r is not None:
+            restitution_notes = [w for w in r.warnings] or ["the restitution data do not determine it"]
+
+            def law(name, value, stderr, unit=""):
+                note = "" if math.isfinite(stderr) else f"standard error undetermined: {restitution_notes[0]}"
+                return Parameter(name, value, stderr, (value - 1.96 * stderr, value + 1.96 * stderr), unit=unit,
+                                 note=note)
+
+            params += [law("gamma", r.gamma, r.gamma_stderr, "s/m"),
+                       law("r_constant", r.r_constant, r.r_constant_stderr),
+                       law("intercept", r.intercept, r.intercept_stderr), law("slope", r.slope, r.slope_stderr, "s/m")]
+        else:
+            missing = next((w for w in self.warnings if w.startswith("restitution law not estimated")),
+                           "restitution law not estimated")
+            params += [Parameter(name, math.nan, unit=unit, note=missing)
+                       for name, unit in (("gamma", "s/m"), ("r_constant", ""), ("intercept", ""), ("slope", "s/m"))]
+        statistics = {
+            "impacts_used": int(np.isfinite(d.per_event["residual"]).sum()), "residual": d.residual,
+            "objective": d.objective, "objective_indifference": d.indifference, "separable": d.separable,
+            "xi_mean": r.xi_mean if r else math.nan, "va_mean": r.va_mean if r else math.nan,
+            "va_spread": r.va_spread if r else math.nan, "restitution_impacts_used": r.impacts_used if r else 0,
+            "simulations": d.n_simulations, "failed_simulations": d.n_failed_simulations, "seconds": d.seconds,
+            "n_recordings": len(self.sources)}
+        tables = {}
         if per_impact:
-            merged = d.per_event if r is None else d.per_event.merge(
+            tables["per_impact"] = d.per_event if r is None else d.per_event.merge(
                 r.per_impact[["source", "event", "xi", "separation_speed"]], on=["source", "event"], how="outer")
-            out["per_impact"] = merged.to_dict(orient="records")
-        return out
+        tables["valley"] = d.valley[["n", "beta", "objective"]]
+        tables["recordings"] = pd.DataFrame([dict(source=s, **op) for s, op in zip(self.sources,
+                                                                                   self.operating_points)])
+        tables["calibration"] = pd.DataFrame([dict(c) for c in self.calibration])
+        details = {
+            "units": {"beta": "N s m^-(n+1)", "gamma": "s/m", "slope": "s/m", "va_mean": "m/s", "c_ref": "N s/m",
+                      "delta_ref": "m", "beta_equivalent": "N s m^-2.5"},
+            "uncertainty": {"beta_bootstrap_95": list(d.beta_bootstrap_interval),
+                            "n_bootstrap_95": list(d.n_bootstrap_interval), "beta_sd_from_cam_phase": d.phase_beta_sd,
+                            "n_sd_from_cam_phase": d.phase_n_sd},
+            "contact_damping": {"method": d.method, "delta_ref": d.delta_ref, "c_ref": d.damping_at_reference},
+            "restitution": None if r is None else {"beta_equivalent": r.beta_equivalent},
+            "pipeline": options,
+        }
+        return PivotedEstimateResult(params=params, statistics=statistics, notes=self.warnings, tables=tables,
+                                     details=details, provenance=self.provenance)
+
+    def to_dict(self, per_impact: bool = True) -> dict:
+        """The result as JSON-ready data: :meth:`to_result`'s document (the ``FitResult`` schema of
+        docs/formats.md, SI units)."""
+        return self.to_result(per_impact=per_impact).to_dict()

@@ -20,6 +20,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from impactid.commandline import UsageError, exponent, num
@@ -237,26 +238,27 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
 
 
 def to_dict(result: Estimate) -> dict:
-    """The estimate as JSON-ready data (docs/formats.md)."""
-    return result.to_dict()
+    """The estimate as JSON-ready data: the :class:`~impactid.results.FitResult` document of
+    :meth:`~impactid.rigs.pivoted.estimate_results.Estimate.to_result` (``pivoted-estimate``,
+    docs/formats.md); ``impactid estimate`` adds ``recordings_read``."""
+    return result.to_result().to_dict()
 
 
 def summary(result: Estimate) -> list[str]:
     """The lines ``impactid estimate`` prints for an estimate."""
-    data = result.to_dict(per_impact=False)
     d, r = result.damping, result.restitution
-    unc = data["uncertainty"]
-    lines = [f"impactid estimate: {len(result.sources)} recording(s), {data['impacts_used']} impacts, residual "
+    used = int(np.isfinite(d.per_event["residual"]).sum())
+    lines = [f"impactid estimate: {len(result.sources)} recording(s), {used} impacts, residual "
              f"{d.residual}, "
              f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)",
-             f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(unc['beta_interval'][0])}, "
-             f"{num(unc['beta_interval'][1])}]"]
+             f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(d.beta_interval[0])}, "
+             f"{num(d.beta_interval[1])}]"]
     if d.fixed_n:
         lines.append(f"  n     = {d.n:.4g} (fixed)")
     else:
         tag = "" if d.separable else "   NOT SEPARABLE from beta (see warnings)"
-        lines.append(f"  n     = {num(d.n, '.4g')}   interval [{num(unc['n_interval'][0], '.4g')}, "
-                     f"{num(unc['n_interval'][1], '.4g')}]{tag}")
+        lines.append(f"  n     = {num(d.n, '.4g')}   interval [{num(d.n_interval[0], '.4g')}, "
+                     f"{num(d.n_interval[1], '.4g')}]{tag}")
     lines.append(f"  objective (mean {d.residual}) = {num(d.objective, '.4g')}")
     if r is None:
         lines.append("  restitution law: undetermined (see warnings)")
@@ -265,7 +267,7 @@ def summary(result: Estimate) -> list[str]:
                      f"equivalent beta {num(r.beta_equivalent, '.4g')} N s m^-2.5)")
         lines.append(f"  xi_mean = {num(r.xi_mean)}, va_mean = {num(r.va_mean)} m/s, constant r = "
                      f"{num(r.r_constant)}")
-    lines += [f"  warning: {message}" for message in data.get("warnings", [])]
+    lines += [f"  warning: {message}" for message in result.warnings]
     return lines
 
 

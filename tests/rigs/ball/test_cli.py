@@ -32,21 +32,21 @@ def test_json_and_figures(files, tmp_path, capsys):
                               "--no-chained"], capsys)
     assert code == 0, err
     data = json.loads(out.read_text())
-    for key in ("constant", "linear", "viscoelastic", "selected", "bounces", "notes", "result"):
-        assert key in data
-    # under "result", the analysis in the FitResult schema: it rebuilds the analysis
+    # the analysis in the FitResult schema at the top level, plus the files read and the figures written
     schema = {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details", "provenance"}
-    assert set(data["result"]) == schema and data["result"]["kind"] == "bounce-analysis"
-    back = FitResult.from_dict(data["result"])
-    assert isinstance(back, BounceAnalysis) and back["linear.gamma"].value == data["linear"]["gamma"]
+    assert set(data) == schema | {"recordings_read", "plots"} and data["kind"] == "bounce-analysis"
+    assert data["recordings_read"] == files and len(data["plots"]) == 2
+    back = FitResult.from_dict(data)
+    assert isinstance(back, BounceAnalysis) and back["linear.gamma"].value == data["params"]["linear.gamma"]["value"]
     assert back.law_fits["linear"].statistics["condition_number"] >= 1.0
-    assert {"e", "e_stderr"} <= set(data["constant"]) and {"e0", "gamma", "gamma_stderr"} <= set(data["linear"])
-    record = data["bounces"][0]
-    assert {"file", "index", "interval_s", "impact_speed_m_s", "e", "flag", "reason"} <= set(record)
+    assert {"constant.e", "linear.e0", "linear.gamma"} <= set(data["params"])
+    assert data["details"]["selected"] in ("constant", "linear", "viscoelastic") and data["details"]["drag"] is True
+    columns = data["tables"]["bounces"]["columns"]
+    assert {"file", "index", "interval_s", "impact_speed_m_s", "e", "flag", "reason"} <= set(columns)
     assert sorted(p.name for p in plots.iterdir()) == ["intervals.png", "restitution.png"]
     assert "selected" in stdout
     code, stdout, _ = _run(["bounces", *files, "--json", "--no-drag", "--no-chained"], capsys)
-    assert code == 0 and json.loads(stdout)["drag"] is False
+    assert code == 0 and json.loads(stdout)["details"]["drag"] is False
 
 
 def test_custom_ball(files, capsys):
@@ -54,7 +54,7 @@ def test_custom_ball(files, capsys):
                               "--drag-coefficient", "0.5", "--law", "constant", "--no-chained", "--json"], capsys)
     assert code == 0, err
     data = json.loads(stdout)
-    assert data["ball"]["drag_coefficient"] == 0.5 and data["selected"] == "constant"
+    assert data["details"]["ball"]["drag_coefficient"] == 0.5 and data["details"]["selected"] == "constant"
 
 
 @pytest.mark.parametrize("args,token", [
@@ -100,5 +100,6 @@ def test_wav_end_to_end(tmp_path, capsys):
                               "--no-chained"], capsys)
     assert code == 0, err
     data = json.loads(stdout)
-    assert abs(data["constant"]["e"] - 0.93) < 3 * data["constant"]["e_stderr"] + 1e-3
+    e = data["params"]["constant.e"]
+    assert abs(e["value"] - 0.93) < 3 * e["stderr"] + 1e-3
     assert (tmp_path / "p" / "onsets_drop.png").exists()

@@ -172,7 +172,7 @@ def test_the_fits_zeta1_is_valvesprings_for_the_fitted_damper(capsys, tmp_path):
     path = str(write_hdf5(rec, tmp_path / "clean.h5"))
     assert main(["valvetrain", "fit-surge", *RIG, path, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
-    f0, c, zeta1 = d["values"]["f0"], d["values"]["c_spring"], d["values"]["zeta1"]
+    f0, c, zeta1 = (d["params"][name]["value"] for name in ("f0", "c_spring", "zeta1"))
     assert zeta1 == pytest.approx(damper_damping_ratio(KUSHWAHA2000.k0, f0, c), rel=1e-12)
     assert zeta1 == pytest.approx(KUSHWAHA2000.surge_damping_ratios[0], rel=1e-3)  # the truth, recovered
     # its interval scales with c_spring's (zeta1 is proportional to c)

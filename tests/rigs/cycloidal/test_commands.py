@@ -72,8 +72,9 @@ def test_synth_then_fit_surge(tmp_path, capsys):
     assert d["kind"] == "valvetrain-surge-fit" and (tmp_path / "p" / "surge_fit.png").exists()
     for name, true in (("f0", 504.5), ("c_spring", 2.355), ("f_p", 275.0), ("m3", 0.225)):
         lo, hi = d["params"][name]["interval"]
-        assert abs(d["values"][name] - true) < 0.05 * true and hi > lo
-    assert json.loads(out.read_text())["values"] == d["values"]
+        assert abs(d["params"][name]["value"] - true) < 0.05 * true and hi > lo
+    written = json.loads(out.read_text())
+    assert written["params"] == d["params"] and written["recordings_read"] == [str(rec)]
 
 
 @pytest.mark.parametrize("argv, message", [

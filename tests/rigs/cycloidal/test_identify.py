@@ -55,6 +55,10 @@ def test_contact_load_with_noise_inside_the_intervals(rig, truth_rig):
         assert p.stderr < 0.05 * abs(p.value), k
     assert fit.statistics["residual_sd"] == pytest.approx(3.0, rel=0.1)
     assert len(fit.to_pandas()) == 2
+    # the model check: the residual against the noise measured from its first differences
+    assert fit.statistics["residual_over_noise"] == pytest.approx(1.0, abs=0.1)
+    assert not any("lack of fit" in n or "significantly" in n for n in fit.notes)
+    assert fit["f0"].min == 20.0 and fit["c_spring"].min == 0.0 and fit["m3"].vary
 
 
 @pytest.mark.slow
@@ -65,6 +69,8 @@ def test_free_k0(rig, truth_rig):
     free = fit_surge(rec, free_k0=True)
     assert free.value("k0") == pytest.approx(38_000.0, rel=1e-4)
     assert free.statistics["residual_rms"] < 1e-3 * fixed.statistics["residual_rms"]
+    # the wrong spring rate is a model that does not describe the data, and the check says so
+    assert any("lack of fit" in n for n in fixed.notes) and not any("lack of fit" in n for n in free.notes)
 
 
 @pytest.mark.slow

@@ -69,6 +69,20 @@ def test_fixed_index_and_measured_speeds(reference_drops, rig, law):
     assert any("lack of fit" in note for note in held.notes)
 
 
+def test_parameters_carry_the_bounds_of_the_search(reference_drops):
+    """The engine reports every parameter as lmfit does: value, bounds, and whether it varied."""
+    recs = [rec for rec, _ in reference_drops]
+    fit = fit_drop(recs, max_impacts=2)
+    k_start = fit.details["k_start"]
+    assert fit["k"].vary and fit["k"].min == pytest.approx(k_start / 100)
+    assert fit["k"].max == pytest.approx(100 * k_start)
+    assert fit["n"].vary and (fit["n"].min, fit["n"].max) == (0.5, 3.0) and fit["beta"].min < fit.value("beta")
+    assert len(fit.to_pandas("starts")) == 3 and fit.statistics["n_start"] in (1.0, 1.5, 2.0)
+    fixed = fit_drop(recs, fix_n=1.5, max_impacts=2)
+    assert not fixed["n"].vary and fixed["n"].stderr == 0.0
+    assert fixed.statistics["nvarys"] == fit.statistics["nvarys"] - 1
+
+
 @pytest.mark.parametrize("channel", ["impactor_acceleration", "contact_force"])
 def test_one_channel_is_enough(reference_drops, rig, law, channel):
     fit = fit_drop([rec for rec, _ in reference_drops], channels=[channel])

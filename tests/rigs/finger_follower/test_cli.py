@@ -70,7 +70,8 @@ def test_synth_then_fit_tappet_and_fit_lift(tmp_path, capsys):
     out, plots = tmp_path / "fit.json", tmp_path / "plots"
     assert main(["valvetrain", "fit-tappet", str(rec), "--json", "--out", str(out), "--plots", str(plots)]) == 0
     data = _json(capsys)
-    params = data["fits"][0]["params"]
+    assert data["kind"] == "finger_follower_tappet" and data["recordings_read"] == [str(rec)]
+    params = data["params"]
     assert params["alpha"]["value"] == pytest.approx(0.0071, rel=0.01)
     assert params["beta"]["value"] == pytest.approx(0.28, rel=0.01)
     assert params["c_t"]["interval"][0] < params["c_t"]["value"] < params["c_t"]["interval"][1]

@@ -131,11 +131,15 @@ def test_one_recording_without_information_does_not_take_the_others_with_it(caps
     assert main(["valvetrain", "fit-tappet", *FF, good, dead, "--json", "--out", str(out)]) == 1
     captured = capsys.readouterr()
     data = json.loads(captured.out)
-    assert [f["recordings"] for f in data["fits"]] == [[good]]
-    assert data["fits"][0]["params"]["alpha"]["value"] == pytest.approx(0.0071, rel=0.05)
-    assert data["failed"][0]["recording"] == dead and "zero in every sample" in data["failed"][0]["reason"]
+    # one fit per recording: a TappetFitSet, the failures in its details
+    assert data["kind"] == "finger_follower_tappet_set" and data["recordings_read"] == [good, dead]
+    assert data["statistics"] == {"fits": 1, "failed": 1}
+    assert data["tables"]["fits"]["data"][0][data["tables"]["fits"]["columns"].index("recordings")] == good
+    assert data["params"]["fit0.alpha"]["value"] == pytest.approx(0.0071, rel=0.05)
+    failed = data["details"]["failed"]
+    assert failed[0]["recording"] == dead and "zero in every sample" in failed[0]["reason"]
     assert "impactid: warning: not fitted" in captured.err and "impactid: error" not in captured.err
-    assert json.loads(out.read_text())["failed"] == data["failed"]
+    assert json.loads(out.read_text())["details"]["failed"] == failed
     # jointly, the dead channel spoils the one fit: refused as a whole
     _fails(capsys, ["valvetrain", "fit-tappet", *FF, good, dead, "--joint"], "dead.h5", "zero in every sample")
 
