@@ -255,7 +255,7 @@ def _add_rig_commands(sub) -> None:
 
     specs: dict[tuple[str, str], list] = {}
     for model in MODELS.values():
-        for spec in model.commands:
+        for spec in model.command_specs():
             specs.setdefault((spec.group, spec.name), []).append((model, spec))
     groups: dict[str, argparse._SubParsersAction] = {}
     for (group, name), entries in specs.items():

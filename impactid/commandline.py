@@ -205,7 +205,7 @@ def refuse_foreign_options(args, model, command_key: str = "valvetrain_command",
     Any option given that ``model``'s own command does not declare is a usage error naming it.
     """
     name = getattr(args, command_key, None)
-    spec = next((c for c in model.commands if c.name == name), None)
+    spec = next((c for c in model.command_specs() if c.name == name), None)
     if spec is None:
         return
     own = {"command", command_key, "func", "rig", "resolved_rig", "option_defaults"}

@@ -162,7 +162,7 @@ def test_estimate_is_the_applications_and_refuses_another_rigs_options(s2_file, 
     picks the estimate, and an option of another rig's estimate is refused before any fit."""
     from impactid.rigs.registry import MODELS
 
-    assert all(c.name != "estimate" for model in MODELS.values() for c in model.commands)
+    assert all(c.name != "estimate" for model in MODELS.values() for c in model.command_specs())
     out = tmp_path / "r.json"
     assert main(["estimate", str(s2_file), "--speeds", "measured", "--out", str(out)]) == 2
     err = capsys.readouterr().err

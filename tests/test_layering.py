@@ -204,4 +204,4 @@ def test_no_rig_contributes_the_estimate_command():
 
     for name in list(MODELS):
         model = rig_model(name)
-        assert all(c.name != "estimate" for c in model.commands), f"{name} contributes 'estimate'"
+        assert all(c.name != "estimate" for c in model.command_specs()), f"{name} contributes 'estimate'"

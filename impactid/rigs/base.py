@@ -21,6 +21,7 @@ options (an unknown one is an :class:`OptionError` naming it and the rig).
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -158,7 +159,8 @@ class RigModel:
         per-event (per-impact, per-revolution, per-bounce) kinematics, or None.
     example : ``example(refresh=False)`` -> the paths of the rig's built-in example recordings
         (generated on first use and cached), or None.
-    commands : what the rig adds to the command line.
+    commands : what the rig adds to the command line: the :class:`CommandSpec` records, or the import
+        path of the module that holds them as ``COMMANDS`` (read by :meth:`command_specs`).
     estimation : import path of the rig's estimation module, whose ``ESTIMATOR`` (an
         :class:`Estimator`) identifies the contact law from the rig's recordings (``impactid
         estimate``, :class:`impactid.pipeline.Pipeline`); a string, as :attr:`kernel`, so that reading
@@ -181,8 +183,15 @@ class RigModel:
     simulate: Callable | None = None
     measure: Callable | None = None
     example: Callable | None = None
-    commands: Sequence[CommandSpec] = ()
+    commands: Sequence[CommandSpec] | str = ()
     estimation: str | None = None
+
+    def command_specs(self) -> tuple[CommandSpec, ...]:
+        """The rig's commands: :attr:`commands`, imported from its module on first use when it is an
+        import path (the module's ``COMMANDS``), so that loading a rig does not load its command line."""
+        if isinstance(self.commands, str):
+            return tuple(importlib.import_module(self.commands).COMMANDS)
+        return tuple(self.commands)
 
     @property
     def default(self):

@@ -58,15 +58,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import least_squares, nnls
-from scipy.sparse import lil_matrix
+from scipy.optimize import nnls
 from scipy.stats import t as student
 
-from impactid.covariance import Covariance, covariance_from_jacobian
+from impactid import engine
+from impactid.covariance import Covariance
+from impactid.engine import Free, Search, Uncertainty, residual_against_noise, search, uncertainty
 from impactid.results import FitResult, Parameter
 from impactid.rigs.ball.flight import FlightConstants, flight_time, landing_speed, launch_speed
 
@@ -254,8 +255,9 @@ RUNS_Z_LIMIT = 3.0
 #: Fewest coefficients for the runs test (below, its normal approximation does not hold).
 RUNS_MIN_DATA = 10
 #: The chained fit's residual scale above this many times the timing noise of the events is
-#: reported as a lack of fit (the rule of the other rigs' fits, e.g. the drop rig's).
-LACK_OF_FIT_FACTOR = 1.5
+#: reported as a lack of fit: the engine's rule (:data:`impactid.engine.LACK_OF_FIT_FACTOR`), the
+#: other rigs' fits'.
+LACK_OF_FIT_FACTOR = engine.LACK_OF_FIT_FACTOR
 
 
 @dataclass(frozen=True)
@@ -282,21 +284,30 @@ class LawData:
 
 @dataclass(frozen=True)
 class LeastSquares:
-    """The weighted least-squares solution of a linear law.
+    """The weighted least-squares solution of a linear law, on the identification engine.
 
     Attributes
     ----------
     beta : (p,) the law's parameters [their units].
     design : (n, p) the weighted design matrix ``sqrt(w) X`` [-, per parameter unit].
     residuals : (n,) weighted residuals ``sqrt(w) (e - e_fit)`` [-].
-    bread : the covariance ``(X^T W X)^-1`` and its condition
-        (:func:`impactid.covariance.covariance_from_jacobian` of the weighted design).
+    found : the closed-form solution as the engine's :class:`~impactid.engine.Search` (at ``beta``,
+        with the residuals and their Jacobian ``-sqrt(w) X``).
+    engine : :func:`impactid.engine.uncertainty` of ``found`` at unit variance scale: its covariance
+        is the bread ``(X^T W X)^-1`` with its condition (the shared covariance rule), its
+        parameters carry the units, bounds and bound hits, its notes the undetermined directions.
     """
 
     beta: np.ndarray
     design: np.ndarray
     residuals: np.ndarray
-    bread: Covariance
+    found: Search
+    engine: Uncertainty
+
+    @property
+    def bread(self) -> Covariance:
+        """``(X^T W X)^-1`` and its condition (the engine's covariance at unit scale)."""
+        return self.engine.covariance
 
     @property
     def rss(self) -> float:
@@ -363,16 +374,27 @@ def _law_data(spec: Law, v, e, weights, groups) -> LawData:
     return LawData(v, e, w, groups)
 
 
-def _weighted_least_squares(spec: Law, data: LawData) -> LeastSquares:
-    """The law fitted by weighted least squares; its bread ``(X^T W X)^-1`` from the shared
-    covariance rule (undetermined, NaN, when the design's condition is beyond
-    :data:`~impactid.covariance.CONDITION_LIMIT`)."""
+def _weighted_least_squares(spec: Law, data: LawData, confidence: float) -> LeastSquares:
+    """The law fitted by weighted least squares, stated through the identification engine.
+
+    Every law is linear in its parameters, so the least-squares solution is exact in closed form
+    (no search to converge, no start to choose): it is solved here and handed to the engine as a
+    :class:`~impactid.engine.Search` at the solution (as rig F's cam profile hands its variable
+    projection), and :func:`impactid.engine.uncertainty` states the bread ``(X^T W X)^-1`` by the
+    shared covariance rule (undetermined, NaN, when the design's condition is beyond
+    :data:`~impactid.covariance.CONDITION_LIMIT`), the parameters with their units and bound hits,
+    and the notes."""
     sw = np.sqrt(data.weights)
     Xw = spec.design(data.v) * sw[:, None]
     yw = (data.e - spec.offset) * sw
     beta, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
-    bread = covariance_from_jacobian(Xw, 1.0, names=spec.names)
-    return LeastSquares(beta, Xw, yw - Xw @ beta, bread)
+    beta = np.asarray(beta, dtype=float)
+    residuals = yw - Xw @ beta
+    found = Search(free=tuple(Free(name, float(b), unit=unit) for name, unit, b in zip(spec.names, spec.units, beta)),
+                   x=beta, residual=residuals, jacobian=-Xw, cost=0.5 * float(residuals @ residuals), nfev=1,
+                   success=True, message="closed-form weighted least squares (the law is linear in its parameters)")
+    # unit scale: the bread; the ball's own layer (fit_law) scales it by the noise model or the residuals
+    return LeastSquares(beta, Xw, residuals, found, uncertainty(found, confidence=confidence, scale=1.0))
 
 
 def _model_covariance(spec: Law, data: LawData, fit: LeastSquares, noise_cov) -> np.ndarray:
@@ -437,19 +459,27 @@ def _never_below_model(robust: Sandwich, cov_model: np.ndarray, names: Sequence[
     return Sandwich(D @ robust.matrix @ D, robust.dof, method, robust.notes)
 
 
-def _law_parameters(spec: Law, beta, cov: np.ndarray, dof: float, confidence: float,
-                    reason: str = "") -> list[Parameter]:
-    """The law's parameters with Student-t intervals (``dof``) from the covariance ``cov``; a
-    standard error that is not a number is undetermined (its note says why: ``reason``)."""
+def _law_parameters(stated: Uncertainty, cov: np.ndarray, dof: float, confidence: float) -> list[Parameter]:
+    """The engine's parameters (``stated``: value, unit, bounds, bound hits) with the standard
+    errors of the ball's covariance ``cov`` (of the law's parameters, the first rows of ``stated``'s
+    varying ones) and Student-t intervals with ``dof`` degrees of freedom; a standard error that is
+    not a number is undetermined (its note says why)."""
     q = float(student.ppf(0.5 + confidence / 2.0, dof))
+    reason = next(iter(stated.notes), "") if not stated.covariance.determined else ""
     params = []
-    for i, (name, unit) in enumerate(zip(spec.names, spec.units)):
+    for par in stated.parameters:
+        if par.fixed:
+            params.append(par)
+            continue
+        i = stated.names.index(par.name)
         var = float(cov[i, i])
         se = math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
-        value = float(beta[i])
-        interval = (value - q * se, value + q * se) if math.isfinite(se) else (math.nan, math.nan)
-        note = "" if math.isfinite(se) else f"undetermined: {reason or 'the covariance is not finite'}"
-        params.append(Parameter(name, value, se, interval, confidence, unit=unit, note=note))
+        if math.isfinite(se):
+            interval, note = (par.value - q * se, par.value + q * se), par.note
+        else:
+            interval = (math.nan, math.nan)
+            note = f"undetermined: {reason or 'the covariance is not finite'}"
+        params.append(replace(par, stderr=se, interval=interval, confidence=confidence, note=note))
     return params
 
 
@@ -555,23 +585,24 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | Timin
     """
     spec = get_law(law)
     data = _law_data(spec, v, e, weights, groups)
-    fit = _weighted_least_squares(spec, data)
+    fit = _weighted_least_squares(spec, data, confidence)
     cov_model = _model_covariance(spec, data, fit, noise_cov)
     sandwich = _never_below_model(_robust_covariance(fit, data.groups, hac_lag), cov_model, spec.names)
     check = runs_check(data.v, fit.residuals)
-    notes = [note for note in (fit.bread.reason, _lack_of_fit_note(spec, check, data.v)) if note]
+    notes = [*fit.engine.notes, *filter(None, (_lack_of_fit_note(spec, check, data.v),))]
     notes += sandwich.notes
     n_drops = int(np.unique(data.groups).size)
     details = {"law": spec.name, "formula": spec.formula, "covariance": sandwich.matrix.tolist(),
                "correlation": _correlation(sandwich.matrix).tolist(), "covariance_model": cov_model.tolist(),
                "covariance_method": sandwich.method, "dof": sandwich.dof,
                "speed_range": [float(data.v.min()), float(data.v.max())]}
-    return LawFit(params=_law_parameters(spec, fit.beta, sandwich.matrix, sandwich.dof, confidence, fit.bread.reason),
+    return LawFit(params=_law_parameters(fit.engine, sandwich.matrix, sandwich.dof, confidence),
                   statistics=_law_statistics(spec, data, fit, sandwich, check, n_drops), notes=tuple(notes),
                   details=details,
                   provenance=(f"fit {spec.name} law ({spec.formula}) to {data.n} coefficients from {n_drops} drop(s)"
                               + (f" [{label}]" if label else "")
-                              + f": weighted least squares; errors {sandwich.method}",))
+                              + f": weighted least squares in closed form, stated through impactid.engine; errors "
+                                f"{sandwich.method}",))
 
 
 def select_law(fits: Mapping[str, LawFit], criterion: str = "bic", margin: float = 2.0) -> tuple[str, str]:
@@ -702,44 +733,60 @@ def _chain_start(spec: Law, drops: Sequence[Mapping], constants: FlightConstants
     return np.array(x0)
 
 
-def _chain_sparsity(sizes: Sequence[int], p: int):
-    """The Jacobian's pattern: every event depends on the law and on its own drop's two starts."""
-    sparsity = lil_matrix((int(sum(sizes)), p + 2 * len(sizes)), dtype=int)
-    pos = 0
-    for j, size in enumerate(sizes):
-        sparsity[pos:pos + size, :p] = 1
-        sparsity[pos:pos + size, p + 2 * j:p + 2 * j + 2] = 1
-        pos += size
-    return sparsity
+#: Relative step of the chained fit's central differences: the cube root of the machine epsilon
+#: (the truncation and rounding errors of a central difference balance there), as SciPy's "3-point".
+DIFFERENCE_STEP = float(np.finfo(float).eps) ** (1.0 / 3.0)
 
 
-def _normal_root(jacobian) -> np.ndarray:
-    """A (P, P) matrix ``R`` with ``R^T R = J^T J`` for a sparse (N, P) Jacobian ``J``, so that the
-    shared covariance rule (:func:`~impactid.covariance.covariance_from_jacobian`, which needs the
-    Jacobian only through ``J^T J``: column norms and singular values) applies without forming the
-    dense N x P matrix. From the eigen-decomposition of the column-scaled ``J^T J``; a negative
-    rounding of an eigenvalue is a zero one (an undetermined direction)."""
-    JTJ = jacobian.T @ jacobian
-    JTJ = JTJ.toarray() if hasattr(JTJ, "toarray") else np.asarray(JTJ, dtype=float)
-    if not np.all(np.isfinite(JTJ)):
-        return np.full(JTJ.shape, np.nan)
-    norms = np.sqrt(np.clip(np.diag(JTJ), 0.0, None))
-    safe = np.where(norms > 0.0, norms, 1.0)
-    lam, V = np.linalg.eigh(JTJ / np.outer(safe, safe))
-    return (np.sqrt(np.clip(lam, 0.0, None))[:, None] * V.T) * np.where(norms > 0.0, norms, 0.0)[None, :]
+def _chain_free(spec: Law, data: ChainData, x0: np.ndarray) -> tuple[Free, ...]:
+    """The chained fit's parameters for the engine: the law's (reported), then per row its first
+    impact time [s] and launch speed [m/s] (nuisance parameters, reported in ``details["drops"]``)."""
+    p = spec.n_params
+    law = [Free(name, float(x0[i]), unit=unit) for i, (name, unit) in enumerate(zip(spec.names, spec.units))]
+    starts = [Free(f"{q}[{name}]", float(x0[p + 2 * j + k]), unit=unit, report=False)
+              for j, name in enumerate(data.names) for k, (q, unit) in enumerate((("t0", "s"), ("u0", "m/s")))]
+    return tuple(law + starts)
 
 
-def _chained_covariance(J, r: np.ndarray, data: ChainData, spec: Law) -> tuple[Sandwich, Covariance]:
+def _chain_jacobian(residuals: Callable[[np.ndarray], np.ndarray], p: int, data: ChainData):
+    """The Jacobian of the chained residuals by central differences, grouped by its pattern: every
+    event depends on the law's ``p`` parameters and on its own drop's two starts only, so all the
+    drops' ``t0`` (and then all their ``u0``) are stepped at once, ``2 p + 4`` residual evaluations
+    a Jacobian whatever the number of drops (SciPy's ``jac_sparsity`` grouping, which the engine's
+    dense differences do not do)."""
+    D = len(data.sizes)
+    drop_of_row = np.repeat(np.arange(D), data.sizes)
+    rows = np.arange(drop_of_row.size)
+
+    def jacobian(u: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        J = np.zeros((rows.size, u.size))
+        for cols in [[i] for i in range(p)] + [p + 2 * np.arange(D), p + 1 + 2 * np.arange(D)]:
+            cols = np.asarray(cols)
+            h = DIFFERENCE_STEP * np.maximum(1.0, np.abs(u[cols]))
+            up, down = u.copy(), u.copy()
+            up[cols] += h
+            down[cols] -= h
+            step = (up - down)[cols]  # the steps as represented
+            diff = residuals(up) - residuals(down)
+            if cols.size == 1:
+                J[:, cols[0]] = diff / step[0]
+            else:
+                J[rows, cols[drop_of_row]] = diff / step[drop_of_row]
+        return J
+
+    return jacobian
+
+
+def _chained_covariance(J: np.ndarray, r: np.ndarray, data: ChainData, spec: Law, bread: Covariance) -> Sandwich:
     """The covariance of the law's parameters in the chained fit: cluster-robust by drop (CR1)
     never below the model-based one with at least :data:`MIN_CLUSTERS` drops, else model-based
-    (independent event-time errors, scale from the residuals). Returns it and the full bread
-    (with its condition)."""
+    (independent event-time errors, scale from the residuals). ``bread``: the engine's
+    ``(J^T J)^-1`` of every parameter (the drops' starts included) at unit scale."""
     N, P = J.shape
     p = spec.n_params
     rss = float(r @ r)
     sigma2 = rss / max(N - P, 1)
-    names = tuple(spec.names) + tuple(f"{q}[{name}]" for name in data.names for q in ("t0", "u0"))
-    bread = covariance_from_jacobian(_normal_root(J), 1.0, names=names)
     B = bread.matrix
     cov_model = (sigma2 * B)[:p, :p]
     labels = sorted(set(data.clusters))
@@ -749,7 +796,7 @@ def _chained_covariance(J, r: np.ndarray, data: ChainData, spec: Law) -> tuple[S
         note = (f"{G} drop(s): model-based errors, which assume independent event-time errors; a bounce-to-"
                 "bounce scatter of e accumulates along a drop and makes them too small")
         return Sandwich(cov_model, dof, f"model-based (independent event-time errors), t with {dof} dof",
-                        (note,)), bread
+                        (note,))
     rows_of: dict[str, list[int]] = {c: [] for c in labels}
     pos = 0
     for j, size in enumerate(data.sizes):
@@ -765,25 +812,26 @@ def _chained_covariance(J, r: np.ndarray, data: ChainData, spec: Law) -> tuple[S
     D = np.diag(np.maximum(raise_to, 1.0))
     dof = G - 1
     return Sandwich(D @ cov_robust @ D, dof,
-                    f"cluster-robust by drop (CR1, {G} drops, t with {dof} dof), never below model-based"), bread
+                    f"cluster-robust by drop (CR1, {G} drops, t with {dof} dof), never below model-based")
 
 
-def _chained_lack_of_fit(spec: Law, timing_sigma: float, timing_noise: float | None) -> tuple[dict, tuple[str, ...]]:
-    """The chained fit's model check: its residual scale ``timing_sigma`` [s] against the timing
-    noise of the events ``timing_noise`` [s] (measured independently, e.g. from the per-impact
-    coefficients); statistics and, above :data:`LACK_OF_FIT_FACTOR`, a note."""
+def _chained_lack_of_fit(spec: Law, r: np.ndarray, dof: int,
+                         timing_noise: float | None) -> tuple[dict, tuple[str, ...]]:
+    """The chained fit's model check (:func:`impactid.engine.residual_against_noise`): its residuals
+    ``r`` [s] against the timing noise of the events ``timing_noise`` [s] (measured independently,
+    e.g. from the per-impact coefficients). The residuals are taken at the fit's residual scale
+    (``r sqrt(N / dof)``: the drops' starts and the law absorb ``N - dof`` degrees of freedom), so
+    that the ratio is the residual scale ``timing_sigma_s`` over the noise. Statistics and, above
+    :data:`LACK_OF_FIT_FACTOR` (or for a significant excess), a note."""
     if timing_noise is None or not (math.isfinite(timing_noise) and timing_noise > 0):
         return {}, ()
-    ratio = timing_sigma / timing_noise
-    statistics = {"timing_noise_s": float(timing_noise), "residual_over_timing_noise": ratio}
-    if not ratio > LACK_OF_FIT_FACTOR:
-        return statistics, ()
-    return statistics, (f"lack of fit: the event times' residual scale ({1e3 * timing_sigma:.3g} ms) is {ratio:.3g} "
-                        f"times the timing noise of the events ({1e3 * timing_noise:.3g} ms, more than "
-                        f"{LACK_OF_FIT_FACTOR:g}): the {spec.name} law, one e per impact speed, does not describe "
-                        "whole drops (a bounce-to-bounce scatter of e accumulates along a drop, or the flight "
-                        "model misses something); the intervals are widened by the residual scale and still "
-                        "assume the model",)
+    stats, notes = residual_against_noise(r * math.sqrt(r.size / max(dof, 1)), timing_noise, what="event times",
+                                          unit="s")
+    statistics = {"timing_noise_s": float(timing_noise), "residual_over_timing_noise": stats["residual_over_noise"]}
+    why = (f"the {spec.name} law, one e per impact speed, does not describe whole drops (a bounce-to-bounce scatter "
+           "of e accumulates along a drop, or the flight model misses something); the intervals are widened by the "
+           "residual scale and still assume the model")
+    return statistics, tuple(f"{note} ({why})" for note in notes)
 
 
 def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConstants, *,
@@ -831,32 +879,38 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
         pred = _chain_times(spec, x[:p], x[p::2], x[p + 1::2], data.numbers, data.mask, constants)
         return (data.observed - pred)[data.mask]
 
-    sol = least_squares(residuals, x0, jac_sparsity=_chain_sparsity(data.sizes, p), x_scale="jac", xtol=1e-12,
-                        ftol=1e-12, gtol=1e-12, max_nfev=500)
-    r = sol.fun
+    # the engine's search (trust-region reflective, tolerances 1e-12) in the parameters' own
+    # coordinates, with the Jacobian's central differences grouped by its pattern
+    found = search(residuals, _chain_free(spec, data, x0), jacobian=_chain_jacobian(residuals, p, data),
+                   max_nfev=500, normalise=False)
+    r = found.residual
     N, P = data.n_events, x0.size
     rss = float(r @ r)
-    sandwich, bread = _chained_covariance(sol.jac, r, data, spec)  # the Jacobian stays sparse
-    notes = [] if sol.success else [f"the optimiser stopped without converging: {sol.message}"]
-    notes += [bread.reason] if bread.reason else []
+    stated = uncertainty(found, confidence=confidence, scale=1.0)  # the bread (J^T J)^-1, its condition
+    sandwich = _chained_covariance(found.jacobian, r, data, spec, stated.covariance)
+    notes = [] if found.success else [f"the optimiser stopped without converging: {found.message}"]
+    notes += stated.notes
     timing_sigma = math.sqrt(rss / max(N - P, 1))
-    check, lack = _chained_lack_of_fit(spec, timing_sigma, timing_noise)
+    check, lack = _chained_lack_of_fit(spec, r, N - P, timing_noise)
     notes += lack
     notes += sandwich.notes
     loglik = -0.5 * N * (math.log(2.0 * math.pi * rss / N) + 1.0) if rss > 0 else math.inf
     statistics = {"n_events": N, "n_drops": len(drops), "n_params": P, "dof": sandwich.dof,
                   "timing_sigma_s": timing_sigma, **check, "loglik": loglik,
                   "aic": 2 * (P + 1) - 2 * loglik, "bic": (P + 1) * math.log(N) - 2 * loglik,
-                  "condition_number": bread.condition, "success": bool(sol.success), "nfev": int(sol.nfev)}
+                  "condition_number": stated.covariance.condition, "success": bool(found.success),
+                  "nfev": int(found.nfev)}
+    x = found.x
     details = {"law": spec.name, "formula": spec.formula, "covariance": sandwich.matrix.tolist(),
                "correlation": _correlation(sandwich.matrix).tolist(), "covariance_method": sandwich.method,
-               "drops": [{"name": name, "t0_s": float(sol.x[p + 2 * j]), "u0_m_s": float(sol.x[p + 2 * j + 1])}
+               "drops": [{"name": name, "t0_s": float(x[p + 2 * j]), "u0_m_s": float(x[p + 2 * j + 1])}
                          for j, name in enumerate(data.names)],
                "residuals_s": r.tolist()}
-    return ChainedFit(params=_law_parameters(spec, sol.x, sandwich.matrix, sandwich.dof, confidence, bread.reason),
+    return ChainedFit(params=_law_parameters(stated, sandwich.matrix, sandwich.dof, confidence),
                       statistics=statistics, notes=tuple(notes), details=details,
                       provenance=(f"chained trajectory fit of the {spec.name} law to {N} event times of "
-                                  f"{len(drops)} drop(s) ({constants.label})",))
+                                  f"{len(drops)} drop(s) ({constants.label}): impactid.engine's search and "
+                                  f"uncertainty; errors {sandwich.method}",))
 
 
 def law_table(fits: Mapping[str, FitResult]) -> pd.DataFrame:

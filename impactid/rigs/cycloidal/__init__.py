@@ -14,7 +14,6 @@ See ``docs/cycloidal_ehl.md``.
 
 from impactid.rigs.base import ChannelSpec, RigModel
 from impactid.rigs.cycloidal import kernel
-from impactid.rigs.cycloidal.commands import COMMANDS
 from impactid.rigs.cycloidal.contact import TABLE3_RANGES, ehl_film, film_scheme
 from impactid.rigs.cycloidal.identify import SurgeFit, fit_surge
 from impactid.rigs.cycloidal.parameters import (
@@ -72,7 +71,7 @@ MODEL = RigModel(
     kernel=kernel,
     simulate=_simulate,
     measure=None,
-    commands=COMMANDS,
+    commands="impactid.rigs.cycloidal.commands",
 )
 
 __all__ = ["CHANNELS", "KUSHWAHA2000", "KUSHWAHA2000_THICK_OIL", "KUSHWAHA2000_ZEROS_EXACT", "MODEL", "MODEL_NAME",

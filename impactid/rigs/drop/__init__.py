@@ -26,7 +26,6 @@ import math
 from typing import Any
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
-from impactid.rigs.drop.commands import COMMANDS
 from impactid.rigs.drop.parameters import (
     ACCELERATION_CHANNEL,
     FORCE_CHANNEL,
@@ -117,7 +116,7 @@ MODEL = RigModel(
     kernel="impactid.rigs.drop.kernel",
     simulate=_simulate,
     measure=_measure,
-    commands=COMMANDS,
+    commands="impactid.rigs.drop.commands",
     estimation="impactid.rigs.drop.estimation",
 )
 

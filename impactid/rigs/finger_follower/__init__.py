@@ -30,7 +30,6 @@ import numpy as np
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
 from impactid.rigs.finger_follower import kernel
-from impactid.rigs.finger_follower.commands import COMMANDS
 from impactid.rigs.finger_follower.parameters import KIM1990, KIM1990_TABLE2, MODEL_NAME, FingerFollowerRig
 from impactid.rigs.finger_follower.simulate import pack, prepare, simulate
 
@@ -120,5 +119,5 @@ MODEL = RigModel(
     kernel=kernel,
     simulate=simulate,
     measure=_measure,
-    commands=COMMANDS,
+    commands="impactid.rigs.finger_follower.commands",
 )

@@ -12,7 +12,6 @@ cam profile fit is :mod:`impactid.rigs.flat.camprofile`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
-from impactid.rigs.flat.commands import COMMANDS
 from impactid.rigs.flat.parameters import (
     ALZATE2007,
     MODEL_NAME,
@@ -74,5 +73,5 @@ MODEL = RigModel(
     kernel="impactid.rigs.flat.kernel",
     simulate=_simulate,
     measure=_measure,
-    commands=COMMANDS,
+    commands="impactid.rigs.flat.commands",
 )

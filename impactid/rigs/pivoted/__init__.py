@@ -16,7 +16,6 @@ rig (``MODEL.estimation``) in :mod:`impactid.rigs.pivoted.estimation`.
 """
 
 from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
-from impactid.rigs.pivoted.commands import COMMANDS
 from impactid.rigs.pivoted.parameters import (
     MODEL_NAME,
     SUNDAR2016,
@@ -100,6 +99,6 @@ MODEL = RigModel(
     simulate=_simulate,
     measure=_measure,
     example=_example,
-    commands=COMMANDS,
+    commands="impactid.rigs.pivoted.commands",
     estimation="impactid.rigs.pivoted.estimation",
 )

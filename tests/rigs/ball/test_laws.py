@@ -143,19 +143,29 @@ def test_runs_check_counts_sign_changes():
     assert not np.isfinite(runs_check(v[:5], np.ones(5)).z)  # too few to test
 
 
-def test_normal_root_gives_the_dense_jacobians_covariance():
-    from scipy.sparse import random as sparse_random
+def test_grouped_differences_give_the_dense_jacobian():
+    """The chained fit's Jacobian, its central differences grouped by drop, equals column-by-column differences."""
+    from scipy.optimize._numdiff import approx_derivative
 
-    from impactid.covariance import covariance_from_jacobian
-    from impactid.rigs.ball.laws import _normal_root
+    from impactid.rigs.ball.laws import _chain_data, _chain_jacobian, _chain_start, _chain_times
 
-    J = sparse_random(400, 9, density=0.3, random_state=4, format="csr")
-    J = J + sparse_random(400, 9, density=0.3, random_state=5, format="csr") * 1e3
-    R = _normal_root(J)
-    assert np.allclose(R.T @ R, (J.T @ J).toarray(), rtol=1e-10, atol=1e-8 * abs(J).max() ** 2)
-    dense, root = covariance_from_jacobian(J.toarray(), 2.0), covariance_from_jacobian(R, 2.0)
-    assert np.allclose(root.stderr, dense.stderr, rtol=1e-8)
-    assert root.condition == pytest.approx(dense.condition, rel=1e-6)
+    constants = flight_constants(TABLE_TENNIS)
+    drops = []
+    for j, h in enumerate((0.1, 0.2, 0.3)):
+        t = simulate_drop("linear", {"e0": 0.96, "gamma": 0.02}, ball=TABLE_TENNIS, height=h, min_flight=0.1)["times"]
+        keep = np.r_[0:3, 4:t.size]  # a missed bounce
+        drops.append({"name": f"d{j}", "times": t[keep] + 1e-4 * j, "numbers": keep})
+    spec, data = get_law("linear"), _chain_data(drops)
+    x = _chain_start(spec, drops, constants, [0.95, 0.01])
+
+    def residuals(u):
+        return (data.observed - _chain_times(spec, u[:2], u[2::2], u[3::2], data.numbers, data.mask, constants))[
+            data.mask]
+
+    grouped = _chain_jacobian(residuals, 2, data)(x)
+    dense = approx_derivative(residuals, x, method="3-point")
+    assert grouped.shape == dense.shape
+    assert np.allclose(grouped, dense, rtol=1e-7, atol=1e-9 * np.abs(dense).max())
 
 
 def test_chained_fit_reports_its_condition_and_correlation(clean_drops):

@@ -232,7 +232,7 @@ def test_the_flags_both_valve_trains_share_are_declared_alike():
     """argparse keeps the first rig's declaration of a shared flag: both must parse the same way."""
     from impactid.rigs.registry import MODELS
 
-    rigs = [m for m in MODELS.values() if any(c.group == "valvetrain" for c in m.commands)]
+    rigs = [m for m in MODELS.values() if any(c.group == "valvetrain" for c in m.command_specs())]
     assert len(rigs) == 2
     probes = ("0", "1", "2.5", "-1", "nan", "1e9", "x", "3000")
 
@@ -245,9 +245,9 @@ def test_the_flags_both_valve_trains_share_are_declared_alike():
         except Exception as exc:  # noqa: BLE001 - the kind of refusal is what is compared
             return ("refused", type(exc).__name__)
 
-    for command in {c.name for c in rigs[0].commands} & {c.name for c in rigs[1].commands}:
-        flags = [{a.flags[0]: dict(a.options) for a in next(c for c in m.commands if c.name == command).arguments}
-                 for m in rigs]
+    for command in {c.name for c in rigs[0].command_specs()} & {c.name for c in rigs[1].command_specs()}:
+        specs = [next(c for c in m.command_specs() if c.name == command) for m in rigs]
+        flags = [{a.flags[0]: dict(a.options) for a in spec.arguments} for spec in specs]
         for flag in flags[0].keys() & flags[1].keys():
             first, second = flags[0][flag], flags[1][flag]
             for key in ("default", "action", "nargs", "choices"):

@@ -18,8 +18,8 @@ def test_registered_with_its_presets_channels_and_commands(rig):
         model.preset("nope")
     assert {c for c, s in model.channels.items() if s.required} == {"valve_displacement", "cam_angle"}
     assert model.channels["tappet_displacement"].unit == "m"
-    assert {c.name for c in model.commands} >= {"simulate", "modes", "jump-speed", "fit-tappet", "fit-lift"}
-    assert all(c.group == "valvetrain" for c in model.commands)
+    assert {c.name for c in model.command_specs()} >= {"simulate", "modes", "jump-speed", "fit-tappet", "fit-lift"}
+    assert all(c.group == "valvetrain" for c in model.command_specs())
     assert rig_from_mapping({"model": "finger-follower-hla", **rig.to_dict()}) == rig
 
 
