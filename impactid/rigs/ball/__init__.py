@@ -64,7 +64,6 @@ __all__ = [
 ]
 
 # ---- the rig model (registered in impactid.rigs.registry) ----
-from impactid.rigs.ball.cli import command as _command  # noqa: E402
 from impactid.rigs.base import RigModel  # noqa: E402
 
 #: The bouncing ball behind the rig-model protocol: no cam, no compiled kernel; its measurement model
@@ -76,5 +75,5 @@ MODEL = RigModel(
     parameters=Ball,
     presets=BALL_PRESETS,
     measure=analyse_bounces,
-    commands=(_command(),),
+    commands="impactid.rigs.ball.cli",
 )

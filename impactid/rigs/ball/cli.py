@@ -181,3 +181,7 @@ def _print_report(result, args) -> None:
         print(f"  result written to {args.out}")
     if args.plots:
         print(f"  figures written to {args.plots}")
+
+
+#: The commands the bouncing-ball rig contributes (``RigModel.commands`` names this module).
+COMMANDS = (command(),)

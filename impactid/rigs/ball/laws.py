@@ -35,14 +35,33 @@ with the full noise covariance ``tau^2 I + sigma_t^2 J J^T`` (``J = de/dt``, whi
 intervals exactly). With fewer than :data:`MIN_CLUSTERS` drops the errors come from a Newey-West
 sandwich within each drop (lag 2), again never below the model-based ones, and a note says so.
 
-The bread ``(X^T W X)^-1`` of every sandwich (and the chained fit's ``(J^T J)^-1``) comes from the
-shared covariance rule, :func:`impactid.covariance.covariance_from_jacobian`: its condition number is
-reported, and beyond :data:`~impactid.covariance.CONDITION_LIMIT` (speeds too close together to tell
-``e0`` from ``gamma``, say) the standard errors are undetermined and a note says why.
+The identification engine and the ball's own layer
+---------------------------------------------------
+Both fits run on the identification engine every rig's fit uses (:mod:`impactid.engine`). Each law
+is linear in its parameters, so the per-impact fit is solved exactly in closed form (no search to
+converge, no start to choose) and handed to the engine as a :class:`~impactid.engine.Search` at the
+solution, as rig F's cam profile hands its variable projection; the chained fit, nonlinear, is the
+engine's search (:func:`impactid.engine.search`: trust-region reflective, tolerances 1e-12, its
+Jacobian by central differences grouped by drop). :func:`impactid.engine.uncertainty` then states,
+for both, the bread ``(X^T W X)^-1`` (the chained fit's ``(J^T J)^-1``, the drops' starts included)
+by the shared covariance rule (:func:`impactid.covariance.covariance_from_jacobian`): its condition
+number is reported, and beyond :data:`~impactid.covariance.CONDITION_LIMIT` (speeds too close
+together to tell ``e0`` from ``gamma``, say) the standard errors are undetermined and a note says
+why; and the parameters (units, bounds, bound hits) and notes of the result.
+
+The engine's own covariance, ``s^2 (J^T J)^-1``, assumes independent residuals. The bounces of one
+drop are not independent (the shared flights above, and whatever varies from drop to drop), so
+the standard errors, intervals and correlations reported are the ball's own layer on top of the
+engine's bread: the sandwiches (cluster-robust by drop, Newey-West within a drop), never below the
+model-based covariance of the noise model, with their Student-t degrees of freedom.
 
 Model check: a law that describes ``e(v)`` leaves residuals whose signs, in the order of the impact
 speed, change as often as in a random order; the Wald-Wolfowitz runs test (:func:`runs_check`) flags
-too few runs (:data:`RUNS_Z_LIMIT`) as a lack of fit in the fit's notes.
+too few runs (:data:`RUNS_Z_LIMIT`) as a lack of fit in the fit's notes. (The per-impact residuals
+are not checked against a noise level: the only one, ``tau`` and ``sigma_t``, is estimated from the
+same residuals.) The chained fit's residuals are checked against the timing noise of the events,
+measured independently by the per-impact fits, by the engine's rule
+(:func:`impactid.engine.residual_against_noise`).
 
 Model selection by the Gaussian likelihood with the fitted variances: AIC and BIC (the scale
 counted as a parameter); the law with the smallest criterion is selected, except that a simpler
@@ -50,8 +69,8 @@ law within 2 of the best is preferred ("not worth more parameters").
 
 The chained trajectory fit (:func:`fit_chained`) predicts every accepted event time of a drop from
 the drop's first impact time and first launch speed, flight by flight with the law (missed
-bounces included as sums of flights), and fits all drops at once by nonlinear least squares: a
-cross-check that uses every interval, including the ones a missed bounce merged.
+bounces included as sums of flights), and fits all drops at once by nonlinear least squares (the
+engine's search): a cross-check that uses every interval, including the ones a missed bounce merged.
 """
 
 from __future__ import annotations
@@ -141,8 +160,8 @@ def get_law(law: str | Law) -> Law:
 
 @dataclass(frozen=True)
 class LawFit(FitResult):
-    """A restitution law fitted to per-impact coefficients (weighted least squares, errors
-    cluster-robust by drop).
+    """A restitution law fitted to per-impact coefficients (weighted least squares in closed form,
+    stated through :mod:`impactid.engine`; errors cluster-robust by drop).
 
     ``details`` holds ``law`` (name), ``formula``, ``covariance`` (of the parameters, as used for
     the errors), ``correlation`` (its correlation matrix), ``covariance_model`` (the model-based
@@ -738,6 +757,12 @@ def _chain_start(spec: Law, drops: Sequence[Mapping], constants: FlightConstants
 DIFFERENCE_STEP = float(np.finfo(float).eps) ** (1.0 / 3.0)
 
 
+#: Most parameters (law and drops' starts) for which the chained search solves its trust-region
+#: subproblems exactly (a dense SVD each iteration, cubic in the number of drops); above, by LSMR
+#: (as SciPy does for a sparse Jacobian).
+EXACT_SOLVER_MAX_PARAMS = 200
+
+
 def _chain_free(spec: Law, data: ChainData, x0: np.ndarray) -> tuple[Free, ...]:
     """The chained fit's parameters for the engine: the law's (reported), then per row its first
     impact time [s] and launch speed [m/s] (nuisance parameters, reported in ``details["drops"]``)."""
@@ -828,16 +853,24 @@ def _chained_lack_of_fit(spec: Law, r: np.ndarray, dof: int,
     stats, notes = residual_against_noise(r * math.sqrt(r.size / max(dof, 1)), timing_noise, what="event times",
                                           unit="s")
     statistics = {"timing_noise_s": float(timing_noise), "residual_over_timing_noise": stats["residual_over_noise"]}
-    why = (f"the {spec.name} law, one e per impact speed, does not describe whole drops (a bounce-to-bounce scatter "
-           "of e accumulates along a drop, or the flight model misses something); the intervals are widened by the "
-           "residual scale and still assume the model")
-    return statistics, tuple(f"{note} ({why})" for note in notes)
+    why = (f"here the {spec.name} law, one e per impact speed, does not describe whole drops (a bounce-to-bounce "
+           "scatter of e accumulates along a drop, or the flight model misses something); the intervals are widened "
+           "by the residual scale")
+    return statistics, tuple(f"{note}; {why}" for note in notes)
 
 
 def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConstants, *,
                 start: Sequence[float] | None = None, confidence: float = 0.95,
                 timing_noise: float | None = None) -> ChainedFit:
     """Fit ``law`` to the accepted event times of several drops, flight by flight.
+
+    The search is the identification engine's (:func:`impactid.engine.search`: trust-region
+    reflective, tolerances 1e-12, at most 500 evaluations) over the law's parameters and each
+    drop's first impact time and launch speed, with the Jacobian by central differences grouped by
+    drop (:func:`_chain_jacobian`); the bread ``(J^T J)^-1`` of every parameter, its condition and
+    the notes come from :func:`impactid.engine.uncertainty`, the robust errors from the ball's own
+    sandwich on top of it (the event times of one drop are not independent: see the module's
+    documentation), and the model check from :func:`impactid.engine.residual_against_noise`.
 
     Parameters
     ----------
@@ -859,9 +892,9 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
         than :data:`MIN_CLUSTERS` drops), undetermined with the reason when the Jacobian's
         condition is beyond :data:`~impactid.covariance.CONDITION_LIMIT`; statistics (the timing
         scatter of the residuals, AIC, BIC, the condition number and, with ``timing_noise``, the
-        residual scale over it: above :data:`LACK_OF_FIT_FACTOR` a note reports a lack of fit); in
-        ``details`` the covariance,
-        the correlation matrix, each drop's fitted start and the residuals.
+        residual scale over it: above :data:`LACK_OF_FIT_FACTOR`, or significantly above 1 by the
+        engine's chi-square rule, a note reports it); in ``details`` the covariance, the
+        correlation matrix, each drop's fitted start and the residuals.
 
     Raises
     ------
@@ -882,7 +915,8 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
     # the engine's search (trust-region reflective, tolerances 1e-12) in the parameters' own
     # coordinates, with the Jacobian's central differences grouped by its pattern
     found = search(residuals, _chain_free(spec, data, x0), jacobian=_chain_jacobian(residuals, p, data),
-                   max_nfev=500, normalise=False)
+                   max_nfev=500, normalise=False,
+                   tr_solver="lsmr" if x0.size > EXACT_SOLVER_MAX_PARAMS else None)
     r = found.residual
     N, P = data.n_events, x0.size
     rss = float(r @ r)
