@@ -964,7 +964,7 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
     ImpactidError
         the output folder cannot be written.
     """
-    from impactid.distributed import progress_bar
+    from impactid.commandline import progress_bar
 
     t0 = time.perf_counter()
     out = Path(out)

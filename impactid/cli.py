@@ -46,12 +46,12 @@ from impactid.commandline import (
     deliver,
     end_progress_line,
     print_json,
-    progress_bar,
     recording_arguments,
     recording_paths,
     recording_rig,
     rig_help,
     say_written,
+    stage_progress,
 )
 from impactid.errors import ImpactidError
 from impactid.pipeline import Pipeline, read_recordings, recordings_model, rig_estimator
@@ -153,7 +153,7 @@ def cmd_estimate(args) -> int:
     est = rig_estimator(model, recordings[0].source)
     _refuse_foreign_estimate_options(args, model, est)
     pipeline = Pipeline(model=model, **est.options_from_arguments(args))
-    progress = progress_bar(args.progress if args.progress is not None else sys.stderr.isatty())
+    progress = stage_progress(args.progress if args.progress is not None else sys.stderr.isatty())
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", est.warning)  # the result's notes, printed below
         result = pipeline.run(recordings, progress=progress)

@@ -12,25 +12,25 @@ transactions (:func:`deliver`: the JSON first, then the figures).
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import math
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-import numpy as np
-
 from impactid._files import StagedFiles, check_distinct_inputs, check_output
 from impactid.errors import ImpactidError
+from impactid.results import json_ready
 from impactid.rigs.base import Argument
 from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, RIG_MODELS, rig_by_name, rig_model
 
 __all__ = ["CAM_PPR", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "SAMPLE_RATE", "SEED",
            "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "check_synth_size",
-           "command_inputs", "deliver", "end_progress_line", "exponent", "fraction", "integer_in", "is_rig_file",
-           "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive", "print_json",
-           "progress_bar", "recording_arguments", "recording_paths", "recording_rig", "rig_help", "say_written",
-           "speed_arguments", "write_synthetic"]
+           "command_inputs", "deliver", "end_progress_line", "exponent", "fraction", "integer_in",
+           "is_rig_file", "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive",
+           "print_json", "progress_bar", "recording_arguments", "recording_paths", "recording_rig",
+           "rig_help", "say_written", "speed_arguments", "stage_progress", "write_synthetic"]
 
 #: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
 MAX_SWEEP_POINTS = 10_000
@@ -100,28 +100,10 @@ def pair(text: str) -> tuple[float, float]:
     return number(parts[0]), number(parts[1])
 
 
-def json_ready(value, path: str, undetermined: list[str]):
-    """``value`` with non-finite floats as None (their JSON paths collected), numpy types as Python."""
-    if isinstance(value, dict):
-        return {str(k): json_ready(v, f"{path}.{k}" if path else str(k), undetermined) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_ready(v, f"{path}[{i}]", undetermined) for i, v in enumerate(value)]
-    if isinstance(value, np.ndarray):
-        return json_ready(value.tolist(), path, undetermined)
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        undetermined.append(path)
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    return value
-
-
 def json_text(data: dict) -> str:
     """JSON text of a result: non-finite numbers are written as null and listed in ``warnings``."""
     undetermined: list[str] = []
-    clean = json_ready(data, "", undetermined)
+    clean = json_ready(data, undetermined)
     shown = [p for p in undetermined if not p.startswith("per_impact")]
     if shown and isinstance(clean, dict):
         note = (f"undetermined (not a finite number, written as null): {', '.join(shown[:20])}"
@@ -320,32 +302,102 @@ def write_synthetic(synthetic, out) -> int:
     return 0
 
 
-_progress_line_open = False
+#: The progress bars shown now (closed before an error message is printed).
+_open_bars: list = []
 
 
-def progress_bar(enabled: bool):
-    """A one-line progress display on stderr (only when enabled, e.g. stderr is a terminal)."""
+def progress_bar(total: int, *, enabled: bool | None = None, desc: str = "", unit: str = "task"):
+    """A progress bar on stderr: a :class:`tqdm.tqdm` (a plain counter line without tqdm).
+
+    Parameters
+    ----------
+    total : number of steps.
+    enabled : show it (default: when stderr is a terminal).
+    desc, unit : label and unit of the bar.
+
+    Returns
+    -------
+    An object with ``update(n)``, ``set_postfix_str(text)``, ``clear()`` and ``refresh()`` (around a
+    line printed while it is shown) and ``close()``, usable as a context manager; it shows nothing
+    when disabled.
+    """
+    if enabled is None:
+        enabled = sys.stderr.isatty()
+    if enabled and importlib.util.find_spec("tqdm") is not None:
+        from tqdm import tqdm
+
+        bar = tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True, leave=True)
+    else:
+        bar = _Counter(total, desc, enabled)
+    if enabled:
+        _open_bars.append(bar)
+    return bar
+
+
+class _Counter:
+    """The progress bar without tqdm: one ``\\r``-rewritten line ``desc: done/total``."""
+
+    def __init__(self, total: int, desc: str, enabled: bool):
+        self.total, self.desc, self.enabled, self.n, self.note = total, desc, enabled, 0, ""
+
+    def __enter__(self) -> _Counter:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _show(self, end: str = "") -> None:
+        if self.enabled:
+            print(f"\r{self.desc}: {self.n}/{self.total} {self.note}", end=end, file=sys.stderr, flush=True)
+
+    def update(self, n: int = 1) -> None:
+        self.n += n
+        self._show()
+
+    def clear(self) -> None:
+        if self.enabled:
+            print("\r\033[K", end="", file=sys.stderr, flush=True)
+
+    def refresh(self) -> None:
+        self._show()
+
+    def set_postfix_str(self, text: str) -> None:
+        self.note = text
+        self._show()
+
+    def close(self) -> None:
+        self._show("\n")
+        self.enabled = False
+
+
+def stage_progress(enabled: bool) -> Callable[[str, float], None] | None:
+    """The fits' progress callback ``(stage, fraction)`` on the one bar (:func:`progress_bar`): the
+    job in percent, the stage as the bar's note; None when not ``enabled``."""
     if not enabled:
         return None
+    bar = progress_bar(100, enabled=True, desc="progress", unit="%")
 
     def show(stage: str, fraction: float) -> None:
-        global _progress_line_open
-        width = 30
-        filled = int(round(width * max(0.0, min(fraction, 1.0))))
-        end = "\n" if fraction >= 1.0 else ""
-        print(f"\r[{'#' * filled}{'.' * (width - filled)}] {100 * fraction:5.1f}% {stage:<12}", end=end,
-              file=sys.stderr, flush=True)
-        _progress_line_open = fraction < 1.0
+        done = int(round(100 * max(0.0, min(fraction, 1.0))))
+        if done > bar.n:
+            bar.update(done - bar.n)
+        bar.set_postfix_str(stage)
+        if fraction >= 1.0:
+            _close(bar)
 
     return show
 
 
+def _close(bar) -> None:
+    if bar in _open_bars:
+        _open_bars.remove(bar)
+        bar.close()
+
+
 def end_progress_line() -> None:
-    """End an unfinished progress line on stderr, so that a message printed next starts a line."""
-    global _progress_line_open
-    if _progress_line_open:
-        print(file=sys.stderr, flush=True)
-        _progress_line_open = False
+    """Close the progress bars still shown on stderr, so that a message printed next starts a line."""
+    for bar in list(_open_bars):
+        _close(bar)
 
 
 # ---- arguments several rigs' commands declare alike ----------------------------------------------

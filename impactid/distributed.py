@@ -12,7 +12,7 @@ in order, as before.
   used as it is) or ``--workers N`` (a local cluster of ``N`` single-threaded worker processes on
   this machine, closed on exit);
 * :func:`map_tasks` and :func:`iter_tasks` run a function over items, on the client or serially;
-* :func:`progress_bar` is the one progress display of the long runs (tqdm on stderr).
+* the long runs show their progress with :func:`impactid.commandline.progress_bar` (tqdm on stderr).
 
 ``dask[distributed]`` is an optional dependency (the ``campaign`` extra: ``pip install
 'impactid[campaign]'``); :func:`require` raises an :class:`~impactid.errors.ImpactidError`
@@ -43,7 +43,6 @@ import importlib.util
 import logging
 import os
 import signal
-import sys
 import threading
 import weakref
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -52,7 +51,7 @@ from typing import Any
 from impactid.errors import ImpactidError
 
 __all__ = ["ProgressFn", "add_scheduler_arguments", "cluster_from_args", "connect", "default_workers", "iter_tasks",
-           "map_tasks", "missing", "progress_bar", "require", "scheduler_arguments", "scheduler_client"]
+           "map_tasks", "missing", "require", "scheduler_arguments", "scheduler_client"]
 
 #: Callback ``progress(done, total)`` of the long runs.
 ProgressFn = Callable[[int, int], None]
@@ -398,63 +397,3 @@ def map_tasks(fn: Callable[[Any], Any], items: Iterable[Any], *, client: Any = N
         if progress is not None:
             progress(done, len(items))
     return results
-
-
-def progress_bar(total: int, *, enabled: bool | None = None, desc: str = "", unit: str = "task"):
-    """A progress bar on stderr: a :class:`tqdm.tqdm` (a plain counter line without tqdm).
-
-    Parameters
-    ----------
-    total : number of steps.
-    enabled : show it (default: when stderr is a terminal).
-    desc, unit : label and unit of the bar.
-
-    Returns
-    -------
-    An object with ``update(n)``, ``set_postfix_str(text)``, ``clear()`` and ``refresh()`` (around a
-    line printed while it is shown) and ``close()``, usable as a context manager; it shows nothing
-    when disabled.
-    """
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if enabled and not missing("tqdm"):
-        from tqdm import tqdm
-
-        return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True, leave=True)
-    return _Counter(total, desc, enabled)
-
-
-class _Counter:
-    """The progress bar without tqdm: one ``\\r``-rewritten line ``desc: done/total``."""
-
-    def __init__(self, total: int, desc: str, enabled: bool):
-        self.total, self.desc, self.enabled, self.n, self.note = total, desc, enabled, 0, ""
-
-    def __enter__(self) -> _Counter:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def _show(self, end: str = "") -> None:
-        if self.enabled:
-            print(f"\r{self.desc}: {self.n}/{self.total} {self.note}", end=end, file=sys.stderr, flush=True)
-
-    def update(self, n: int = 1) -> None:
-        self.n += n
-        self._show()
-
-    def clear(self) -> None:
-        if self.enabled:
-            print("\r\033[K", end="", file=sys.stderr, flush=True)
-
-    def refresh(self) -> None:
-        self._show()
-
-    def set_postfix_str(self, text: str) -> None:
-        self.note = text
-        self._show()
-
-    def close(self) -> None:
-        self._show("\n")
-        self.enabled = False

@@ -135,22 +135,30 @@ class Parameter:
         return text + (f"   ({self.note})" if self.note else "")
 
 
-def json_ready(value):
+def json_ready(value, undetermined: list[str] | None = None, path: str = ""):
     """``value`` made JSON-ready: numpy types to Python, non-finite floats to None, tuples to lists,
-    DataFrames to ``{"columns": [...], "data": [[...], ...]}`` (the inverse of :func:`_frame_from`)."""
+    paths to strings, DataFrames to ``{"columns": [...], "data": [[...], ...]}`` (the inverse of
+    :func:`_frame_from`). With ``undetermined`` (a list), the JSON path of every non-finite number
+    written as None is appended to it (``path`` is where ``value`` sits)."""
+    def inner(item, where):
+        return json_ready(item, undetermined, where)
+
     if isinstance(value, Parameter):
         return value.to_dict()
     if isinstance(value, pd.DataFrame):
-        return {"columns": [str(c) for c in value.columns], "data": json_ready(value.to_numpy(dtype=object).tolist())}
+        return {"columns": [str(c) for c in value.columns], "data": inner(value.to_numpy(dtype=object).tolist(),
+                                                                           f"{path}.data")}
     if isinstance(value, Mapping):
-        return {str(k): json_ready(v) for k, v in value.items()}
+        return {str(k): inner(v, f"{path}.{k}" if path else str(k)) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [json_ready(v) for v in value]
+        return [inner(v, f"{path}[{i}]") for i, v in enumerate(value)]
     if isinstance(value, np.ndarray):
-        return json_ready(value.tolist())
+        return inner(value.tolist(), path)
     if isinstance(value, np.generic):
         value = value.item()
     if isinstance(value, float) and not math.isfinite(value):
+        if undetermined is not None:
+            undetermined.append(path)
         return None
     if isinstance(value, Path):
         return str(value)

@@ -99,7 +99,7 @@ def run_bifurcation(args, model) -> int:
     check_outputs(args, inputs, out_is_dir=True)
     speeds = np.linspace(args.start, args.stop, args.speeds) * scale
     law = _restitution_law(args)
-    from impactid.distributed import progress_bar as task_bar
+    from impactid.commandline import progress_bar as task_bar
     from impactid.distributed import scheduler_client
 
     with scheduler_client(args, what="impactid bifurcation") as client, \

@@ -149,7 +149,7 @@ def run_regime_map(args, model) -> int:
     for ratio in args.e_over_rc_values:  # every ratio checked before the long run
         rig.with_eccentricity_ratio(ratio)
 
-    from impactid.distributed import progress_bar as task_bar
+    from impactid.commandline import progress_bar as task_bar
     from impactid.distributed import scheduler_client
 
     with scheduler_client(args, what="impactid regime-map") as client, \
