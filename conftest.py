@@ -30,15 +30,15 @@ import pytest
 #: compiled (a glob relative to the package), and tests that compile the family and do little else.
 WARMUP_GROUPS = (
     ("rigs/pivoted/__pycache__/kernel.integrate-*.nbi",
-     ("tests/simulate/test_simulator.py::test_batch_equals_single_events",
-      "tests/test_reconstruct.py::test_onsets_within_one_sample")),
+     ("tests/rigs/pivoted/test_runs.py::test_batch_equals_single_events",
+      "tests/rigs/pivoted/test_reconstruct.py::test_onsets_within_one_sample")),
     ("rigs/cycloidal/__pycache__/kernel.integrate_a-*.nbi",
      ("tests/rigs/cycloidal/test_simulate.py::test_level_b_static_state",
       "tests/rigs/cycloidal/test_simulate.py::test_level_a_quasistatic_limit")),
     ("rigs/finger_follower/__pycache__/kernel.evaluate-*.nbi",
      ("tests/rigs/finger_follower/test_simulate.py::test_rest_on_the_base_circle_stays_at_rest",)),
     ("rigs/flat/__pycache__/kernel.integrate-*.nbi",
-     ("tests/simulate/test_flat_simulator.py::test_free_start_matches_reference",)),
+     ("tests/rigs/flat/test_simulate.py::test_free_start_matches_reference",)),
     ("rigs/drop/__pycache__/kernel.replay-*.nbi",
      ("tests/rigs/drop/test_kernel.py::test_kernel_matches_reference",
       "tests/rigs/drop/test_identify.py::test_noise_free_recovery")),

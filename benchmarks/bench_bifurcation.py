@@ -4,7 +4,7 @@ Measures, in one run on this machine:
 
 1. the full diagram the issue asks for: 200 cam speeds from 110 to 165 rpm, 100 revolutions each,
    with the compiled sweep on all cores and on one thread (target: under 60 s);
-2. the baseline: the independent ``solve_ivp`` reference model (tests/simulate/flat_reference.py,
+2. the baseline: the independent ``solve_ivp`` reference model (tests/rigs/flat/reference_flat.py,
    DOP853) for the same work at a few speeds, timed in the same run and scaled to 200 speeds; the
    ratio compiled/reference is printed;
 3. that the two agree: stroboscopic angles of the compiled sweep against the reference at the
@@ -28,7 +28,7 @@ import numba  # noqa: E402
 
 from impactid.rigs.flat import ALZATE2007  # noqa: E402
 from impactid.rigs.flat.simulate import DEFAULT_RESTITUTION, bifurcation  # noqa: E402
-from tests.simulate import flat_reference as ref  # noqa: E402
+from tests.rigs.flat import reference_flat as ref  # noqa: E402
 
 
 def main(argv=None) -> int:

@@ -5,7 +5,7 @@ Measures, in one run on this machine:
 1. one S1 event (contact + one revolution of free flight at e/r_c = 0.2, 16 Hz, starting at a
    contact onset of the settled period-1 motion) with the compiled simulator at its default
    tolerances, and with scipy's ``solve_ivp`` (the independent reference model of
-   tests/reference_rigp.py) for each method and tolerance; the baseline is the fastest
+   tests/rigs/pivoted/reference_rigp.py) for each method and tolerance; the baseline is the fastest
    ``solve_ivp`` setting whose errors (alpha_m, contact end time, peak force, against a DOP853
    rtol 1e-13 solution) are no larger than the compiled simulator's (errors below 1 % of the issue's
    cross-check tolerances count as exact); prints the ratio and the
@@ -42,7 +42,7 @@ import numba  # noqa: E402
 from benchmarks.pages import BenchmarkPage  # noqa: E402
 from impactid import SUNDAR2016, HuntCrossley, Tolerances, simulate, simulate_event, simulate_events  # noqa: E402
 from impactid.simulate import DEFAULT_TOLERANCES  # noqa: E402
-from tests import reference_rigp as ref  # noqa: E402
+from tests.rigs.pivoted import reference_rigp as ref  # noqa: E402
 
 
 def best_time(fn, repeat=5, min_time=0.2):

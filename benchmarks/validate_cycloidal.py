@@ -6,7 +6,7 @@ Run: ``python benchmarks/validate_cycloidal.py [--out docs/validation_valvetrain
 
 Every number in the page is measured by this run: the paper's statements (Figs. 2-7) against the
 model with the assumed parameter set, the arithmetic behind the paper's inconsistent statements, the
-compiled simulator against the independent ``solve_ivp`` reference (``tests/reference_cycloidal_ehl.py``,
+compiled simulator against the independent ``solve_ivp`` reference (``tests/rigs/cycloidal/reference_cycloidal_ehl.py``,
 which imports nothing from impactid) with the speed ratio, the jump speeds, and the identification
 recovery on synthetic recordings made by the compiled simulator and by the reference.
 """
@@ -37,7 +37,7 @@ from impactid.rigs.cycloidal import (  # noqa: E402
 )
 from impactid.rigs.cycloidal.contact import hertz_approach  # noqa: E402
 from impactid.rigs.cycloidal.simulate import level_b_steady_cycle  # noqa: E402
-from tests import reference_cycloidal_ehl as R  # noqa: E402
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R  # noqa: E402
 
 RIG = KUSHWAHA2000
 TRUE = {"f0": 480.0, "c_spring": 3.0, "f_p": 260.0, "m3": 0.235}
@@ -206,7 +206,9 @@ def cross_check(lines, a):
     dpsi = max(abs(e1["psi"] - e2["psi"]) for e1, e2 in zip(ours_b.events, ref_b["events"]))
     same_events = [e["kind"] for e in ours_b.events] == [e["kind"] for e in ref_b["events"]]
     lines += ["### Compiled simulator against the independent solve_ivp reference", "",
-              "The reference (`tests/reference_cycloidal_ehl.py`: SciPy `solve_ivp` DOP853 at rtol 1e-10, Lambert-W "
+              "The reference (`tests/rigs/cycloidal/reference_cycloidal_ehl.py`: SciPy `solve_ivp` DOP853 at "
+              "rtol 1e-10, "
+              "Lambert-W "
               "contact inversion, events located by `solve_ivp`) shares no code with impactid. 3000 rpm, preset "
               "`kushwaha2000`; times are wall-clock on this machine (best of 3 for ours, one run for the reference), "
               "numba compilation excluded.", "",

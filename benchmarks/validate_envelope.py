@@ -7,7 +7,7 @@ Cases are drawn with a fixed seed across the region where impactid's own regime 
 period-1 motion for each case's law (e/r_c 0.05-0.30, beta 5e9-1e11 N s m^-(n+1) log-uniform, n
 1.2-1.8; friction mu 0 or 0.2; noise 0-1 %; 51.2/102.4/204.8 kHz; 16-24 bit ADC; accelerometer
 offset and drift), plus restitution (S3) cases with gamma 0.3-1.2 s/m. A third of the recordings are
-made by the independent SciPy reference model of ``tests/reference_recordings.py``. For each case
+made by the independent SciPy reference model of ``tests/rigs/pivoted/reference_recordings.py``. For each case
 the n-fixed fit, a joint fit with a second period-1 point whose approach speed differs by at least
 30 %, and the restitution fit are run through :func:`impactid.pipeline.estimate`. The page reports,
 per class, how many fits ended in an estimate, a refusal (with its reason) or an error, the error

@@ -63,7 +63,8 @@ def _grid(rpm, n=720):
 def against_reference(lines):
     lines += ["## The compiled simulator against the solve_ivp reference", "",
               "One revolution from rest on the base circle (-180 deg), output every 0.5 deg. `reference` is "
-              "`tests/reference_finger_follower.py` (solve_ivp RK45 with terminal events and a dense-output "
+              "`tests/rigs/finger_follower/reference_finger_follower.py` (solve_ivp RK45 with terminal events and a "
+              "dense-output "
               "audit, rtol 1e-10, atol 1e-12 m and 1e-9 m/s, step at most 1e-3 revolution). `ours` is the "
               "compiled event-driven DP5 kernel at its default tolerances (rtol 1e-9, 3e-12 m, 3e-9 m/s), "
               "`ours, matched` the same at the reference's tolerances. `tight` is the compiled kernel at rtol "

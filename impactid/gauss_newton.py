@@ -17,7 +17,7 @@ with each run (``per_event_jacobian``: the variational equations of the S1 model
 kernel, on the same steps as the state; ``impactid.rigs.pivoted.kernel``): every residual evaluation
 of the search then also yields its Jacobian, at about 1.3 times the cost of a run without them, where
 differences would take two (``n`` fixed) or four more runs. Checked against central differences of
-the simulator at tight tolerance in tests/simulate/test_sensitivity.py. Where the simulator cannot
+the simulator at tight tolerance in tests/rigs/pivoted/test_sensitivity.py. Where the simulator cannot
 integrate them (friction: the friction force jumps at sliding reversals, which are not located as
 events) the Jacobian is computed by **central differences in one batched S1 call** per iteration
 (four trial laws for ``(log10 c, n)``, two for ``log10 c`` alone): with the simulator at ``rtol``

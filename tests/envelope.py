@@ -7,7 +7,7 @@ A case is one operating point of the rig P of Sundar, Dreyer & Singh (2016) with
 (Hunt–Crossley ``beta, n``, or a restitution law ``xi = 1 - gamma v_a``) and an acquisition chain.
 Its operating point lies where impactid's own regime classification finds period-1 motion (one
 impact per cam revolution) for that law; the recording is made either by impactid's generator
-(``impactid.synth``) or by the independent SciPy reference model (``tests/reference_recordings.py``),
+(``impactid.synth``) or by the independent SciPy reference model (``tests/rigs/pivoted/reference_recordings.py``),
 whose steady state is found by shooting, so that a bias shared by the estimator and the generator
 cannot cancel. Each Hunt–Crossley case is paired with a second period-1 point of the same rig and
 law whose approach speed differs by at least 30 %, for a joint fit of ``beta`` and ``n``.

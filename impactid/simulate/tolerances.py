@@ -25,7 +25,7 @@ class Tolerances:
 
     The defaults (rtol 1e-10) make alpha, contact times and peak forces agree with a
     ``solve_ivp`` DOP853 reference at rtol 1e-12 to better than 1e-8 relative, 1e-9 s and
-    1e-6 relative (tests/simulate/test_against_solve_ivp.py).
+    1e-6 relative (tests/rigs/pivoted/test_kernel_against_solve_ivp.py).
     """
 
     rtol: float = 1e-10

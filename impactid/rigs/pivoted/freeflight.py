@@ -2,7 +2,7 @@
 
 ``I_b alpha_ddot = m_b g l_g cos(alpha) - F_s(alpha) d_x`` (S-9) is smooth and slow (its natural
 frequency is a few Hz) over one cam revolution, so a fixed-step classical RK4 with a few thousand
-steps is accurate to about 1e-13 rad; ``tests/simulate/test_freeflight.py`` checks it against
+steps is accurate to about 1e-13 rad; ``tests/rigs/pivoted/test_freeflight.py`` checks it against
 ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12). The variational equation is integrated
 alongside, so the anchor's Newton iteration has the exact derivative of the end angle with
 respect to the start angle.

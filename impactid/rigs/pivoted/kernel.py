@@ -246,7 +246,7 @@ def rhs_partials(mode, t, a, ad, p, law, theta_ref, omega):
 
     with ``arm = chi - mu sigma h_p``, the moment arm of the normal force with its friction (S-16).
 
-    with ``T'`` the derivative of the spring and gravity torque (S-9). ``tests/simulate/test_sensitivity.py``
+    with ``T'`` the derivative of the spring and gravity torque (S-9). ``tests/rigs/pivoted/test_sensitivity.py``
     checks every entry against central differences of :func:`acceleration` and :func:`contact_force`.
     """
     th = theta_ref + omega * t
@@ -290,7 +290,7 @@ def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
     The hot path of the integrator: the formulas of ``rigs.pivoted`` (gap, lever arm, gap rate,
     sliding velocity, spring torque) and ``contact.hunt_crossley_force`` fused in ``_evaluate`` so
     that the trigonometric functions of alpha and Theta are computed once (free flight needs only
-    those of alpha). ``tests/simulate/test_kernel_rhs.py`` checks it against those public
+    those of alpha). ``tests/rigs/pivoted/test_kernel_rhs.py`` checks it against those public
     functions to round-off.
     """
     if mode == FREE:

@@ -1,7 +1,7 @@
 """Shared fixtures of the cycloidal-cam valve-train tests (Kushwaha, Rahnejat & Jin 2000).
 
 ``R`` is the independent plain NumPy/SciPy reference of the same specification
-(``tests/reference_cycloidal_ehl.py``, written by someone else); nothing of impactid is imported there.
+(``tests/rigs/cycloidal/reference_cycloidal_ehl.py``, written by someone else); nothing of impactid is imported there.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import pytest
 
 from impactid.rigs.cycloidal import KUSHWAHA2000
-from tests import reference_cycloidal_ehl as R
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 
 @pytest.fixture(scope="session")

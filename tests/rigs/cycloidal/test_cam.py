@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from impactid.rigs.cycloidal import cam
-from tests import reference_cycloidal_ehl as R
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 DEG = math.pi / 180.0
 

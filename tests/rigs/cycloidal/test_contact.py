@@ -11,7 +11,7 @@ from scipy import integrate
 
 from impactid.rigs.cycloidal import contact as C
 from impactid.rigs.cycloidal import cycle
-from tests import reference_cycloidal_ehl as R
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 
 def _approach_by_integration(W, Rr, sigma, L_c):

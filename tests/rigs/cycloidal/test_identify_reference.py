@@ -1,6 +1,7 @@
 """Identification on recordings made by the independent ``solve_ivp`` reference (not by impactid).
 
-The recordings are sampled from the reference's periodic steady cycles (``tests/reference_cycloidal_ehl.py``,
+The recordings are sampled from the reference's periodic steady cycles
+(``tests/rigs/cycloidal/reference_cycloidal_ehl.py``,
 DOP853 at ``rtol = 1e-10``), built into :class:`~impactid.io.Recording` objects that carry the preset rig
 (:data:`KUSHWAHA2000`) as the "nominal" rig the user believes in; the truth (below) differs from it in
 every identified value and is never passed to the estimator.
@@ -18,7 +19,7 @@ import pytest
 
 from impactid.io import Recording
 from impactid.rigs.cycloidal import KUSHWAHA2000, fit_surge
-from tests import reference_cycloidal_ehl as R
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 TRUE = {"f0": 480.0, "c_spring": 3.0, "f_p": 260.0, "m3": 0.235}
 NAMES = tuple(TRUE)
@@ -38,7 +39,7 @@ def _record(rpm, dense, T, channel, values_of, fs=20_000.0, revolutions=3.0, noi
     return Recording(channels={"cam_angle": R.omega_of(rpm) * t, channel: values}, sample_rate_hz=fs,
                      units={"cam_angle": "rad", channel: "N" if channel == "contact_load" else "m"},
                      rig=KUSHWAHA2000, operating={"cam_speed_hz": rpm / 60.0},
-                     provenance=(f"tests/reference_cycloidal_ehl.py steady cycle at {rpm:g} rpm",))
+                     provenance=(f"tests/rigs/cycloidal/reference_cycloidal_ehl.py steady cycle at {rpm:g} rpm",))
 
 
 def reference_load_recording(p, rpm, **kw):

@@ -17,7 +17,7 @@ from impactid.rigs.cycloidal import (
     CycloidalEHLRig,
 )
 from impactid.rigs.registry import MODELS, load_rig_toml, rig_model, save_rig_toml
-from tests import reference_cycloidal_ehl as R
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 
 def test_assumed_set_and_derived_values_match_the_reference(rig, ref_p):

@@ -21,7 +21,7 @@ import pytest
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.cycloidal import kernel as K
 from impactid.rigs.cycloidal import simulate as S
-from tests import reference_cycloidal_ehl as R
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 DEG = math.pi / 180.0
 

@@ -1,4 +1,5 @@
-"""Checks of the independent cycloidal-cam / flat-follower / EHL reference (tests/reference_cycloidal_ehl.py).
+"""Checks of the independent cycloidal-cam / flat-follower / EHL reference
+(tests/rigs/cycloidal/reference_cycloidal_ehl.py).
 
 The system is the valve train of Kushwaha, Rahnejat & Jin (2000) with the valve spring of
 Kim, Jeon & Park (1990) and the film formula of Rahnejat (1984), as restated (and repaired) by the

@@ -2,7 +2,7 @@
 
 Each anchor is a frozen dataclass with a name and the channels it needs; ``ANCHORS`` maps the names
 to them, and ``reconstruct`` runs the one named. The anchored constants are checked against the
-truth in tests/test_reconstruct.py; here: the types, what each anchor returns, and that running an
+truth in tests/rigs/pivoted/test_reconstruct.py; here: the types, what each anchor returns, and that running an
 anchor by hand on the integrated windows gives what ``reconstruct`` reports.
 """
 

@@ -1,4 +1,4 @@
-"""The compiled simulator against an independent solve_ivp implementation (tests/reference_rigp.py,
+"""The compiled simulator against an independent solve_ivp implementation (tests/rigs/pivoted/reference_rigp.py,
 written from docs/rig_p.md without reading impactid's code; DOP853 at rtol 1e-12 with event location).
 
 Required agreement (issue 2): alpha_m within 1e-8 relative, contact start/end times within 1e-9 s,
@@ -15,7 +15,7 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley, Restitution, simulate_event
 from impactid.rigs.pivoted.runs import simulate
-from tests import reference_rigp as ref
+from tests.rigs.pivoted import reference_rigp as ref
 
 #: (n, beta) giving comparable damping at the rig's indentations and speeds
 LAWS = [(1.5, 24.7e9), (0.0, 1470.0), (2.0, 4e12)]

@@ -1,4 +1,4 @@
-"""Quick self-checks of the independent Rig P reference (tests/reference_rigp.py).
+"""Quick self-checks of the independent Rig P reference (tests/rigs/pivoted/reference_rigp.py).
 
 Total runtime is well under 20 s.
 """

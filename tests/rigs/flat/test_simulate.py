@@ -1,7 +1,7 @@
 """The compiled rig F simulator against the independent solve_ivp reference, and its behaviour.
 
 Tolerances: the reference (DOP853, rtol 1e-12, atol 1e-14) reproduces itself at rtol 1e-13 to
-about 1e-10 s in impact times and 1e-9 rad/s in rates (tests/simulate/flat_reference.py); the
+about 1e-10 s in impact times and 1e-9 rad/s in rates (tests/rigs/flat/reference_flat.py); the
 compiled kernel runs at rtol 1e-10. Impact times must agree to 1e-9 s, rates to 1e-7 rad/s
 (relative to rates of ~1 rad/s) and states on an output grid to 1e-9 rad.
 """
@@ -16,7 +16,7 @@ import pytest
 from impactid.errors import SimulationInputError
 from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.simulate import SpeedRestitution, bifurcation, simulate_flat
-from tests.simulate import flat_reference as ref
+from tests.rigs.flat import reference_flat as ref
 
 TIME_TOL = 1e-9  # [s]
 RATE_TOL = 1e-7  # [rad/s]

@@ -1,4 +1,4 @@
-"""Validation recordings from the independent reference simulator (tests/reference_recordings.py).
+"""Validation recordings from the independent reference simulator (tests/rigs/pivoted/reference_recordings.py).
 
 The period-1 orbits come from shooting on the one-revolution Poincaré map of the SciPy reference
 model. The recordings built on them are compared with impactid's own generator
@@ -18,8 +18,8 @@ from impactid.events import find_events
 from impactid.io import read_recording, read_truth
 from impactid.rigs.pivoted.synth import synth_pivoted
 from impactid.synth import SensorModel
-from tests import reference_recordings as RR
-from tests import reference_rigp as R
+from tests.rigs.pivoted import reference_recordings as RR
+from tests.rigs.pivoted import reference_rigp as R
 
 HC = {"kind": "hunt-crossley", "beta": 24.7e9, "n": 1.5}
 S3 = {"kind": "restitution", "gamma": 0.8, "xi0": 1.0}

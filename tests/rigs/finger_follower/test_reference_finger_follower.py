@@ -1,4 +1,5 @@
-"""Checks of the independent finger-follower/HLA reference model (tests/reference_finger_follower.py).
+"""Checks of the independent finger-follower/HLA reference model
+(tests/rigs/finger_follower/reference_finger_follower.py).
 
 The model is the OHC finger-follower valve train with a hydraulic lash adjuster of Kim, Jeon & Park
 (1990), as repaired by the project's valve-train specification. The tests check closed forms,

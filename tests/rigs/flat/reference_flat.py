@@ -352,7 +352,7 @@ def run_flat_reference(rig, omega: float, r: float | Callable[[float], float], t
 
 
 def _print_reference_run(rpm: float = 130.0, r: float = 0.8, revolutions: int = 5) -> None:
-    """Print the events of a run started in contact at theta_c0 = 0 (``python -m tests.simulate.flat_reference``)."""
+    """Print the events of a run started in contact at theta_c0 = 0 (``python -m tests.rigs.flat.reference_flat``)."""
     from impactid.rigs.flat import ALZATE2007
 
     omega = rpm * TWO_PI / 60.0

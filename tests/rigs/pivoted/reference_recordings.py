@@ -8,7 +8,8 @@ If the recordings used to validate it were made by impactid's own compiled simul
 the estimator and the data generator share (a sign, a lever arm, a friction convention, an event
 or step-size artefact of the compiled kernel) would cancel out and the validation would pass
 anyway. The recordings made here come from a separate implementation of the physics,
-``tests/reference_rigp.py`` (the model of docs/rig_p.md and docs/estimation.md written out again with SciPy's
+``tests/rigs/pivoted/reference_rigp.py`` (the model of docs/rig_p.md and docs/estimation.md written out again
+with SciPy's
 ``solve_ivp``, DOP853, event-driven, rtol 1e-12), so such a shared bias shows up as a
 disagreement.
 
@@ -78,7 +79,7 @@ __all__ = [
     "write_reference_recording",
 ]
 
-GENERATOR = "reference solve_ivp (tests/reference_recordings.py)"
+GENERATOR = "reference solve_ivp (tests/rigs/pivoted/reference_recordings.py)"
 ALL_CHANNELS = ("accel_tangential", "force_x", "force_y", "cam_angle")
 TWO_PI = 2.0 * math.pi
 #: Samples simulated beyond each end when decimating (the FIR filter's edge zone), output samples.

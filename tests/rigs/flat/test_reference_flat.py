@@ -1,4 +1,4 @@
-"""Sanity of the rig F solve_ivp reference (tests/simulate/flat_reference.py) on its own."""
+"""Sanity of the rig F solve_ivp reference (tests/rigs/flat/reference_flat.py) on its own."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from impactid.rigs.flat import ALZATE2007 as RIG
-from tests.simulate import flat_reference as ref
+from tests.rigs.flat import reference_flat as ref
 
 RPM130 = 130.0 * 2.0 * math.pi / 60.0  # [rad/s]
 

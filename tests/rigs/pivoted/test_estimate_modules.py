@@ -1,7 +1,7 @@
 """Rig P's estimates split by subject (issue 25): the re-exporting face and the pieces of the fits.
 
 ``impactid.rigs.pivoted.estimates`` only re-exports; the subjects are ``damping*`` (the contact damping),
-``restitution`` and ``estimate_results``. The fits' numbers are checked in tests/test_estimates.py and
+``restitution`` and ``estimate_results``. The fits' numbers are checked in tests/rigs/pivoted/test_estimates.py and
 tests/test_gauss_newton.py; here: the face, the validation, and the small pieces on their own.
 """
 
