@@ -300,7 +300,9 @@ class RangeFlags:
 class FilmScheme(RangeFlags):
     """The film over one revolution from the explicit squeeze scheme (R-37..R-39).
 
-    Attributes (arrays over the steps of the revolution)
+    The arrays are over the steps of the revolution.
+
+    Attributes
     ----------
     h : central film thickness [m].
     w : squeeze velocity ``(h_n - h_{n-1})/dt`` [m/s], positive = separation.

@@ -26,7 +26,7 @@ constant or zero or shorter than a revolution, and, after the fit, a channel the
 explains no better than noise alone (:func:`impactid.rigs.valvespring.check_model_explains`).
 
 Search, intervals, model check
------------------------------
+------------------------------
 Every fit runs on the identification engine (:mod:`impactid.engine`): the search
 (:func:`~impactid.engine.search`, trust-region reflective, central differences, in logarithms of the
 positive parameters), linearised (Gauss-Newton) intervals at the optimum

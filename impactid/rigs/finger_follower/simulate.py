@@ -254,9 +254,9 @@ class Run:
     mode : the kernel's mode bit mask at each sample.
     forces : contact forces and accelerations (n x 11): ``F_tf, F_fc, F_vf, R_seat, F_drag`` [N]
         then the six accelerations [m/s^2, rad/s^2].
-    events : table of switches: ``switch, what, contact, direction, t_s, cam_angle_rad,
-        cam_angle_deg`` (wrapped to [-180, 180)), ``revolution`` (from 0), ``Y_v, Y_v_dot, Y_t``
-        [m, m/s, m] and the forces before the switch.
+    events : table of switches, with columns switch, what, contact, direction, t_s,
+        cam_angle_rad, cam_angle_deg (wrapped to [-180, 180)), revolution (from 0), Y_v, Y_v_dot,
+        Y_t [m, m/s, m] and the forces before the switch.
     y_end, signs_end, t_end : state, sign bookkeeping and time at the end (to continue a run).
     theta_start : cam angle at ``t = 0`` [rad].
     steps, rejected : integrator statistics.
@@ -881,10 +881,10 @@ class CriticalSpeeds:
         cam event in the steady state (NaN if none in the range); ``bounce_speed_rpm`` the same for
         the valve reopening after closing (more than one opening per revolution).
     resolution_rpm : bisection resolution (the speeds are within this of the transition).
-    sweep : table of the sweep and bisection runs: ``rpm, jump, bounce, tappet_separation,
-        converged, period, max_valve_lift_m, seating_speed_m_s, peak_cam_force_closing_N,
-        min_F_fc_N, failure, stage`` (``sweep`` or ``bisection``; ``failure`` says why a speed could not
-        be simulated, empty otherwise).
+    sweep : table of the sweep and bisection runs, with columns rpm, jump, bounce,
+        tappet_separation, converged, period, max_valve_lift_m, seating_speed_m_s,
+        peak_cam_force_closing_N, min_F_fc_N, failure and stage (``sweep`` or ``bisection``;
+        ``failure`` says why a speed could not be simulated, empty otherwise).
     notes : what qualifies the result (a transition that is not monotone in speed, runs that did
         not settle, no transition in the range).
     """
