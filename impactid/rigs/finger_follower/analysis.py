@@ -4,8 +4,8 @@
   against cam angle in the steady state (the paper's Figs. 9-12);
 * :func:`rocker_ratio_effect` - the train with its fluctuating rocker ratio against the same
   train with the ratio held at its base-circle value (the paper's Fig. 12 comparison);
-* :func:`leakdown_curve` (re-exported from :mod:`impactid.rigs.finger_follower.simulate`) - maximum tappet leak-down against
-  camshaft speed (the paper's Fig. 8).
+* :func:`leakdown_curve` (re-exported from :mod:`impactid.rigs.finger_follower.simulate`) - maximum
+  tappet leak-down against camshaft speed (the paper's Fig. 8).
 """
 
 from __future__ import annotations
