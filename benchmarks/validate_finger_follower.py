@@ -26,9 +26,6 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
-
-import reference_finger_follower as R  # noqa: E402
 
 from impactid.io import Recording  # noqa: E402
 from impactid.rigs.finger_follower import analysis  # noqa: E402
@@ -45,6 +42,7 @@ from impactid.rigs.finger_follower.simulate import (  # noqa: E402
     summarize,
 )
 from impactid.rigs.finger_follower.synth import Sensors, synth_recording  # noqa: E402
+from tests.rigs.finger_follower import reference_finger_follower as R  # noqa: E402
 
 TRAIN = prepare(RIG)
 REF_P = R.reference_params()

@@ -33,13 +33,8 @@ from impactid import SUNDAR2016, HuntCrossley, Restitution
 from impactid.errors import ImpactidError
 from impactid.rigs.pivoted.synth import synth_pivoted
 from impactid.synth import SensorModel
-
-try:
-    from . import reference_recordings as RR
-    from . import reference_rigp as RP
-except ImportError:  # pragma: no cover - tests/ on sys.path (the benchmark script)
-    import reference_recordings as RR
-    import reference_rigp as RP
+from tests.rigs.pivoted import reference_recordings as RR  # the benchmarks put the repository root on sys.path
+from tests.rigs.pivoted import reference_rigp as RP
 
 #: Classes of the envelope, and what sets each apart (the other factors at their clean values).
 CLASSES = ("noise-free", "noisy", "friction", "low-rate", "S3")

@@ -12,14 +12,11 @@ jump-speed bisection.
 """
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import reference_cycloidal_ehl as R  # noqa: E402
+from tests.rigs.cycloidal import reference_cycloidal_ehl as R
 
 DEG = math.pi / 180.0
 

@@ -2,15 +2,9 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
 
 from impactid.rigs.finger_follower.parameters import KIM1990
-
-# the independent solve_ivp reference model lives in tests/
-sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
 
 @pytest.fixture(scope="session")
@@ -27,7 +21,7 @@ def train(rig):
 
 @pytest.fixture(scope="session")
 def ref():
-    import reference_finger_follower as R
+    from tests.rigs.finger_follower import reference_finger_follower as R
 
     return R
 

@@ -12,15 +12,12 @@ Runtime: the tests outside ``slow`` (closed forms, statics, kinematics, short en
 """
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import reference_finger_follower as R  # noqa: E402
+from tests.rigs.finger_follower import reference_finger_follower as R
 
 DEG = math.pi / 180.0
 

@@ -62,11 +62,7 @@ from scipy.optimize import brentq
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.rigs import SUNDAR2016
 from impactid.synth.sensors import SensorModel, antialias_decimate, apply_sensors, encoder_counts
-
-try:  # imported as part of the ``tests`` package (pytest, PYTHONPATH=repository root)
-    from . import reference_rigp as R
-except ImportError:  # pragma: no cover - imported as a top-level module (tests/ on sys.path)
-    import reference_rigp as R
+from tests.rigs.pivoted import reference_rigp as R
 
 __all__ = [
     "GENERATOR",

@@ -4,14 +4,11 @@ Total runtime is well under 20 s.
 """
 
 import math
-import os
-import sys
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-import reference_rigp as R  # noqa: E402
+from tests.rigs.pivoted import reference_rigp as R
 
 BETA = 24.7e9  # N s m^-2.5 (Table 2 operating points)
 N_EXP = 1.5
