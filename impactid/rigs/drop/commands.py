@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from pathlib import Path
 
 from impactid.commandline import (
@@ -40,6 +41,7 @@ from impactid.commandline import (
     write_synthetic,
 )
 from impactid.rigs.base import Argument, CommandSpec
+from impactid.rigs.drop.figures import save
 
 __all__ = ["COMMANDS"]
 
@@ -186,7 +188,7 @@ def run_simulate(args, model) -> int:
             "impacts": table.to_dict(orient="list")}
 
     def figures(staged):
-        from impactid.rigs.drop.figures import drop_figure, save
+        from impactid.rigs.drop.figures import drop_figure
 
         return [save(drop_figure(run), Path(args.plots) / "drop_force.png", staged)]
 
@@ -228,6 +230,35 @@ def _channel_list(text: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(out))
 
 
+def fit_arguments(prefix: str = "") -> tuple[Argument, ...]:
+    """The options of the drop fit (:func:`~impactid.rigs.drop.identify.fit_drop`), declared once for
+    ``impactid drop fit`` and the generic ``impactid estimate`` (which prefixes their help with the
+    rig's name: its options are the union of the rigs')."""
+    return (
+        Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
+                                "help": "fix the exponent n of the damping (0: viscous)"}),
+        Argument(("--channels",), {"type": _channel_list, "default": None, "metavar": "acceleration,force",
+                                   "help": f"{prefix}the signals fitted (default: those the recordings have)"}),
+        Argument(("--max-impacts",), {"type": integer_in(1, 1000), "default": 4,
+                                      "help": f"{prefix}impacts fitted per recording, the first ones (default 4)"}),
+        Argument(("--speeds",), {"choices": ["fit", "measured"], "default": "fit",
+                                 "help": f"{prefix}onset speeds fitted with the contact (default) or held at the "
+                                         "measured values"}),
+        Argument(("--confidence",), {"type": fraction, "default": 0.95,
+                                     "help": f"{prefix}coverage of the intervals (default 0.95)"}),
+    )
+
+
+def fit_figures(result, plots: str | os.PathLike[str]):
+    """The figure of a drop fit's ``--plots``: its name and its writer (measured and simulated contact
+    signals with the residuals)."""
+
+    def write(staged):
+        return [save(result.plot(), Path(plots) / "drop_fit.png", staged)]
+
+    return ["drop_fit.png"], write
+
+
 def run_fit(args, model) -> int:
     from impactid._files import check_distinct_inputs
     from impactid.io import read_recording
@@ -244,12 +275,7 @@ def run_fit(args, model) -> int:
     data = result.to_dict()
     data["recordings_read"] = [str(p) for p in paths]
 
-    def figures(staged):
-        from impactid.rigs.drop.figures import save
-
-        return [save(result.plot(), Path(args.plots) / "drop_fit.png", staged)]
-
-    deliver(args, data, inputs, (["drop_fit.png"], figures) if args.plots else None)
+    deliver(args, data, inputs, fit_figures(result, args.plots) if args.plots else None)
     if args.json:
         return 0
     print(result.report())
@@ -270,16 +296,7 @@ COMMANDS = (
         Argument(("recordings",), {"metavar": "REC", "nargs": "+",
                                    "help": "HDF5 or CSV drop recordings (several: joint fit)"}),
         _RIG_FILE,
-        Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
-                                "help": "fix the damping index n (e.g. 1.5)"}),
-        Argument(("--channels",), {"type": _channel_list, "default": None, "metavar": "acceleration,force",
-                                   "help": "the signals fitted (default: those the recordings have)"}),
-        Argument(("--max-impacts",), {"type": integer_in(1, 1000), "default": 4,
-                                      "help": "impacts fitted per recording, the first ones (default 4)"}),
-        Argument(("--speeds",), {"choices": ["fit", "measured"], "default": "fit",
-                                 "help": "onset speeds fitted with the contact (default) or held at the measured "
-                                         "values"}),
-        Argument(("--confidence",), {"type": fraction, "default": 0.95, "help": "coverage of the intervals"}),
+        *fit_arguments(),
         Argument(("--out",), {"metavar": "RESULT.json", "help": "write the result as JSON (atomically)"}),
         _PLOTS, _JSON), run_fit),
 )

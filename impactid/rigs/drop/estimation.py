@@ -15,13 +15,10 @@ from __future__ import annotations
 import argparse
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
-from impactid.commandline import exponent, fraction, integer_in
-from impactid.rigs.base import Argument, Estimator, PreparedRecording, pipeline_provenance
-from impactid.rigs.drop.commands import _channel_list
-from impactid.rigs.drop.figures import save
+from impactid.rigs.base import Estimator, PreparedRecording, pipeline_provenance
+from impactid.rigs.drop.commands import fit_arguments, fit_figures
 from impactid.rigs.drop.identify import N_STARTS, DropFit, fit_drop
 from impactid.rigs.drop.measure import ImpactObservations, measure_impacts
 from impactid.rigs.drop.parameters import ACCELERATION_CHANNEL, FORCE_CHANNEL, N_BOUNDS, N_MAX
@@ -127,27 +124,11 @@ def _notes(result: DropFit) -> tuple[str, ...]:
 
 
 def figures(result: DropFit, args: argparse.Namespace):
-    """The figure of ``estimate --plots``: measured and simulated contact signals with the residuals."""
-
-    def write(staged):
-        return [save(result.plot(), Path(args.plots) / "drop_fit.png", staged)]
-
-    return ["drop_fit.png"], write
+    """The figure of ``estimate --plots``: that of ``impactid drop fit``."""
+    return fit_figures(result, args.plots)
 
 
-ARGUMENTS = (
-    Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
-                            "help": "fix the exponent n of the damping (0: viscous)"}),
-    Argument(("--channels",), {"type": _channel_list, "default": None, "metavar": "acceleration,force",
-                               "help": "drop-impact: the signals fitted (default: those the recordings have)"}),
-    Argument(("--max-impacts",), {"type": integer_in(1, 1000), "default": 4,
-                                  "help": "drop-impact: impacts fitted per recording, the first ones (default 4)"}),
-    Argument(("--speeds",), {"choices": ["fit", "measured"], "default": "fit",
-                             "help": "drop-impact: onset speeds fitted with the contact (default) or held at the "
-                                     "measured values"}),
-    Argument(("--confidence",), {"type": fraction, "default": 0.95,
-                                 "help": "drop-impact: coverage of the intervals (default 0.95)"}),
-)
+ARGUMENTS = fit_arguments("drop-impact: ")
 
 #: What the generic estimate runs for the drop rig's recordings.
 ESTIMATOR = Estimator(
