@@ -175,9 +175,11 @@ def true_runs(mask: np.ndarray, *, max_gap: int = 0) -> tuple[np.ndarray, np.nda
     starts, stops : int64 arrays of equal length, ascending: ``mask[starts[i]:stops[i]]`` is all
     True (up to the merged gaps) and the samples just outside it are False.
     """
-    padded = np.concatenate(([0], np.asarray(mask, dtype=bool).astype(np.int8), [0]))
-    edges = np.diff(padded)
+    # one int8 difference array (a view of the mask, no padded copy): masks of long audio recordings
+    # hold tens of millions of samples
+    edges = np.diff(np.ascontiguousarray(mask, dtype=bool).view(np.int8), prepend=np.int8(0), append=np.int8(0))
     starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    del edges
     if max_gap > 0 and starts.size > 1:
         separate = starts[1:] - stops[:-1] > max_gap  # a stretch that starts a run of its own
         starts, stops = starts[np.concatenate(([True], separate))], stops[np.concatenate((separate, [True]))]

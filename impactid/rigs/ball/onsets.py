@@ -62,6 +62,8 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import butter, sosfiltfilt
 
+from impactid.signal import true_runs
+
 __all__ = ["BLOCK_FRAMES", "DEFAULT_BAND", "Onsets", "detect_onsets", "envelope", "memory_needed", "min_sample_rate"]
 
 #: Frames band-passed at a time (5.5 s at 48 kHz): the working memory of the envelope does not grow
@@ -244,7 +246,8 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
     # re-trigger
     release = max(median + release_sigma * 1.4826 * mad, release_sigma * quantum)
     gap = max(3, int(round(window * fs)))
-    starts, ends = _runs(env > min(release, threshold), gap)
+    # stretches fewer than ``gap`` samples apart are one onset
+    starts, ends = true_runs(env > min(release, threshold), max_gap=gap - 1)
     # the loudest sample of a run: between runs the envelope is below the level that starts one
     # (itself at most the threshold), so the maximum from one start to the next is the run's own
     loud = np.maximum.reduceat(env, starts) > threshold if starts.size else np.zeros(0, dtype=bool)
@@ -274,21 +277,6 @@ def detect_onsets(samples: np.ndarray, sample_rate: float, *, band: tuple[float,
                   noise_floor=median, refractory=float(refractory), shortest_flight=shortest, ring_down=ring_down,
                   band=(lo, hi), sample_rate=fs, envelope=decimated, envelope_rate=fs / step,
                   suppressed=onset[suppressed], notes=tuple(notes))
-
-
-def _runs(mask: np.ndarray, gap: int) -> tuple[np.ndarray, np.ndarray]:
-    """Start and end (exclusive) indices of the True stretches of ``mask``, merging stretches
-    separated by fewer than ``gap`` samples."""
-    if not mask.any():
-        return np.empty(0, dtype=int), np.empty(0, dtype=int)
-    d = np.diff(mask.view(np.int8), prepend=np.int8(0), append=np.int8(0))
-    starts = np.flatnonzero(d == 1)
-    ends = np.flatnonzero(d == -1)
-    del d
-    separate = starts[1:] - ends[:-1] >= gap  # a stretch that starts a run of its own
-    keep_s = starts[np.concatenate(([True], separate))]
-    keep_e = ends[np.concatenate((separate, [True]))]
-    return keep_s, keep_e
 
 
 def _constant_fraction(env: np.ndarray, start: int, peak: int, fraction: float) -> float:
