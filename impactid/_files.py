@@ -19,11 +19,13 @@ from __future__ import annotations
 import hashlib
 import os
 import secrets
+import signal
 import stat
 import threading
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
+from impactid._signals import arrived_stop
 from impactid.errors import ImpactidError
 
 __all__ = ["DuplicateInputError", "OutputError", "StagedFiles", "TerminationRequested", "atomic_write",
@@ -261,9 +263,12 @@ class StagedFiles:
     def commit(self) -> list[Path]:
         """Rename every staged file into place; returns the final paths."""
         done = []
-        if _TERMINATION.is_set():
+        stop = signal.SIGTERM if _TERMINATION.is_set() else arrived_stop()
+        if stop is not None:  # a stop arrived, even one whose exception was lost: nothing is put in place
             self.rollback()
-            raise TerminationRequested()
+            if stop == signal.SIGTERM:
+                raise TerminationRequested()
+            raise KeyboardInterrupt()
         try:
             for tmp, final in self._staged:
                 with open(tmp, "rb+") as fh:

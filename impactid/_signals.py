@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import signal
 import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 
-__all__ = ["RETRY_S", "in_native_machinery", "stopping_handler"]
+__all__ = ["RETRY_S", "arrived_stop", "forget_stops", "in_native_machinery", "stopping_handler"]
 
 #: Seconds between two tries of a stop that arrived inside numba or llvmlite.
 RETRY_S = 0.05
@@ -46,6 +47,24 @@ def _package_roots() -> tuple[str, ...]:
 
 
 _ROOTS: tuple[str, ...] | None = None
+
+#: The stop signals that reached a handler of :func:`stopping_handler` since :func:`forget_stops`.
+#: Recorded on arrival, before any deferral, so that a stop whose exception was lost (raised in a
+#: finalizer, or a retry that never came back) still keeps the job's outputs from being put in place
+#: (:meth:`impactid._files.StagedFiles.commit` and the command line check it).
+_ARRIVED: set[int] = set()
+
+
+def arrived_stop() -> int | None:
+    """The stop signal (SIGTERM before SIGINT) that arrived since :func:`forget_stops`, or None."""
+    if not _ARRIVED:
+        return None
+    return max(_ARRIVED, key=lambda signum: signum == signal.SIGTERM)
+
+
+def forget_stops() -> None:
+    """Forget the stops recorded so far (the command that received them has ended)."""
+    _ARRIVED.clear()
 
 
 def in_native_machinery(frame: FrameType | None) -> bool:
@@ -84,6 +103,7 @@ def stopping_handler(stop: Callable[[int], None], last_words: Callable[[int], st
             pass
 
     def handler(signum, frame):
+        _ARRIVED.add(signum)
         with lock:
             resent = state["retries"] > 0
             if resent:

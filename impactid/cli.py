@@ -37,7 +37,7 @@ import warnings
 from collections.abc import Iterator, Sequence
 
 from impactid._files import TerminationRequested, request_termination, termination_requested
-from impactid._signals import stopping_handler
+from impactid._signals import arrived_stop, forget_stops, stopping_handler
 from impactid._version import __version__
 from impactid.commandline import (
     UsageError,
@@ -364,9 +364,13 @@ def _command_environment() -> Iterator[None]:
             warnings.filterwarnings("ignore", message=r"variable '.*' is not in scope")
             warnings.showwarning = show
             yield
-            if termination_requested():
+            stop = signal.SIGTERM if termination_requested() else arrived_stop()
+            if stop == signal.SIGTERM:  # a stop whose exception was lost (a finalizer, a retry not delivered)
                 raise TerminationRequested()
+            if stop is not None:
+                raise KeyboardInterrupt()
     finally:
+        forget_stops()
         sys.unraisablehook = previous_hook
         if in_main:
             signal.signal(signal.SIGTERM, previous_handler)

@@ -33,11 +33,40 @@ def test_a_signal_while_starting_ends_in_one_line(sig, code, word, delay, tmp_pa
     returncode, out, err = _run_and_signal(["synth", "--e-over-rc", "0.2", "--cam-speed", "16", "--duration", "30",
                                             "--out", str(tmp_path / "s.h5")], sig, delay)
     assert "Traceback" not in err, err
-    assert returncode == code, (returncode, err)
+    assert returncode == code, (returncode, err, out, sorted(p.name for p in tmp_path.iterdir()))
     lines = [line for line in err.splitlines() if line.strip()]
     assert lines and lines[-1].startswith(f"impactid: error: {word}"), err
     assert sum(line.startswith("impactid: error:") for line in lines) == 1, err
     assert not list(tmp_path.iterdir())  # no partial output
+
+
+@pytest.mark.parametrize("sig, expected", [(signal.SIGINT, KeyboardInterrupt), (signal.SIGTERM, None)])
+def test_a_stop_whose_exception_was_lost_still_keeps_the_outputs_out(sig, expected, tmp_path):
+    """Python drops an exception raised in a finalizer: the stop's arrival, recorded before the
+    handler raises, still keeps every output of the job from being put in place."""
+    from impactid._files import StagedFiles, TerminationRequested
+    from impactid._signals import arrived_stop, forget_stops, stopping_handler
+
+    class Lost(Exception):
+        pass
+
+    def stop(signum):
+        raise Lost()
+
+    handler = stopping_handler(stop, lambda signum: "stopped")
+    forget_stops()
+    try:
+        with pytest.raises(Lost):
+            handler(sig, sys._getframe())  # the exception a finalizer would have swallowed
+        assert arrived_stop() == sig
+        out = tmp_path / "result.json"
+        with pytest.raises(expected or TerminationRequested):
+            with StagedFiles() as staged:
+                staged.write_text(out, "{}")
+        assert not list(tmp_path.iterdir())  # neither the output nor its temporary file
+    finally:
+        forget_stops()
+    assert arrived_stop() is None
 
 
 def test_a_closed_stdout_ends_quietly(monkeypatch, capsys):
