@@ -17,7 +17,7 @@ import sys
 import threading
 from collections.abc import Sequence
 
-from impactid._signals import stopping_handler
+from impactid._signals import forget_stops, stopping_handler
 
 __all__ = ["main"]
 
@@ -113,6 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _Terminated:
         return _stopped(signal.SIGTERM)
     finally:
+        forget_stops()  # the command has ended, and with it what its stops meant
         if in_main:
             signal.signal(signal.SIGTERM, previous_term)
             signal.signal(signal.SIGINT, previous_int)

@@ -56,10 +56,13 @@ _ARRIVED: set[int] = set()
 
 
 def arrived_stop() -> int | None:
-    """The stop signal (SIGTERM before SIGINT) that arrived since :func:`forget_stops`, or None."""
-    if not _ARRIVED:
-        return None
-    return max(_ARRIVED, key=lambda signum: signum == signal.SIGTERM)
+    """The stop signal (SIGTERM before SIGINT) that arrived since :func:`forget_stops`, or None
+    (other signals a handler was installed for are not stops of a command)."""
+    if signal.SIGTERM in _ARRIVED:
+        return signal.SIGTERM
+    if signal.SIGINT in _ARRIVED:
+        return signal.SIGINT
+    return None
 
 
 def forget_stops() -> None:

@@ -87,7 +87,7 @@ def test_a_closed_stdout_ends_quietly(monkeypatch, capsys):
 def test_a_stop_inside_numba_waits_until_it_returns():
     """A signal that lands in numba's or llvmlite's Python code is not raised there (an exception
     unwinding through LLVM's callbacks crashed the process); it is raised a moment later, outside."""
-    from impactid._signals import in_native_machinery, stopping_handler
+    from impactid._signals import arrived_stop, forget_stops, in_native_machinery, stopping_handler
 
     class Stop(Exception):
         pass
@@ -111,5 +111,7 @@ def test_a_stop_inside_numba_waits_until_it_returns():
         with pytest.raises(Stop):
             time.sleep(5)  # the retry lands here, outside numba: the stop is raised
         assert calls == [signal.SIGUSR1]
+        assert arrived_stop() is None  # a signal other than SIGINT and SIGTERM stops no command's outputs
     finally:
         signal.signal(signal.SIGUSR1, previous)
+        forget_stops()
