@@ -205,3 +205,22 @@ def test_no_rig_contributes_the_estimate_command():
     for name in list(MODELS):
         model = rig_model(name)
         assert all(c.name != "estimate" for c in model.command_specs()), f"{name} contributes 'estimate'"
+
+
+def test_a_rig_model_names_its_own_modules():
+    """The protocol's import paths (kernel, commands, estimation, replay, calibrate) point into the
+    rig's own folder, and each resolves."""
+    from impactid.rigs.registry import MODELS, PLUGINS, rig_model
+
+    for name in list(MODELS):
+        model = rig_model(name)
+        package = PLUGINS[name][0]
+        paths = {field: getattr(model, field) for field in ("kernel", "commands", "estimation", "replay", "calibrate")}
+        for field, path in paths.items():
+            if not isinstance(path, str):
+                continue
+            assert path.partition(":")[0].startswith(package + "."), f"{name}.{field} = {path!r} is outside {package}"
+        for field in ("replay", "calibrate"):
+            if paths[field] is not None:
+                assert callable(model.function(field)), f"{name}.{field} = {paths[field]!r} does not resolve"
+    assert rig_model("pivoted-follower").replay and rig_model("drop-impact").replay

@@ -159,6 +159,13 @@ class RigModel:
         per-event (per-impact, per-revolution, per-bounce) kinematics, or None.
     example : ``example(refresh=False)`` -> the paths of the rig's built-in example recordings
         (generated on first use and cached), or None.
+    replay : ``"module:name"``, the import path of the rig's replay: what turns trial parameters into
+        the residual vector of the measured events (and its Jacobian, where the kernel integrates
+        sensitivities), the function the identification engine (:mod:`impactid.engine`) searches
+        over; None where the rig's fits have no replay of their own (closed-form laws). Read with
+        :meth:`function`.
+    calibrate : ``"module:name"``, the import path of the rig's calibration of its own pipeline (the
+        bias the measurement adds, estimated on synthetic recordings of the same rig), or None.
     commands : what the rig adds to the command line: the :class:`CommandSpec` records, or the import
         path of the module that holds them as ``COMMANDS`` (read by :meth:`command_specs`).
     estimation : import path of the rig's estimation module, whose ``ESTIMATOR`` (an
@@ -185,6 +192,8 @@ class RigModel:
     example: Callable | None = None
     commands: Sequence[CommandSpec] | str = ()
     estimation: str | None = None
+    replay: str | None = None
+    calibrate: str | None = None
 
     def command_specs(self) -> tuple[CommandSpec, ...]:
         """The rig's commands: :attr:`commands`, imported from its module on first use when it is an
@@ -192,6 +201,15 @@ class RigModel:
         if isinstance(self.commands, str):
             return tuple(importlib.import_module(self.commands).COMMANDS)
         return tuple(self.commands)
+
+    def function(self, name: str) -> Any:
+        """The object an import-path field names (``"replay"``, ``"calibrate"``), imported on first use;
+        None where the rig has none. ``"module:attribute"`` paths only."""
+        path = getattr(self, name)
+        if path is None:
+            return None
+        module, _, attribute = path.partition(":")
+        return getattr(importlib.import_module(module), attribute)
 
     @property
     def default(self):

@@ -44,8 +44,8 @@ solution, as rig F's cam profile hands its variable projection; the chained fit,
 engine's search (:func:`impactid.engine.search`: trust-region reflective, tolerances 1e-12, its
 Jacobian by central differences grouped by drop). :func:`impactid.engine.uncertainty` then states,
 for both, the bread ``(X^T W X)^-1`` (the chained fit's ``(J^T J)^-1``, the drops' starts included)
-by the shared covariance rule (:func:`impactid.covariance.covariance_from_jacobian`): its condition
-number is reported, and beyond :data:`~impactid.covariance.CONDITION_LIMIT` (speeds too close
+by the shared covariance rule (:func:`impactid.engine.covariance.covariance_from_jacobian`): its condition
+number is reported, and beyond :data:`~impactid.engine.covariance.CONDITION_LIMIT` (speeds too close
 together to tell ``e0`` from ``gamma``, say) the standard errors are undetermined and a note says
 why; and the parameters (units, bounds, bound hits) and notes of the result.
 
@@ -85,8 +85,8 @@ from scipy.optimize import nnls
 from scipy.stats import t as student
 
 from impactid import engine
-from impactid.covariance import Covariance
 from impactid.engine import Free, Search, Uncertainty, residual_against_noise, search, uncertainty
+from impactid.engine.covariance import Covariance
 from impactid.results import FitResult, Parameter
 from impactid.rigs.ball.flight import FlightConstants, flight_time, landing_speed, launch_speed
 
@@ -401,7 +401,7 @@ def _weighted_least_squares(spec: Law, data: LawData, confidence: float) -> Leas
     :class:`~impactid.engine.Search` at the solution (as rig F's cam profile hands its variable
     projection), and :func:`impactid.engine.uncertainty` states the bread ``(X^T W X)^-1`` by the
     shared covariance rule (undetermined, NaN, when the design's condition is beyond
-    :data:`~impactid.covariance.CONDITION_LIMIT`), the parameters with their units and bound hits,
+    :data:`~impactid.engine.covariance.CONDITION_LIMIT`), the parameters with their units and bound hits,
     and the notes."""
     sw = np.sqrt(data.weights)
     Xw = spec.design(data.v) * sw[:, None]
@@ -593,7 +593,7 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | Timin
     LawFit
         the one :class:`~impactid.results.FitResult` of the fit: the parameters (value, stderr,
         Student-t interval, unit; undetermined, with the reason, when the design's condition is
-        beyond :data:`~impactid.covariance.CONDITION_LIMIT`), statistics (AIC, BIC, the condition
+        beyond :data:`~impactid.engine.covariance.CONDITION_LIMIT`), statistics (AIC, BIC, the condition
         number, the runs test), notes (a lack of fit, few drops) and in ``details`` the covariance,
         the correlation matrix and how the errors were formed.
 
@@ -890,7 +890,7 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
         the one :class:`~impactid.results.FitResult` of the fit: the law's parameters with
         cluster-robust errors by drop (never below the model-based ones; model-based with fewer
         than :data:`MIN_CLUSTERS` drops), undetermined with the reason when the Jacobian's
-        condition is beyond :data:`~impactid.covariance.CONDITION_LIMIT`; statistics (the timing
+        condition is beyond :data:`~impactid.engine.covariance.CONDITION_LIMIT`; statistics (the timing
         scatter of the residuals, AIC, BIC, the condition number and, with ``timing_noise``, the
         residual scale over it: above :data:`LACK_OF_FIT_FACTOR`, or significantly above 1 by the
         engine's chi-square rule, a note reports it); in ``details`` the covariance, the

@@ -118,6 +118,7 @@ MODEL = RigModel(
     measure=_measure,
     commands="impactid.rigs.drop.commands",
     estimation="impactid.rigs.drop.estimation",
+    replay="impactid.rigs.drop.simulate:replay_impacts",
 )
 
 __all__ = ["ACCELERATION_CHANNEL", "CHANNELS", "FORCE_CHANNEL", "LAW_NAME", "MODEL", "MODEL_NAME", "N_BOUNDS",

@@ -27,7 +27,7 @@ the best.
 
 Uncertainty (:func:`impactid.engine.uncertainty`): the covariance of every fitted parameter (the
 nuisances included) from the weighted residuals' Jacobian at the optimum by the shared rule of
-:func:`impactid.covariance.covariance_from_jacobian`, scaled by the residual variance (the reduced
+:func:`impactid.engine.covariance.covariance_from_jacobian`, scaled by the residual variance (the reduced
 chi-square): a residual larger than the noise (a lack of fit) widens the intervals by the same
 factor. Intervals are Student-t intervals on ``ln k``, ``ln beta`` and ``n`` (mapped to ``k`` and
 ``beta``, hence asymmetric); a parameter on a bound of the search is reported. Model check

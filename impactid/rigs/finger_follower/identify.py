@@ -31,7 +31,7 @@ Every fit runs on the identification engine (:mod:`impactid.engine`): the search
 (:func:`~impactid.engine.search`, trust-region reflective, central differences, in logarithms of the
 positive parameters), linearised (Gauss-Newton) intervals at the optimum
 (:func:`~impactid.engine.uncertainty`: covariance ``s^2 (J^T J)^-1`` by the shared rule of
-:func:`impactid.covariance.covariance_from_jacobian`, with the residual variance
+:func:`impactid.engine.covariance.covariance_from_jacobian`, with the residual variance
 ``s^2 = SSR / (n - p)`` where ``p`` counts the eliminated offsets, Student-t quantiles for the chosen
 confidence, mapped back from the logarithms), and the model check
 (:func:`~impactid.engine.residual_against_noise`): the residual against the recording's own noise,

@@ -71,6 +71,7 @@ MODEL = RigModel(
     detachment=lambda rig, **options: rig.detachment_speed_hz(**options),
     pack=_pack_rig,
     kernel="impactid.rigs.flat.kernel",
+    replay="impactid.rigs.flat.encoder_impacts:simulated_first_bounce",
     simulate=_simulate,
     measure=_measure,
     commands="impactid.rigs.flat.commands",

@@ -782,7 +782,7 @@ class CamProfileResult(FitResult):
     :func:`impactid.engine.uncertainty`, scaled by the reduced chi-square as lmfit does); they are
     undetermined (NaN, ``null``) for the centre and width of a zero-amplitude term, and for every
     coefficient when the condition number of ``J^T J`` exceeds
-    :data:`impactid.covariance.CONDITION_LIMIT` (overlapping terms: only the profile they add up to
+    :data:`impactid.engine.covariance.CONDITION_LIMIT` (overlapping terms: only the profile they add up to
     is determined; the notes say which and why). They treat the residuals as independent: read
     them as indicative.
 

@@ -101,4 +101,6 @@ MODEL = RigModel(
     example=_example,
     commands="impactid.rigs.pivoted.commands",
     estimation="impactid.rigs.pivoted.estimation",
+    replay="impactid.rigs.pivoted.damping_objective:DampingObjective",
+    calibrate="impactid.rigs.pivoted.calibration:pipeline_bias",
 )

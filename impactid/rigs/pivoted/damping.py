@@ -15,7 +15,7 @@ contains it (default ``c`` in [1, 1e6] N s/m, ``n`` in [0.5, 2.5]); results are 
 Methods. ``"least-squares"`` (default): the per-event residual vector minimised by a
 trust-region Gauss–Newton method, with the Gauss–Newton covariance and the profile along the
 valley for the intervals (:mod:`impactid.rigs.pivoted.damping_least_squares` on
-:mod:`impactid.gauss_newton`, where its interval rules are stated). ``"optimise"``: for each ``n``
+:mod:`impactid.engine.valley`, where its interval rules are stated). ``"optimise"``: for each ``n``
 a bounded Brent search of ``log10 c``, bracketed by a 41-point scan; for the joint fit the same
 inner search inside an outer bounded Brent over ``n`` (a profile: it follows the valley by
 construction, so its curvature cannot stall it). ``"grid"``: the paper's grid search, the grid
@@ -75,7 +75,7 @@ CALIBRATION_THRESHOLD = 0.5 * RESIDUAL_FLOOR["lambda1"]
 #: Bootstrap resamples and the random seed (fixed: the same data give the same intervals).
 BOOTSTRAP_RESAMPLES = 400
 BOOTSTRAP_SEED = 20161122
-#: Estimation methods: ``"least-squares"`` (trust-region Gauss-Newton, :mod:`impactid.gauss_newton`),
+#: Estimation methods: ``"least-squares"`` (trust-region Gauss-Newton, :mod:`impactid.engine.valley`),
 #: ``"optimise"`` (nested bounded Brent along the valley), ``"grid"`` (the paper's grid search).
 METHODS = ("least-squares", "optimise", "grid")
 #: How the least-squares method differentiates the residuals (``fit_contact_damping(jacobian=...)``).
@@ -102,7 +102,7 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     residual : ``lambda1`` (default, accelerometer only), ``lambda2`` or ``lambda3``.
     fix_n : fix the exponent (1.5: Hunt–Crossley; 0: viscous).
     method : ``"least-squares"`` (default: trust-region Gauss–Newton with the profile along the valley,
-        :mod:`impactid.gauss_newton`), ``"optimise"`` (bounded Brent, profile over n, lattice and
+        :mod:`impactid.engine.valley`), ``"optimise"`` (bounded Brent, profile over n, lattice and
         bootstrap intervals) or ``"grid"`` (the paper's grid search).
     grid : grid points ``(n_c, n_n)`` of the grid method (n_n ignored when n is fixed).
     c_bounds : bounds of ``c = beta delta_ref^n`` [N s/m]; n_bounds : bounds of ``n``.

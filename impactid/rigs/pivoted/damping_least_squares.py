@@ -1,4 +1,4 @@
-"""The ``"least-squares"`` method of the contact-damping fit (:mod:`impactid.gauss_newton`).
+"""The ``"least-squares"`` method of the contact-damping fit (:mod:`impactid.engine.valley`).
 
 Steps, one function each:
 
@@ -26,7 +26,8 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
-from impactid.gauss_newton import LeastSquaresFit, fit_least_squares
+from impactid.engine import linearised_bootstrap as engine_bootstrap
+from impactid.engine.valley import LeastSquaresFit, fit_least_squares
 from impactid.rigs.pivoted.damping_diagnostics import (
     bound_notes,
     failure_note,
@@ -108,7 +109,7 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
 
 def gauss_newton_search(problem: DampingProblem, obj: DampingObjective, systematic: float, notes: list[str],
                         progress: Progress, *, sensitivities: bool = True) -> LeastSquaresFit:
-    """The Gauss–Newton fit of the per-event residuals (:func:`impactid.gauss_newton.fit_least_squares`).
+    """The Gauss–Newton fit of the per-event residuals (:func:`impactid.engine.valley.fit_least_squares`).
 
     ``systematic`` (the residual's systematic error per event) sets the sum of squares within which
     minima count as equally good; those are told apart by :func:`by_contact_duration`.
@@ -260,16 +261,10 @@ def standard_errors(fit: LeastSquaresFit, grad: np.ndarray, beta_hat: float, *, 
 
 def linearised_bootstrap(obj: DampingObjective, J: np.ndarray, r: np.ndarray, logc_hat: float, n_hat: float,
                          resamples: int, seed: int) -> np.ndarray:
-    """Bootstrap over impacts, linearised: one weighted Gauss–Newton step from the estimate per resample of
-    the events. Returns ``(resamples, 2)`` estimates ``(beta, n)``."""
-    rng = np.random.default_rng(seed)
-    m = r.size
-    weights = rng.multinomial(m, np.full(m, 1.0 / m), size=resamples).astype(float)
-    boot = []
-    for w in weights:
-        A = J.T @ (w[:, None] * J)
-        dx = -np.linalg.lstsq(A, J.T @ (w * r), rcond=None)[0]
-        x_b = np.array([logc_hat, n_hat])
-        x_b[: dx.size] += dx
-        boot.append((float(obj.beta(x_b[0], x_b[1])), float(x_b[1])))
-    return np.asarray(boot)
+    """Bootstrap over impacts, linearised (:func:`impactid.engine.linearised_bootstrap`): one weighted
+    Gauss–Newton step from the estimate per resample of the events. Returns ``(resamples, 2)``
+    estimates ``(beta, n)``."""
+    steps = engine_bootstrap(J, r, resamples, seed)
+    x_b = np.tile([logc_hat, n_hat], (steps.shape[0], 1))
+    x_b[:, : steps.shape[1]] += steps
+    return np.column_stack([obj.beta(x_b[:, 0], x_b[:, 1]), x_b[:, 1]]).astype(float)

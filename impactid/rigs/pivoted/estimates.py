@@ -53,5 +53,5 @@ __all__ = ["ALIKE_SPREAD", "BOOTSTRAP_RESAMPLES", "BOOTSTRAP_SEED", "CALIBRATION
            "Estimate", "EstimationWarning", "Landscape", "Progress", "RestitutionEstimate", "RestitutionResult",
            "fit_contact_damping", "fit_restitution", "objective_landscape", "reference_indentation"]
 
-#: The objective under its name before the split (``benchmarks/envelope_case.py``, ``tests/test_gauss_newton.py``).
+#: The objective under its name before the split (``benchmarks/envelope_case.py``, ``tests/test_engine_valley.py``).
 _Objective = DampingObjective

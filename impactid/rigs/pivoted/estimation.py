@@ -57,7 +57,7 @@ MAX_GRID_POINTS = 100_000
 #: * ``residual``: ``"lambda1"`` (accelerometer only, default), ``"lambda2"`` or ``"lambda3"``;
 #: * ``fix_n``: fix the Hunt–Crossley exponent (1.5: Hertzian; None: estimate it jointly with beta);
 #: * ``method``: ``"least-squares"`` (trust-region Gauss–Newton on the per-event residuals, with the
-#:   profile along the valley; :mod:`impactid.gauss_newton`), ``"optimise"`` (nested bounded Brent
+#:   profile along the valley; :mod:`impactid.engine.valley`), ``"optimise"`` (nested bounded Brent
 #:   searches along the valley, lattice and bootstrap intervals) or ``"grid"`` (the paper's grid);
 #: * ``grid``: grid points ``(n_c, n_n)`` of the grid method;
 #: * ``integration``, ``anchor``: per-event kinematics (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`);

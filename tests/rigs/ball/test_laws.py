@@ -98,7 +98,7 @@ def test_chained_fit_needs_enough_events():
 
 
 def test_errors_come_from_the_shared_covariance_rule():
-    from impactid.covariance import covariance_from_jacobian
+    from impactid.engine.covariance import covariance_from_jacobian
 
     v = np.linspace(0.5, 2.5, 30)
     e = 0.97 - 0.02 * v + 1e-3 * np.sin(7 * v)

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from impactid.cli import main
-from impactid.covariance import CONDITION_LIMIT
+from impactid.engine.covariance import CONDITION_LIMIT
 from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
 from impactid.results import FitResult

@@ -22,7 +22,7 @@ integrate them (friction: the friction force jumps at sliding reversals, which a
 events) the Jacobian is computed by **central differences in one batched S1 call** per iteration
 (four trial laws for ``(log10 c, n)``, two for ``log10 c`` alone): with the simulator at ``rtol``
 1e-10, steps of 1e-3 (decades of ``c``, and in ``n``) give derivatives accurate to about 1e-6
-relative (truncation ``h^2`` against round-off ``rtol / h``), checked in tests/test_gauss_newton.py
+relative (truncation ``h^2`` against round-off ``rtol / h``), checked in tests/test_engine_valley.py
 against steps four times smaller.
 
 Uncertainty. With ``s^2 = RSS / (m - p)`` (``m`` events, ``p`` parameters), ``t = t_{0.975, m-p}``:

@@ -1,4 +1,4 @@
-"""The shared covariance rule (impactid.covariance): numbers below the condition limit, the reason above it."""
+"""The shared covariance rule (impactid.engine.covariance): numbers below the condition limit, the reason above it."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from impactid.covariance import CONDITION_LIMIT, covariance_from_jacobian
+from impactid.engine.covariance import CONDITION_LIMIT, covariance_from_jacobian
 
 
 def test_straight_line_matches_the_textbook_formula():

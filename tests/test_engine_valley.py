@@ -1,4 +1,4 @@
-"""The least-squares estimator (impactid.gauss_newton): Jacobians, profile, intervals, agreement.
+"""The least-squares estimator (impactid.engine.valley): Jacobians, profile, intervals, agreement.
 
 The profile and the intervals are checked first on a linear model, where the Gauss–Newton
 covariance and the profile interval have closed forms; then on the simulator's residuals against
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from impactid.gauss_newton import JACOBIAN_STEP, fit_least_squares, jacobian
+from impactid.engine.valley import JACOBIAN_STEP, fit_least_squares, jacobian
 from impactid.rigs.pivoted.estimates import EstimationWarning, fit_contact_damping
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.residuals import EventSet
@@ -195,7 +195,7 @@ def test_sensitivity_jacobian_gives_the_fit_of_differences_with_fewer_simulation
 def test_a_start_outside_the_box_begins_on_its_edge():
     """The profile walk may find a lower point beyond a bound of log10 c; the restart from it must not
     fail ('Initial guess is outside of provided bounds') but end on the bound."""
-    from impactid.gauss_newton import _trust_region
+    from impactid.engine.valley import _trust_region
 
     target = np.array([8.0, 1.6])  # the minimum lies beyond the upper bound of log10 c (6)
 

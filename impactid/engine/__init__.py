@@ -1,0 +1,42 @@
+"""The identification engine every rig's fit uses: the search, the uncertainty and the model check.
+
+A rig gives the engine its residual (and, where its kernel integrates sensitivities, the Jacobian)
+as functions of the searched parameters, described like lmfit's parameters (:class:`Free`: name,
+value, min, max, vary). The engine then
+
+1. **searches** (:func:`search`): scipy's trust-region reflective least squares within the bounds,
+   with the analytic Jacobian or finite differences, from one or several starts (the best cost
+   wins; every start is recorded);
+2. **states the uncertainty** (:func:`uncertainty`): the covariance from the Jacobian at the optimum
+   by the shared rule of :func:`impactid.engine.covariance.covariance_from_jacobian` (undetermined
+   directions are reported, never inverted), scaled by the reduced chi-square (lmfit's
+   ``scale_covar``) or by a known noise, Student-t intervals mapped back through a logarithmic
+   coordinate where a parameter is searched in one, bound hits, and the correlation matrix;
+3. **checks the model** (:func:`residual_against_noise`): the residual against the recording's own
+   noise, with a note when the model does not describe the data.
+
+The rig keeps what is its own: its residual, the noise it measures, its tables and its result
+type (a :class:`~impactid.results.FitResult` built from :attr:`Uncertainty.parameters`).
+
+The modules: :mod:`~impactid.engine.search` (the search), :mod:`~impactid.engine.uncertainty`
+(covariance, intervals, the linearised bootstrap), :mod:`~impactid.engine.covariance` (the one rule
+for an undetermined standard error), :mod:`~impactid.engine.checks` (the model check) and
+:mod:`~impactid.engine.valley` (the trust-region Gauss–Newton search along a ``(log10 c, n)`` valley
+with its profile, for contact laws ``beta delta^n``, used by rig P's contact-damping fit).
+"""
+
+from __future__ import annotations
+
+from impactid.engine.checks import (
+    LACK_OF_FIT_FACTOR,
+    SIGNIFICANT_EXCESS_FLOOR,
+    SIGNIFICANT_EXCESS_SIGMAS,
+    residual_against_noise,
+)
+from impactid.engine.covariance import CONDITION_LIMIT, Covariance, covariance_from_jacobian
+from impactid.engine.search import Free, Search, search
+from impactid.engine.uncertainty import BOUND_TOLERANCE, Uncertainty, linearised_bootstrap, uncertainty
+
+__all__ = ["BOUND_TOLERANCE", "CONDITION_LIMIT", "LACK_OF_FIT_FACTOR", "SIGNIFICANT_EXCESS_FLOOR",
+           "SIGNIFICANT_EXCESS_SIGMAS", "Covariance", "Free", "Search", "Uncertainty",
+           "covariance_from_jacobian", "linearised_bootstrap", "residual_against_noise", "search", "uncertainty"]
