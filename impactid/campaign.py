@@ -760,13 +760,19 @@ def fit_task(job: FitJob, *prepared: PrepareOutcome) -> FitOutcome:
     if job.refused:
         return FitOutcome(job.key, _record(job, "failed", job.refused, 0.0, None))
     bad = [p for p in prepared if p.prepared is None]
-    if bad:
-        reason = "; ".join(f"recording {p.name} could not be prepared: {p.error}" for p in bad)
+    reason = "; ".join(f"recording {p.name} could not be prepared: {p.error}" for p in bad)
+    if len(bad) == len(prepared):
         return FitOutcome(job.key, _record(job, "failed", reason, 0.0, None))
+    # a recording that cannot be prepared does not take a joint fit with it: the others are fitted,
+    # and the record's reason and the result's notes say which was left out and why
+    good = [p.prepared for p in prepared if p.prepared is not None]
+    if bad:
+        left_out = tuple(f"{p.name} left out of the joint fit: {p.error}" for p in bad)
+        good[0] = replace(good[0], notes=left_out + tuple(good[0].notes))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the estimate's notes are in its result
-            estimate = job.pipeline.fit([p.prepared for p in prepared], warn=False)
+            estimate = job.pipeline.fit(good, warn=False)
             result = rig_estimator(job.pipeline.model or prepared[0].prepared.model).to_dict(estimate)
     except Exception as exc:  # noqa: BLE001 - a part that cannot be done does not take the others with it
         reason = _reason(exc)
@@ -774,7 +780,7 @@ def fit_task(job: FitJob, *prepared: PrepareOutcome) -> FitOutcome:
             reason += " (" + " <- ".join(f"{f.name}:{f.lineno}" for f in traceback.extract_tb(exc.__traceback__)[-3:]) \
                 + ")"
         return FitOutcome(job.key, _record(job, "failed", reason, time.perf_counter() - t0, None))
-    return FitOutcome(job.key, _record(job, "ok", "", time.perf_counter() - t0, result))
+    return FitOutcome(job.key, _record(job, "ok", reason, time.perf_counter() - t0, result))
 
 
 # ---- the run ----------------------------------------------------------------------------------------

@@ -29,7 +29,7 @@ from __future__ import annotations
 import os
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from impactid.errors import ImpactidError
@@ -238,7 +238,21 @@ class Pipeline:
         model = recordings_model(recs)
         rig_estimator(model, recs[0].source or "recording 1")
         self.bind(model)  # the options are checked before anything is measured
-        prepared = [self.prepare(rec, name=f"recording {k + 1}") for k, rec in enumerate(recs)]
+        prepared, left_out = [], []
+        for k, rec in enumerate(recs):
+            try:
+                prepared.append(self.prepare(rec, name=f"recording {k + 1}"))
+            except ImpactidError as exc:
+                # a recording whose impacts cannot be measured does not take a joint fit with it: the
+                # others are fitted and the result says which was left out and why
+                if len(recs) == 1:
+                    raise
+                left_out.append(f"{rec.source or f'recording {k + 1}'} left out of the joint fit: {exc}")
+        if not prepared:
+            raise ImpactidError("no recording of the joint fit can be measured: " + "; ".join(left_out))
+        if left_out:
+            first = prepared[0]
+            prepared[0] = replace(first, notes=tuple(left_out) + tuple(first.notes))
         return self.fit(prepared, progress=progress)
 
     def fit(self, prepared: Sequence[PreparedRecording], *, progress: Progress | None = None,

@@ -171,12 +171,14 @@ def fit(prepared: Sequence[PreparedRecording], options: Mapping[str, Any],
     prepared = list(prepared)
     if not prepared:
         raise ImpactidError("no recording given")
+    collected: list[str] = [m for p in prepared for m in p.notes + tuple(w for w in p.data.warnings
+                                                                          if w not in p.notes)]
+    prepared, left_out = _usable(prepared)
+    collected += left_out
     data = [p.data for p in prepared]
     recons = [d.reconstruction for d in data]
     sets = [d.event_set for d in data]
     frames = [d.impacts for d in data]
-    collected: list[str] = [m for p in prepared for m in p.notes + tuple(w for w in p.data.warnings
-                                                                          if w not in p.notes)]
     # operating points may differ in cam speed and eccentricity; the contact pair must be the same
     models = {repr(r.fixed_parameters) for r in recons}
     if len(models) > 1:
@@ -208,6 +210,28 @@ def fit(prepared: Sequence[PreparedRecording], options: Mapping[str, Any],
                     operating_points=ops, reconstructions=tuple(recons), event_sets=tuple(sets),
                     warnings=tuple(collected), provenance=prov, calibration=tuple(calibration),
                     pipeline=options_record(options))
+
+
+def _usable(prepared: Sequence[PreparedRecording]) -> tuple[list[PreparedRecording], list[str]]:
+    """The prepared recordings with at least one event the fit can replay, and a note per recording left
+    out (a part of a joint fit that cannot be done does not take the others with it). With no usable
+    recording at all, nothing is left out here: the fit then refuses with every recording's reason."""
+    usable = [p for p in prepared if len(p.data.event_set) > 0]
+    if not usable or len(usable) == len(prepared):
+        return list(prepared), []
+    notes = []
+    kept = ", ".join(p.source for p in usable)
+    for p in prepared:
+        if len(p.data.event_set) == 0:
+            reasons = [d.removeprefix(f"{p.source}: ") for d in p.data.event_set.dropped]
+            reason = "; ".join(reasons) or "no impact with a reconstructed onset state"
+            notes.append(f"{p.source} left out of the joint fit ({reason}); the estimate rests on {kept} alone")
+    points = {(round(p.data.event_set.cam_speed_hz, 9), p.data.reconstruction.operating_point.get("e_over_rc"))
+              for p in usable}
+    if len(points) == 1:
+        notes.append("the recordings left make one operating point: one operating point separates beta and n only "
+                     "as far as its impacts differ in approach speed (the interval of n says how far)")
+    return usable, notes
 
 
 def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
