@@ -415,3 +415,17 @@ def test_campaign_on_a_local_cluster_survives_a_worker_death(tmp_path, recording
     assert list(result.table["status"]) == list(serial["status"])
     assert list(result.table["key"]) == list(serial["key"])
     assert np.array_equal(result.table["beta"].to_numpy(), serial["beta"].to_numpy(), equal_nan=True)
+
+
+def test_a_joint_fit_with_a_recording_that_cannot_be_prepared_fits_the_others(tmp_path, recordings):
+    """A part that cannot be done does not take the others with it: the joint fit of ``a`` and the
+    corrupt ``bad`` is ``a``'s fit, its record names what was left out and why."""
+    spec = load_campaign(_campaign(tmp_path / "c", recordings, names=("a", "bad"), group=("a", "bad")))
+    result = run_campaign(spec, spec.out)
+    table = result.table.set_index("name")
+    assert table.loc["g", "status"] == "ok" and table.loc["bad", "status"] == "failed"
+    assert "recording bad could not be prepared" in table.loc["g", "reason"]
+    assert np.isfinite(table.loc["g", "beta"]) and table.loc["g", "recordings"] == "a;bad"
+    record = json.loads((spec.out / "fits" / f"{table.loc['g', 'key']}.json").read_text())
+    notes = record["result"]["notes"]
+    assert any(note.startswith("bad left out of the joint fit") for note in notes), notes
