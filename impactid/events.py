@@ -15,8 +15,16 @@ against a local free-flight baseline:
    the deviation stays above ``onset_threshold`` (default ``max(5 sigma, 1e-6 x peak)``). The
    onset time ``t_onset`` is refined within the preceding sample interval by fitting the rise
    ``c (t - t0)^p`` (Hertz: ``p = 1.5`` at first touch) to the first three contact samples;
-4. **separation** ``t_a``: the same from the other side (baseline after the pulse);
-5. **next onset** ``t_e``: the onset of the following event.
+4. **separation** ``t_a``: the same from the other side (baseline after the pulse); then, because a
+   nearly plastic contact (restitution below about 0.01) ends in a low tail of 2-5 ms that a local
+   quadratic follows, and a follower may ride the cam after an impact, the contact's true end is
+   found against a cubic free-flight baseline of :data:`CONTACT_END_BASELINE_S`, moved on past
+   every sample (or block of samples, under noise) that deviates from it (:func:`_contact_end`);
+5. **next onset** ``t_e``: the onset of the following event;
+6. **the motion's pattern** (:func:`_motion_pattern`): the cam turns at a constant speed, so in
+   periodic motion the onsets recur at the same cam phase after a whole number ``k`` of
+   revolutions and ``m`` impacts; each event's integration window runs from its onset to the
+   onset that closes one period of the motion (``period_end``: the next one in period-1 motion).
 
 Quality flags per event: ``truncated`` (no room for a baseline before the pulse, or no next
 onset: not usable), ``too_short`` (fewer than 3 samples of contact: an impulse, i.e. an
@@ -24,11 +32,13 @@ instantaneous impact; its time is the centroid of the pulse and the reconstructi
 a velocity jump), ``overlapping`` (the next
 pulse starts within the post-contact baseline window), ``clipped`` (the pulse reaches the
 channel's extreme value for 3 or more samples), ``chattering`` (more than one contact within one
-cam revolution) and ``not_period1`` (spacing or pulse size differs from the neighbours: the
-one-impact-per-revolution assumption of the anchoring step fails there). Events with the last
-three flags are named in the result's notes (:attr:`EventTable.warnings`), which
-:func:`find_events` issues as :class:`EventWarning`, each once, unless a caller that carries the
-notes on in its own result (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`) asks it not to.
+cam revolution), ``periodic`` (the onset recurs one period of the motion later or earlier),
+``not_period1`` (the motion there is not one impact per revolution: period-k, multi-impact or
+irregular) and ``riding`` (the contact lasts longer than :data:`RIDING_FRACTION` of a revolution:
+the follower rides the cam). Chattering, period-k motion, non-recurring and riding events are named
+in the result's notes (:attr:`EventTable.warnings`), which :func:`find_events` issues as
+:class:`EventWarning`, each once, unless a caller that carries the notes on in its own result
+(:func:`impactid.rigs.pivoted.reconstruct.reconstruct`) asks it not to.
 """
 
 from __future__ import annotations
@@ -45,17 +55,17 @@ from impactid._scan import extreme_stats
 from impactid.io import CLIP_RUN, Recording, RecordingError
 from impactid.signal import noise_floor, true_runs
 
-__all__ = ["BASELINE_GAP", "BASELINE_LENGTH", "CORE_GAP", "INVERTED_RATIO", "MAX_BASELINE_MOVES", "MIN_SAMPLES",
-           "NOISY_ONSET", "PEAK_TOLERANCE", "PERIOD_TOLERANCE", "EventTable", "EventWarning", "NoImpactsError",
-           "find_events"]
+__all__ = ["BASELINE_GAP", "BASELINE_LENGTH", "CONTACT_END_BASELINE_S", "CONTACT_END_DEGREE", "CORE_GAP",
+           "INVERTED_RATIO", "MAX_BASELINE_MOVES", "MAX_PATTERN_EVENTS", "MAX_TAIL_MOVES", "MIN_SAMPLES",
+           "NOISY_ONSET", "PATTERN_SHARE", "PERIOD_TOLERANCE", "RIDING_FRACTION", "TAIL_BLOCK", "TAIL_SNR",
+           "EventTable", "EventWarning", "NoImpactsError", "find_events", "separation_before"]
 
 #: Samples skipped between a baseline window and the pulse, and the baseline window length.
 BASELINE_GAP = 16
 BASELINE_LENGTH = 64
-#: Relative tolerances of the period-1 check: spacing of onsets against one cam revolution, and
-#: peak acceleration against the neighbouring events.
+#: Tolerance of the motion's pattern check (:func:`_motion_pattern`): how far, in cam revolutions, the
+#: spacing of two onsets one period apart may lie from a whole number of revolutions.
 PERIOD_TOLERANCE = 0.01
-PEAK_TOLERANCE = 0.03
 #: Onset threshold, relative to the peak, above which the onset is fitted over the noisy rise
 #: (:func:`_fit_onset`) rather than solved from three samples.
 NOISY_ONSET = 1e-4
@@ -88,8 +98,10 @@ class EventTable:
         between the previous sample and ``onset_index``), ``separation_index`` (first free sample
         after the pulse), ``t_separation`` [s], ``t_next`` [s] (next onset; NaN for the last
         event), ``peak`` [m/s^2] (largest deviation from the free-flight baseline),
-        ``contact_samples``, ``spacing`` [s] (``t_next - t_onset``), quality flags (bool columns)
-        and ``usable`` (no flag that prevents the per-event kinematics).
+        ``contact_samples``, ``spacing`` [s] (``t_next - t_onset``), quality flags (bool columns),
+        ``period_end`` (position of the event whose onset closes this event's integration window:
+        one period of the motion later; -1 if none) and ``usable`` (complete, clean, and its window
+        closed by a found onset).
     noise_sigma : noise floor of the channel [m/s^2].
     threshold, onset_threshold : detection thresholds used [m/s^2].
     warnings : notes on events that break an assumption of the pipeline (issued as
@@ -128,6 +140,30 @@ def _baseline(x: np.ndarray, lo: int, hi: int):
 
 #: Most times the post-pulse baseline window is moved on past a tensile tail.
 MAX_BASELINE_MOVES = 16
+#: Length [s] of the long free-flight baseline that finds where a contact really ends
+#: (:func:`_contact_end`): a cubic over it fits rig P's free-flight acceleration to the 24-bit
+#: quantisation (measured: largest residual 1.5e-3 m/s^2 over 4 ms, against 2 to 9 m/s^2 of the
+#: tail of a nearly plastic contact), so a low tail shows against it where a 64-sample quadratic
+#: follows it.
+CONTACT_END_BASELINE_S = 4e-3
+#: Degree of that baseline.
+CONTACT_END_DEGREE = 3
+#: Samples per block of the block-mean test of a tail (noise averages down by its square root).
+TAIL_BLOCK = 16
+#: A block whose mean deviation from the long baseline exceeds this many standard errors of the noise
+#: is contact (false alarm about 2e-9 per block).
+TAIL_SNR = 6.0
+#: Most times the long baseline is moved on past a tail (a follower riding the cam for 40 ms needs
+#: about ten).
+MAX_TAIL_MOVES = 64
+#: A contact that lasts longer than this fraction of a cam revolution is not an impact: the follower
+#: rides the cam after it (the envelope's riding cases: 16 % and 32 %; nearly plastic impacts of the
+#: documented laws, restitution down to 0.0017: at most 6 %, a 4.9 ms contact at 12 Hz).
+RIDING_FRACTION = 0.1
+#: Most events in one period of the motion the pattern check looks for (:func:`_motion_pattern`).
+MAX_PATTERN_EVENTS = 12
+#: Share of the onsets that must recur for a pattern to be the motion's (the rest: a transient).
+PATTERN_SHARE = 0.8
 
 
 def _next_core_start(starts: np.ndarray, current: int, size: int) -> int:
@@ -161,6 +197,103 @@ def _clean_baseline_after(x: np.ndarray, core_end: int, threshold: float, limit:
         a_lo = moved
         after = _baseline(x, a_lo, a_lo + BASELINE_LENGTH)
     return after, a_lo
+
+
+def _polynomial_baseline(x: np.ndarray, lo: int, hi: int, degree: int):
+    """Least-squares polynomial of ``degree`` fitted to ``x[lo:hi]``: a function of sample indices."""
+    centre = 0.5 * (lo + hi)
+    scale = max(0.5 * (hi - lo), 1.0)
+    coeffs = np.polyfit((np.arange(lo, hi) - centre) / scale, x[lo:hi], degree)
+    return lambda at: np.polyval(coeffs, (np.asarray(at) - centre) / scale)
+
+
+def _tail_samples(deviation: np.ndarray, threshold: float, block_threshold: float) -> np.ndarray:
+    """Positions in ``deviation`` that belong to a contact: samples beyond ``threshold``, and every
+    sample of a block of :data:`TAIL_BLOCK` whose mean lies beyond ``block_threshold``."""
+    bad = np.abs(deviation) > threshold
+    blocks = deviation.size // TAIL_BLOCK
+    if blocks:
+        means = deviation[: blocks * TAIL_BLOCK].reshape(blocks, TAIL_BLOCK).mean(axis=1)
+        bad[: blocks * TAIL_BLOCK] |= np.repeat(np.abs(means) > block_threshold, TAIL_BLOCK)
+    return np.flatnonzero(bad)
+
+
+def _last_contact_sample(deviation: np.ndarray, threshold: float, block_threshold: float) -> int:
+    """The last position in ``deviation`` that belongs to a contact (-1 if none): the last sample beyond
+    ``threshold`` when it lies in or after the last block that is (:func:`_tail_samples`), else that
+    block's last sample (a tail that only the block means show, under noise)."""
+    single = np.flatnonzero(np.abs(deviation) > threshold)
+    either = _tail_samples(deviation, threshold, block_threshold)
+    if either.size == 0:
+        return -1
+    if single.size and single[-1] >= either[-1] - TAIL_BLOCK:
+        return int(single[-1])
+    return int(either[-1])
+
+
+def separation_before(x: np.ndarray, ka: int, free_start: int, threshold: float, block_threshold: float,
+                      limit: int, rate: float) -> tuple[int, float] | None:
+    """The separation of a contact known to last at least until ``free_start`` (a sample index of free
+    flight, e.g. where the reconstruction's force balance ends the contact): ``(first free sample,
+    sub-sample separation [samples])``, or None when no baseline fits before ``limit`` (the next pulse).
+
+    A cubic free-flight baseline of :data:`CONTACT_END_BASELINE_S` is fitted from ``free_start`` on (moved
+    on past any sample of its first half that still deviates, as in :func:`_contact_end`), and the contact
+    ends after the last sample from ``ka - 1`` on that deviates from it by more than ``threshold`` (or a
+    block of :data:`TAIL_BLOCK` by more than ``block_threshold``); the separation is refined between
+    samples from the last three contact samples (:func:`_subsample_start`).
+    """
+    found, baseline = _contact_end(x, ka, threshold, block_threshold, limit, rate, max(threshold, block_threshold),
+                                   first=free_start)
+    if baseline is None or found < 3:
+        return None
+    fall = x[found - 3:found][::-1] - baseline(np.arange(found - 1, found - 4, -1))
+    return found, _subsample_start(fall, found - 1, -1)
+
+
+def _contact_end(x: np.ndarray, ka: int, threshold: float, block_threshold: float, limit: int, rate: float,
+                 detection_threshold: float, first: int | None = None):
+    """Where a contact really ends, past a long low tail: ``(separation index, baseline)``, or
+    ``(ka, None)`` when there is no tail beyond the separation ``ka`` found by the local baseline.
+
+    The local post-pulse baseline (:func:`_clean_baseline_after`, a quadratic over 64 samples) follows
+    any tail that is smooth over 64 samples: the tensile tail of a nearly plastic Hunt–Crossley contact
+    (``n < 1.5``, restitution below about 0.01), which lasts 2-5 ms at a few m/s^2, or a follower that
+    rides the cam after the impact (tens of ms at a few N). Here a cubic is fitted over
+    :data:`CONTACT_END_BASELINE_S` of the samples after ``ka`` (free flight is a cubic there to the
+    quantisation; a tail and the free flight after it are not); while samples of its first half
+    deviate from it by more than ``detection_threshold`` (the onset threshold, at least
+    :data:`TAIL_SNR` noise standard deviations: its false alarms over hundreds of samples are then
+    negligible), or blocks of :data:`TAIL_BLOCK` samples by more than ``block_threshold`` on
+    average, the window is moved to start :data:`BASELINE_GAP` samples after the last of them (at
+    most :data:`MAX_TAIL_MOVES` times, never into the next pulse at ``limit``). If it moved, the
+    contact ends after the last sample from ``ka`` on that deviates from the final baseline by more
+    than ``threshold`` (:func:`_last_contact_sample`; the window's start when the tail reaches the
+    next pulse: the contact then lasts until it). ``rate`` [Hz] converts the window's length. ``first``
+    starts the window there instead, known to be after the contact (:func:`separation_before`).
+    """
+    length = max(BASELINE_LENGTH, int(round(CONTACT_END_BASELINE_S * rate)))
+    start = ka + BASELINE_GAP if first is None else int(first)
+    baseline = None
+    moved = first is not None
+    for _ in range(MAX_TAIL_MOVES):
+        hi = min(start + length, limit - BASELINE_GAP)
+        if hi - start < BASELINE_LENGTH:
+            if first is not None and baseline is None:
+                return ka, None
+            return (start if moved else ka), (baseline if moved else None)
+        baseline = _polynomial_baseline(x, start, hi, CONTACT_END_DEGREE)
+        head = np.arange(start, start + (hi - start) // 2)
+        bad = _tail_samples(x[head] - baseline(head), detection_threshold, block_threshold)
+        if bad.size == 0:
+            break
+        start = int(head[bad[-1]]) + BASELINE_GAP
+        moved = True
+    if not moved:
+        return ka, None
+    span = np.arange(ka - 1, start)
+    last = _last_contact_sample(x[span] - baseline(span), threshold, block_threshold)
+    return (int(span[last]) + 1 if last >= 0 else ka), baseline
 
 
 def _subsample_start(r: np.ndarray, k_first: int, direction: int) -> float:
@@ -293,7 +426,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         # baseline (a damping law with n < 1.5 pulls before the gap reopens) that lasts longer
         # than BASELINE_GAP beyond the positive core: the baseline window is moved on until its
         # first half is free of it (:func:`_clean_baseline_after`).
-        after, a_lo = _clean_baseline_after(x, ce, othr, limit=_next_core_start(starts, cs, x.size))
+        limit = _next_core_start(starts, cs, x.size)
+        after, a_lo = _clean_baseline_after(x, ce, othr, limit=limit)
         a_hi = a_lo + BASELINE_LENGTH
         search_a = np.arange(ce - 1, a_lo)
         if after is None:
@@ -303,6 +437,13 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
             dev_a = np.abs(x[search_a] - after(search_a))
             above = np.flatnonzero(dev_a > othr)
             ka = int(search_a[above[-1]] + 1) if above.size else ce
+            # a long low tail (a nearly plastic contact, a follower riding the cam) that the local
+            # quadratic followed: the contact ends where the long free-flight baseline is reached
+            block_thr = max(TAIL_SNR * sigma / math.sqrt(TAIL_BLOCK), 1e-6 * abs(peak))
+            ka_end, long_baseline = _contact_end(x, ka, othr, block_thr, limit, rate, max(othr, TAIL_SNR * sigma))
+            if long_baseline is not None:
+                ka, after = ka_end, long_baseline
+                a_hi = max(a_hi, ka + BASELINE_GAP + BASELINE_LENGTH)
             fall = x[ka - 3:ka][::-1] - after(np.arange(ka - 1, ka - 4, -1))
             t_sep = _subsample_start(fall, ka - 1, -1)
             if np.any(x[ka:a_hi] - level > thr):
@@ -332,8 +473,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     table.insert(5, "next_index", np.append(table["onset_index"].to_numpy()[1:], -1).astype(np.int64))
     table["spacing"] = table["t_next"] - table["t_onset"]
     table.loc[table.index[-1:], "truncated"] = True  # the last event has no next onset
-    messages = _period_check(table, recording.cam_speed_hz)
-    table["usable"] = ~(table["truncated"] | table["overlapping"] | table["clipped"])
+    messages = _period_check(table, recording.cam_speed_hz, rate)
+    table["usable"] = _usable(table)
     table.index.name = "event"
     for flag, text in (("clipped", "clipped pulses"), ("overlapping", "overlapping contacts")):
         bad = table.index[table[flag]].tolist()
@@ -352,6 +493,20 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
             f"find_events(channel={channel!r}, threshold={thr:.6g}, noise_sigma={sigma:.6g}): {len(table)} events",))
 
 
+def _usable(table: pd.DataFrame) -> np.ndarray:
+    """Events whose kinematics can be integrated: complete and clean (not truncated, overlapping or
+    clipped), with the onset that closes their window (``period_end``) found and every pulse in the
+    window clean."""
+    clean = ~(table["truncated"] | table["overlapping"] | table["clipped"]).to_numpy()
+    inner_clean = ~(table["overlapping"] | table["clipped"]).to_numpy()
+    onset_known = np.isfinite(table["t_onset"].to_numpy())
+    ends = table["period_end"].to_numpy()
+    out = np.zeros(len(table), dtype=bool)
+    for i, j in enumerate(ends):
+        out[i] = bool(clean[i] and j > i and onset_known[j] and inner_clean[i:j].all())
+    return out
+
+
 def _saturated_extremes(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     """The channel's extreme values at which it is saturated: a saturated ADC piles samples on its
     end code (a run of :data:`CLIP_RUN` or more, and a spike in the histogram there), whereas a
@@ -367,39 +522,110 @@ def _saturated_extremes(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return np.array(out)
 
 
+def _plural(count: int, noun: str) -> str:
+    """``"1 impact"``, ``"2 impacts"``."""
+    return f"{count} {noun}{'' if count == 1 else 's'}"
+
+
 def _list(indices, limit: int = 12) -> str:
     shown = ", ".join(str(i) for i in indices[:limit])
     return shown + (f", ... ({len(indices)} in all)" if len(indices) > limit else "")
 
 
-def _period_check(table: pd.DataFrame, cam_speed_hz: float | None) -> list[str]:
-    """Flag chattering and non-period-1 events; return warning texts naming them."""
+def _motion_pattern(t_onset: np.ndarray, cam_speed_hz: float) -> tuple[int, int, np.ndarray]:
+    """The cam-synchronous pattern of the onsets: ``(m, k, recurs)``.
+
+    The cam turns at a constant speed, so in periodic motion of ``k`` revolutions with ``m`` impacts
+    the onsets recur at the same cam phase every ``m`` events, ``k`` revolutions later: the spacing
+    ``t[i + m] - t[i]`` is a whole number ``k`` of revolutions. The smallest ``m`` (up to
+    :data:`MAX_PATTERN_EVENTS`, with at least ``m + 1`` comparisons in the recording) for which at
+    least :data:`PATTERN_SHARE` of the spacings are ``k`` revolutions to :data:`PERIOD_TOLERANCE` of
+    a revolution is the pattern; ``recurs[i]`` says whether onset ``i`` recurs ``m`` events later.
+    ``(0, 0, all False)`` when no pattern fits (irregular motion). The test reads the motion (when the
+    impacts happen against the cam), not the pulses' shape: a pulse that peaks within a few samples
+    changes its sampled peak by several per cent from one impact to the next while the motion repeats.
+    """
+    n = t_onset.size
+    revolutions = np.asarray(t_onset, dtype=float) * cam_speed_hz
+    for m in range(1, MAX_PATTERN_EVENTS + 1):
+        if n - m < m + 1:
+            break
+        spacing = revolutions[m:] - revolutions[:-m]
+        whole = np.round(spacing)
+        ok = np.isfinite(spacing) & (np.abs(spacing - whole) <= PERIOD_TOLERANCE) & (whole >= 1)
+        if not ok.any():
+            continue
+        k = int(np.median(whole[ok]))
+        ok &= whole == k
+        if ok.mean() >= PATTERN_SHARE:
+            recurs = np.zeros(n, dtype=bool)
+            recurs[: n - m] = ok
+            return m, k, recurs
+    return 0, 0, np.zeros(n, dtype=bool)
+
+
+def _period_check(table: pd.DataFrame, cam_speed_hz: float | None, rate: float) -> list[str]:
+    """Flag chattering, non-recurring and riding events and set each event's period; return the notes.
+
+    Columns set: ``chattering`` (the next or previous onset within half a revolution), ``periodic``
+    (the onset recurs at the same cam phase one period of the motion later or earlier,
+    :func:`_motion_pattern`), ``not_period1`` (the motion there is not one impact per revolution),
+    ``riding`` (the contact lasts longer than :data:`RIDING_FRACTION` of a revolution) and
+    ``period_end`` (the position of the event whose onset closes the event's integration window: one
+    period of the motion later for a recurring onset, the next onset otherwise; -1 if none).
+    """
     n = len(table)
     table["chattering"] = False
     table["not_period1"] = False
-    if n < 2 or cam_speed_hz is None:
-        return [] if cam_speed_hz is not None else ["no cam_speed_hz: the one-impact-per-revolution check is skipped"]
+    table["periodic"] = False
+    table["riding"] = False
+    positions = np.arange(n)
+    table["period_end"] = np.where(positions + 1 < n, positions + 1, -1).astype(np.int64)
+    if cam_speed_hz is None:
+        return ["no cam_speed_hz: the one-impact-per-revolution check is skipped"]
     period = 1.0 / cam_speed_hz
+    duration = (table["t_separation"] - table["t_onset"]).to_numpy()
+    table["riding"] = np.isfinite(duration) & (duration > RIDING_FRACTION * period)
+    messages = []
+    if table["riding"].any():
+        riding = table.index[table["riding"]].tolist()
+        longest = float(np.nanmax(duration[table["riding"].to_numpy()]))
+        messages.append(
+            f"the follower rides the cam after the impact at events {_list(riding)}: the contact lasts up to "
+            f"{longest * 1e3:.3g} ms, {longest / period:.0%} of a cam revolution (an impact lasts at most "
+            f"{RIDING_FRACTION:.0%}); the apex after it is set by the cam, not by the contact law")
+    if n < 2:
+        return messages
     spacing = table["spacing"].to_numpy()
     short = spacing < 0.5 * period
     chatter = short | np.concatenate(([False], short[:-1]))
-    off_period = np.abs(spacing / period - 1.0) > PERIOD_TOLERANCE
-    peaks = table["peak"].to_numpy()
-    ref = np.median(peaks)
-    jump = np.zeros(n, dtype=bool)
-    jump[1:] |= np.abs(np.diff(peaks)) > PEAK_TOLERANCE * ref
-    jump[:-1] |= np.abs(np.diff(peaks)) > PEAK_TOLERANCE * ref
-    off_period &= np.isfinite(spacing)
+    m, k, recurs = _motion_pattern(table["t_onset"].to_numpy(), cam_speed_hz)
+    periodic = recurs.copy()
+    if m:
+        periodic[m:] |= recurs[:-m]
+        # a recurring onset's window ends one period later; an onset of the pattern whose period is
+        # not complete in the recording has none; the others (not recurring) end at the next onset
+        ends = np.where(recurs, positions + m, np.where(periodic, n, positions + 1))
+        table["period_end"] = np.where(ends < n, ends, -1).astype(np.int64)
     table["chattering"] = chatter
-    table["not_period1"] = off_period | jump
-    messages = []
+    table["periodic"] = periodic
+    table["not_period1"] = ~periodic | (m != 1) | (k != 1)
     if chatter.any():
         messages.append(f"several contacts within one cam revolution (chattering) at events "
                         f"{_list(table.index[chatter].tolist())}")
-    bad = table.index[table["not_period1"] & ~table["chattering"]].tolist()
-    if bad:
+    if m and (m, k) != (1, 1):
+        impacts, revolutions = _plural(m, "impact"), _plural(k, "cam revolution")
         messages.append(
-            f"impacts are not period-1 (one alike impact per cam revolution of {period * 1e3:.4g} ms) at events "
-            f"{_list(bad)}: onset spacing or pulse size differs by more than {PERIOD_TOLERANCE:.0%} / "
-            f"{PEAK_TOLERANCE:.0%}; the return-time anchor assumes period-1 motion there")
+            f"the motion is period-{k}: {impacts} every {revolutions} of {period * 1e3:.4g} ms (the onsets recur at "
+            f"the same cam phase {_plural(m, 'event')} later); each event is reconstructed over one period of the "
+            f"motion, from its onset to the onset {_plural(m, 'event')} later, and replayed from its own onset state")
+    lone = table.index[~periodic].tolist()
+    if lone:
+        what = ("the impacts do not recur with the cam: no pattern of up to "
+                f"{MAX_PATTERN_EVENTS} impacts in a whole number of revolutions fits their onsets (irregular "
+                "motion)" if not m else f"impacts do not recur with the cam at events {_list(lone)} (a transient, "
+                "or irregular motion there)")
+        messages.append(f"{what}: the per-event reconstruction takes an event's integration constants from the "
+                        "follower's state recurring one period later, so these events' onset states cannot be "
+                        "reconstructed and they are not used to estimate the contact law")
     return messages

@@ -44,7 +44,7 @@ from scipy import integrate
 __all__ = ["EDGE_SPAN_SAMPLES", "INTEGRATORS", "MAD_TO_SIGMA", "MIN_NOISE_SAMPLES", "QUANTISATION_SAMPLES",
            "QUANTISATION_TOLERANCE", "ZERO_STEP", "EventSpan", "PowerLawEdge", "cumulative_rk4", "cumulative_simpson",
            "cumulative_spectral", "cumulative_trapezoid", "detrend_integrate", "edge_correction",
-           "get_integrator", "noise_floor", "quantisation_step", "true_runs"]
+           "get_integrator", "noise_floor", "quantisation_step", "sampled_model_correction", "true_runs"]
 
 # --------------------------------------------------------------------------------------------
 # Channel statistics: quantisation, noise, runs
@@ -321,6 +321,61 @@ def edge_correction(n: int, dt: float, method, edges: Sequence[PowerLawEdge]) ->
     return total
 
 
+def sampled_model_correction(n: int, dt: float, method, first: int, values: np.ndarray,
+                             exact_cumulative: np.ndarray) -> np.ndarray:
+    """Quadrature error of ``method`` on a modelled stretch of a window, per sample (cumulative).
+
+    The counterpart of :func:`edge_correction` for a part of the signal that no power law describes
+    but a model does: a contact pulse that rises and peaks within a few samples (the head of a nearly
+    plastic Hunt–Crossley contact, :mod:`impactid.rigs.pivoted.reconstruct`), where every rule's
+    error is a sizeable fraction of the pulse's integral and depends on where the pulse falls between
+    samples. ``values`` are the model's samples at window positions ``first, first + 1, ...`` (zero
+    where the model is zero; the last three serve only the rules' stencils), and
+    ``exact_cumulative`` its exact integral from position ``first`` to each of them (same length).
+    The method is applied to the model's samples (from an even position, as scipy's cumulative
+    Simpson pairs the intervals from the window's start, with zeros before ``first``) and the exact
+    integral subtracted; the error is held constant after the last position that is not a stencil
+    sample. Subtracting the result from the cumulative integral of the window leaves the method's
+    error on the difference between the data and the model. Returns zeros for the methods that
+    :func:`edge_correction` does not correct (``spectral``, callables).
+
+    Parameters
+    ----------
+    n : length of the window [samples].
+    dt : sample interval [s].
+    method : integration method (name or callable).
+    first : window position of ``values[0]`` (may be negative: positions before the window are dropped).
+    values : the model's samples [the integrand's unit], at least four.
+    exact_cumulative : the exact integral of the model from position ``first`` [integrand unit x s].
+
+    Returns
+    -------
+    np.ndarray : the cumulative error of ``method`` on the model at each window position [integrand unit x s].
+    """
+    integral = get_integrator(method)
+    total = np.zeros(n)
+    values = np.asarray(values, dtype=float)
+    exact = np.asarray(exact_cumulative, dtype=float)
+    if integral not in (cumulative_rk4, cumulative_simpson, cumulative_trapezoid) or values.size < 4:
+        return total
+    lo = max(int(first), 0)
+    lo -= lo % 2
+    hi = min(int(first) + values.size - 3, n)  # the last three samples serve the stencils only
+    if hi - lo < 4:
+        return total
+    span = np.zeros(hi + 3 - lo)
+    take = np.arange(lo, hi + 3) - int(first)
+    inside = (take >= 0) & (take < values.size)
+    span[inside] = values[take[inside]]
+    exact_span = np.zeros(span.size)
+    exact_span[inside] = exact[take[inside]]
+    numeric = integral(span, dt)[: hi - lo]
+    error = numeric - (exact_span[: hi - lo] - exact_span[0])
+    total[lo:hi] += error
+    total[hi:] += error[-1]
+    return total
+
+
 def _trapezoid_end_term(distance: float, c: float, p: float, side: int, dt: float) -> float:
     """Euler-Maclaurin end term ``dt^2/12 f1 - dt^4/720 f3`` (``f1, f3``: first and third
     derivatives) of ``f = c |x|^p`` at ``distance`` [s] into the pulse (0 outside it)."""
@@ -349,7 +404,8 @@ class EventSpan:
 
 
 def detrend_integrate(acceleration: np.ndarray, dt: float, method="rk", *, span: EventSpan | None = None,
-                      edges: Sequence[PowerLawEdge] = ()) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                      edges: Sequence[PowerLawEdge] = (), rate_correction: np.ndarray | None = None
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Section 5.1 of Sundar, Dreyer & Singh (2016) on one event: remove the mean of the acceleration, integrate,
     remove the mean of the velocity, integrate again.
 
@@ -371,6 +427,9 @@ def detrend_integrate(acceleration: np.ndarray, dt: float, method="rk", *, span:
     edges : the pulse edges of the window (:class:`PowerLawEdge`); the quadrature error of their
         singular part (:func:`edge_correction`) is removed from the integrated rate. Ignored by
         the ``spectral`` method.
+    rate_correction : a further cumulative quadrature error [rad/s] per sample (e.g.
+        :func:`sampled_model_correction` of a modelled pulse), removed from the integrated rate with
+        the edges' (None: none). Ignored by the ``spectral`` method.
 
     Returns
     -------
@@ -384,6 +443,8 @@ def detrend_integrate(acceleration: np.ndarray, dt: float, method="rk", *, span:
     rate = integral(a, dt)
     if edges and not spectral:
         rate = rate - edge_correction(n, dt, integral, edges)
+    if rate_correction is not None and not spectral:
+        rate = rate - np.asarray(rate_correction, dtype=float)
     if span is None or spectral or n < 2:
         bias = a.mean()
     else:

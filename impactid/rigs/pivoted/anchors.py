@@ -37,8 +37,10 @@ from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, return_time_anch
 from impactid.rigs.pivoted.runs import pack_rig
 from impactid.signal import quantisation_step
 
-__all__ = ["ANCHORS", "Anchor", "AnchoredOnsets", "CamGeometryAnchor", "CamPhaseAnchor", "ContactWindow",
-           "EventWindows", "ReturnTimeAnchor", "hertz_ratio", "theta_from_gap"]
+__all__ = ["ANCHORS", "HERTZ_PHASE_DISAGREEMENT", "HERTZ_PHASE_GAIN", "HERTZ_RATIO_SYSTEMATIC", "PHASE_NOTE_SPREAD",
+           "PHASE_PROFILE_FACTOR", "PHASE_PROFILE_MIN", "Anchor", "AnchoredOnsets", "CamGeometryAnchor",
+           "CamPhaseAnchor", "ContactWindow", "EventWindows", "ReturnTimeAnchor", "hertz_ratio", "phase_from_hertz",
+           "phase_profile_stderr", "theta_from_gap"]
 
 #: Per event, its contact's times [s from the sub-sample onset], angles [rad] and angular
 #: accelerations [rad/s^2], or None where the window is too short or the constant undetermined.
@@ -73,6 +75,7 @@ class EventWindows:
     contact_end : per event, the window's sample where the contact and its margin end.
     free_start, free_end : per event, the window's samples where the return-time anchor's free flight
         starts and ends.
+    t_next : per event, the next onset's time from the recording's start [s] (None: not given).
     """
 
     recording: Recording
@@ -97,6 +100,7 @@ class EventWindows:
     contact_end: np.ndarray
     free_start: np.ndarray
     free_end: np.ndarray
+    t_next: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.angles)
@@ -135,6 +139,7 @@ class AnchoredOnsets:
         checks), None when the anchor did not run it.
     cam_phase, cam_phase_stderr : the recording's cam phase ``Theta_ref`` [rad] and its standard error
         (cam-phase anchor; NaN otherwise).
+    notes : what qualifies the anchoring (the cam phase poorly fixed by the onset angles).
     """
 
     constants: np.ndarray
@@ -143,6 +148,7 @@ class AnchoredOnsets:
     return_time_onset: np.ndarray | None = None
     cam_phase: float = math.nan
     cam_phase_stderr: float = math.nan
+    notes: tuple[str, ...] = ()
 
 
 class Anchor(Protocol):
@@ -237,11 +243,21 @@ class CamPhaseAnchor:
         phase = self.phase_guess(windows, alpha_on, start.constants)
         if phase is None:
             return start
+        linear = self.linear_stderr(windows, alpha_on, phase)
         phase, stderr = self.fit_phase(windows, alpha_on, phase)
+        # near an extremum of the contact angle the onset angles hardly fix the phase; the contacts'
+        # Hertz ratios do, and are taken in where the two disagree (phase_from_hertz)
+        profiled = stderr > PHASE_PROFILE_FACTOR * linear
+        phase, stderr, hertz = phase_from_hertz(windows, phase, stderr)
         theta_common = phase + windows.omega * windows.t_onset
         constants = np.asarray(windows.rig.contact_angle(theta_common)) - windows.angle_onset
+        notes = ()
+        if profiled or hertz:
+            how = hertz or "its profile is wider than its linearisation"
+            notes = tuple(filter(None, (_phase_note(windows, phase, stderr, linear, how),)))
         return AnchoredOnsets(constants=constants, iterations=start.iterations, theta_onset=theta_common,
-                              return_time_onset=start.return_time_onset, cam_phase=phase, cam_phase_stderr=stderr)
+                              return_time_onset=start.return_time_onset, cam_phase=phase, cam_phase_stderr=stderr,
+                              notes=notes)
 
     @staticmethod
     def phase_guess(windows: EventWindows, alpha_on: np.ndarray, constants: np.ndarray) -> float | None:
@@ -255,6 +271,17 @@ class CamPhaseAnchor:
             return None
         first = phases[ok][0]
         return first + float(np.median(np.angle(np.exp(1j * (phases[ok] - first)))))
+
+    @staticmethod
+    def linear_stderr(windows: EventWindows, alpha_on: np.ndarray, phase: float) -> float:
+        """Gauss–Newton's standard error [rad] of the phase ``phase`` [rad] fitted to the onset angles ``alpha_on``
+        [rad] (from their scatter about the fit)."""
+        rig, omega, t_rel = windows.rig, windows.omega, windows.t_onset
+        resid = np.asarray(rig.contact_angle(phase + omega * t_rel)) - alpha_on
+        slope = (np.asarray(rig.contact_angle(phase + 1e-6 + omega * t_rel))
+                 - np.asarray(rig.contact_angle(phase - 1e-6 + omega * t_rel))) / 2e-6
+        m = int(np.isfinite(resid).sum())
+        return float(np.sqrt(np.nansum(resid ** 2) / (m - 1) / np.nansum(slope ** 2))) if m > 1 else math.inf
 
     @staticmethod
     def fit_phase(windows: EventWindows, alpha_on: np.ndarray, phase: float) -> tuple[float, float]:
@@ -273,12 +300,203 @@ class CamPhaseAnchor:
                                      gtol=1e-14)
         if fit.success and abs(fit.x[0] - phase) < 0.5:
             phase = float(fit.x[0])
-        resid = np.asarray(rig.contact_angle(phase + omega * t_rel)) - alpha_on
-        slope = (np.asarray(rig.contact_angle(phase + 1e-6 + omega * t_rel))
-                 - np.asarray(rig.contact_angle(phase - 1e-6 + omega * t_rel))) / 2e-6
-        m = int(np.isfinite(resid).sum())
-        stderr = float(np.sqrt(np.nansum(resid ** 2) / (m - 1) / np.nansum(slope ** 2))) if m > 1 else math.inf
+        stderr = CamPhaseAnchor.linear_stderr(windows, alpha_on, phase)
+        if math.isfinite(stderr):
+            stderr = max(stderr, phase_profile_stderr(rig, omega, t_rel, alpha_on, phase, stderr))
         return phase, stderr
+
+
+#: Relative uncertainty of the approach speeds from the cam phase above which the reconstruction says so.
+PHASE_NOTE_SPREAD = 0.005
+
+
+def _phase_note(windows: EventWindows, phase: float, stderr: float, linear: float, how: str) -> str:
+    """The note of a cam phase that the onset angles fix poorly: its standard error [rad] against the
+    linearised one, ``how`` it was found, and what it does to the approach speeds (their spread over the
+    phase's 95 % range); empty where that spread is below :data:`PHASE_NOTE_SPREAD`."""
+    rig, omega = windows.rig, windows.omega
+    speeds = []
+    for shift in (-1.96 * stderr, 0.0, 1.96 * stderr):
+        theta0 = phase + shift + omega * windows.t_onset
+        alpha0 = np.asarray(rig.contact_angle(theta0))
+        speeds.append(-np.asarray(rig.gap_rate(alpha0, windows.rate_onset, theta0, omega)))
+    spread = float(np.nanmedian(np.abs(speeds[2] - speeds[0]) / (2.0 * np.abs(speeds[1]))))
+    if not spread >= PHASE_NOTE_SPREAD:
+        return ""
+    where = windows.recording.source or "recording"
+    return (f"{where}: the impacts happen near the top of the cam's lift, where the contact angle barely changes with "
+            f"the cam phase, so the onset angles fix it poorly: the cam phase is known to +-{1.96 * stderr:.2g} rad "
+            f"(95 %; +-{1.96 * linear:.2g} rad by the onset angles' linearisation; {how}), and with it the "
+            f"approach speeds to +-{spread:.1%}; the intervals carry this, and with a restitution near 1 (beta "
+            "barely moves alpha_m) they are wide")
+
+
+#: Systematic uncertainty [-] of the log of a contact's Hertz ratio at the true phase
+#: (:func:`phase_from_hertz`): the accelerometer's force at the deepest indentation differs from the
+#: Hertz force by the friction's direction, the free-flight torque and the sampling of the deepest
+#: point; measured noise-free at period-1 points, 0.1 to 1.5 %.
+HERTZ_RATIO_SYSTEMATIC = 0.015
+#: The Hertz ratios are taken into the phase (:func:`phase_from_hertz`) where they fix it this many
+#: times more precisely than the onset angles ...
+HERTZ_PHASE_GAIN = 3.0
+#: ... and widen the phase's standard error where their phase and the angles' differ by more than this
+#: many standard deviations of the difference.
+HERTZ_PHASE_DISAGREEMENT = 2.0
+
+
+def phase_from_hertz(windows: EventWindows, phase: float, stderr: float) -> tuple[float, float, str]:
+    """The cam phase [rad] and its standard error [rad] checked against the contacts' Hertz ratios, and what
+    the ratios did ("" where nothing).
+
+    Near an extremum of the contact angle ``alpha_c(Theta)`` (the top of the cam's lift, where slow
+    impacts at small eccentricities land) an onset angle barely depends on the cam phase, and the
+    onset angles fix the phase poorly (and its linearised standard error is too small); the
+    indentation does depend on it: with the onset on the gap zero, ``delta(t) ~ chi [alpha_c(Theta0 +
+    Omega t) - alpha_c(Theta0) - (alpha(t) - alpha(t0))]`` grows with the slope ``alpha_c'(Theta0)``,
+    which changes linearly with the phase there. At the deepest indentation the gap rate is zero, so
+    the contact force is ``k_H delta^1.5`` whatever the damping law: the accelerometer's force there
+    (with the friction of the sliding direction, ``mu h_p``) over it, the Hertz ratio, is 1 at the
+    true phase. Near the top of the lift its log changes by about 1 per radian of phase, with 3 %
+    scatter per contact at 0.3 % noise (measured): the phase to about 0.01 rad from 15 impacts, where
+    the angles' error was 0.04 to 0.08 rad (2 to 4.5 of their standard errors).
+
+    The phase where the mean log ratio is zero (within 0.5 rad of ``phase``) and its standard error
+    (the ratios' scatter and :data:`HERTZ_RATIO_SYSTEMATIC`, over the slope) are compared with
+    ``(phase, stderr)``, the angles'. Where the ratios' standard error is :data:`HERTZ_PHASE_GAIN`
+    times smaller (onsets at the very top of the lift: the angles' profile error is 0.1 to 5 rad there),
+    the result is the inverse-variance mean, its standard error scaled by the disagreement where
+    that exceeds 1 (the Birge ratio). Where the two differ by more than
+    :data:`HERTZ_PHASE_DISAGREEMENT` standard deviations of the difference, the angles' phase stays
+    and the difference is added to its standard error in quadrature (the ratios' phase then lies within
+    one standard error): the ratios are not trusted more than the angles (with friction and at low approach speeds their
+    phase can be off by as much: 2.6 of its standard errors on the built-in example's calibration
+    recording), so the disagreement is carried into the intervals rather than resolved. Otherwise
+    ``(phase, stderr)`` is returned unchanged (as it is when the ratios do not determine a phase). The
+    third element says which, for the reconstruction's note.
+    At the validation's period-1 points and the built-in example the two agree and the angles are the
+    more precise: nothing changes there.
+    """
+    from scipy import stats
+
+    rig, omega = windows.rig, windows.omega
+    mu_h = float(getattr(rig, "mu", 0.0)) * float(rig.h_p)
+    dt = windows.dt
+    spans = []
+    for i, angle in enumerate(windows.angles):
+        hi = min(int(windows.contact_end[i]) + 1, angle.size)
+        spans.append(None if (hi < 3 or windows.impulsive[i]) else hi)
+
+    def log_ratios(q: float) -> np.ndarray:
+        theta0 = q + omega * windows.t_onset
+        constants = np.asarray(rig.contact_angle(theta0)) - windows.angle_onset
+        out = np.full(len(windows), np.nan)
+        for i, hi in enumerate(spans):
+            if hi is None:
+                continue
+            t = (np.arange(hi) + windows.onset_offset[i]) * dt
+            alpha = windows.angles[i][:hi] + constants[i]
+            theta = theta0[i] + omega * t
+            gap = rig.gap(alpha, theta)
+            j = int(np.argmin(gap))
+            delta = -float(gap[j])
+            if not delta > 0.0:
+                continue
+            a_j, th_j = float(alpha[j]), float(theta[j])
+            torque = rig.m_b * rig.g * rig.l_g * math.cos(a_j) - float(
+                spring_force(a_j, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)) * rig.d_x
+            sliding = float(rig.sliding_velocity(a_j, float(windows.rates[i][j]), th_j, omega))
+            arm = float(rig.lever_arm(a_j, th_j)) - mu_h * math.copysign(1.0, sliding)
+            force = (rig.I_b * float(windows.accelerations[i][j]) - torque) / arm
+            if force > 0.0:
+                out[i] = math.log(force / (rig.k_H * delta ** 1.5))
+        return out
+
+    def mean_log(q: float) -> float:
+        values = log_ratios(q)
+        return float(np.nanmean(values)) if np.any(np.isfinite(values)) else math.nan
+
+    lo, hi = phase - 0.5, phase + 0.5
+    f_lo, f_hi = mean_log(lo), mean_log(hi)
+    if not (math.isfinite(f_lo) and math.isfinite(f_hi) and f_lo * f_hi < 0.0):
+        return phase, stderr, ""
+    hertz = optimize.brentq(mean_log, lo, hi, xtol=1e-5)
+    values = log_ratios(hertz)
+    m = int(np.isfinite(values).sum())
+    step = 1e-3
+    slope = (mean_log(hertz + step) - mean_log(hertz - step)) / (2.0 * step)
+    if m < 3 or not (math.isfinite(slope) and slope != 0.0):
+        return phase, stderr, ""
+    widen = float(stats.t.ppf(0.975, m - 1)) / 1.96  # small-sample widening of the scatter term
+    scatter = widen * float(np.nanstd(values, ddof=1)) / math.sqrt(m)
+    hertz_stderr = math.hypot(scatter, HERTZ_RATIO_SYSTEMATIC) / abs(slope)
+    difference = abs(hertz - phase) / math.hypot(stderr, hertz_stderr)
+    if abs(hertz - phase) <= PHASE_PROFILE_MIN:
+        return phase, stderr, ""
+    if HERTZ_PHASE_GAIN * hertz_stderr < stderr:
+        weight_angles, weight_hertz = stderr ** -2, hertz_stderr ** -2
+        combined = (weight_angles * phase + weight_hertz * hertz) / (weight_angles + weight_hertz)
+        return (float(combined), float((weight_angles + weight_hertz) ** -0.5 * max(difference, 1.0)),
+                f"the contacts' Hertz ratios fix it {stderr / hertz_stderr:.2g} times better and set it")
+    if difference > HERTZ_PHASE_DISAGREEMENT:
+        return (phase, math.hypot(stderr, hertz - phase),
+                f"the contacts' Hertz ratios put it {hertz - phase:+.2g} rad away ({difference:.2g} standard "
+                "deviations), and the difference is added to its error")
+    return phase, stderr, ""
+
+
+#: The cam phase's standard error is taken from its profile (:func:`phase_profile_stderr`) where the
+#: profile's interval is wider than this many times the linearised one: near an extremum of the contact
+#: angle the linearisation is no longer valid (slow impacts land near the top of the cam's lift) ...
+PHASE_PROFILE_FACTOR = 1.5
+#: ... and wider than this [rad]: below it the phase moves the approach speeds by less than 0.1 % (the
+#: noise-free period-1 points, whose profiles differ from their linearisations at the 1e-5 rad level,
+#: keep their numbers).
+PHASE_PROFILE_MIN = 1e-3
+
+
+def phase_profile_stderr(rig: RigParameters, omega: float, t_rel: np.ndarray, alpha_on: np.ndarray, phase: float,
+                         linear_stderr: float) -> float:
+    """The cam phase's standard error [rad] from the profile of its angle-space fit, where that is wider.
+
+    The cam-phase fit matches ``contact_angle(phase + omega t_i)`` to the onset angles ``alpha_on``
+    [rad] of the events at ``t_rel`` [s]. Gauss–Newton's standard error assumes that the contact angle
+    changes linearly with the phase over the phase's uncertainty. Where the onsets lie near an extremum
+    of the contact angle (the top of the cam's lift: slow impacts at a small eccentricity), it changes
+    quadratically, the onset angles hardly determine the phase, and the linearised standard error is
+    far too small: with 0.35 % noise, a phase 3.5 of its standard errors off (0.079 rad), the approach
+    speed 5 % off and beta several times off, its interval excluding the truth. Here the 95 % region of
+    the phase is found on the profile, ``RSS(phase) <= RSS_min (1 + t^2 / (m - 1))`` (Student's ``t``,
+    ``m`` onsets), by stepping out from ``phase`` on both sides (at most pi), and its half-width over
+    ``t`` is returned when it exceeds :data:`PHASE_PROFILE_FACTOR` times ``linear_stderr``; else
+    ``linear_stderr`` (the two agree where the linearisation holds).
+    """
+    from scipy import stats
+
+    ok = np.isfinite(alpha_on)
+    t_ok, a_ok = t_rel[ok], alpha_on[ok]
+    m = int(ok.sum())
+    if m < 2 or not (math.isfinite(linear_stderr) and linear_stderr > 0.0):
+        return linear_stderr
+
+    def rss(q: float) -> float:
+        return float(np.sum((np.asarray(rig.contact_angle(q + omega * t_ok)) - a_ok) ** 2))
+
+    t_value = float(stats.t.ppf(0.975, m - 1))
+    level = rss(phase) * (1.0 + t_value ** 2 / (m - 1))
+    step = max(0.25 * linear_stderr, 1e-6)
+    edges = []
+    for side in (-1.0, 1.0):
+        inner, outer = 0.0, step
+        while outer < math.pi and rss(phase + side * outer) <= level:
+            inner, outer = outer, min(2.0 * outer, math.pi)
+        if outer >= math.pi and rss(phase + side * outer) <= level:
+            edges.append(math.pi)
+            continue
+        edges.append(optimize.brentq(lambda d, side=side: rss(phase + side * d) - level, inner, outer,
+                                     xtol=1e-3 * step))
+    half_width = max(edges)
+    profile = half_width / t_value
+    return profile if profile > max(PHASE_PROFILE_FACTOR * linear_stderr, PHASE_PROFILE_MIN) else linear_stderr
 
 
 #: Anchoring methods by name.

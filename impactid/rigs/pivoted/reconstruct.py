@@ -17,7 +17,20 @@ contact onset to the next):
      subtracted (:func:`impactid.signal.edge_correction`).
 
    Both need the edge samples :data:`EDGE_SNR` times above the noise floor; with noisy data the
-   paper's plain sample means are used (noise then dominates the error anyway);
+   paper's plain sample means are used (noise then dominates the error anyway). Beyond period-1
+   points (docs/estimation.md, "Long contacts and period-k motion"):
+
+   * the window is integrated over one period of the motion (to the onset that closes it,
+     ``period_end`` of the events: ``m`` onsets later in period-``k`` motion with ``m`` impacts),
+     where the state recurs and the event means are exact, and cut at the next onset
+     (:func:`_window_integral`);
+   * a pulse whose head peaks within :data:`HEAD_MODEL_PEAK_SAMPLES` samples (a nearly plastic
+     contact) is modelled as a Hunt–Crossley impact (:class:`PulseHead`), which gives its onset,
+     its rise's integral and the rules' quadrature error on it;
+   * a contact that the accelerometer's force balance shows to last beyond the detected separation
+     (a tail smooth over the detector's baseline) gets its separation found again and the events
+     are integrated and anchored again (:func:`_contacts_that_end_later`); one that lasts beyond
+     :data:`~impactid.events.RIDING_FRACTION` of a revolution is a follower riding the cam;
 2. the constant of the second integration is anchored, by name (:data:`ANCHORS`: typed anchor
    objects of :mod:`impactid.rigs.pivoted.anchors`, each given the integrated
    :class:`~impactid.rigs.pivoted.anchors.EventWindows` and returning
@@ -53,7 +66,8 @@ contact onset to the next):
    distance from the first contact sample; the rate is continuous there in compliant contact),
    the separation speed (the gap rate where the reconstructed gap reopens, interpolated
    linearly between samples; the paper's variant, the gap rate at the maximum of ``alpha_dot``,
-   is reported too) and ``xi = v_s / v_a``.
+   is reported too) and ``xi = v_s / v_a``. ``alpha_m`` is NaN where the follower has no apex
+   between the impact and the next one (multi-impact motion).
 
 In :func:`reconstruct` each step is a function: the inputs checked (:func:`_checked_inputs`), the
 events chosen (:func:`_events_to_reconstruct`), the windows integrated with their onset states
@@ -70,13 +84,24 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
+from numba import njit
+from scipy import optimize
 
 from impactid.errors import ImpactidError
-from impactid.events import EventTable, EventWarning, find_events
+from impactid.events import (
+    BASELINE_GAP,
+    RIDING_FRACTION,
+    TAIL_BLOCK,
+    TAIL_SNR,
+    EventTable,
+    EventWarning,
+    find_events,
+    separation_before,
+)
 from impactid.io import Recording, RecordingError
 from impactid.rigs._params import RigParameters
 from impactid.rigs.pivoted import MODEL_NAME, spring_force
@@ -88,7 +113,7 @@ from impactid.rigs.pivoted.anchors import (
     hertz_ratio,
     theta_from_gap,
 )
-from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator
+from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator, sampled_model_correction
 
 __all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
            "EDGE_SNR", "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "EventKinematics",
@@ -157,7 +182,10 @@ class Reconstruction:
     ``theta_onset`` [rad], ``alpha_m`` [rad], ``t_alpha_m`` [s from onset], ``approach_speed``
     ``v_a`` [m/s], ``separation_speed`` [m/s], ``separation_speed_at_max_rate`` [m/s], ``xi``,
     ``peak_indentation`` [m], ``peak_force`` [N] (NaN without force channels), ``anchor_constant``
-    [rad], ``anchor_iterations``, and the event flags.
+    [rad], ``anchor_iterations``, ``contact_duration_force_balance`` [s] (the contact's length by the
+    accelerometer's force balance), and the event flags (``chattering``, ``not_period1``, ``periodic``,
+    ``riding``, ``contact_consistent``). ``t_onset`` and ``t_next`` are a modelled head's onsets where
+    the pulse is under-resolved (:class:`PulseHead`).
     """
 
     table: pd.DataFrame
@@ -198,21 +226,17 @@ class Reconstruction:
 
 def _event_histories(rec, events, row, rig, integration, cam_speed_hz) -> EventKinematics:
     """Histories of a whole event window, recomputed from the recording (as ``reconstruct`` did)."""
-    ev_row = events.table.loc[row.name]
-    a, b = int(ev_row["onset_index"]), int(ev_row["next_index"])
-    dt = 1.0 / rec.sample_rate_hz
-    lead = min(a, 4)  # the edge laws look at the two samples before the window
-    angular = rec["accel_tangential"][a - lead:b] / rig.l_a
-    t_separation = (float(row["t_separation"]) - rec.start_time_s) * rec.sample_rate_hz - (a - lead)
+    position = events.table.index.get_loc(row.name)
+    angular = rec["accel_tangential"] / rig.l_a
     noise = events.noise_sigma / rig.l_a
-    edges = () if bool(ev_row["too_short"]) else _pulse_edges(angular, lead, float(row["onset_offset"]),
-                                                              t_separation, dt, noise)
-    span = _event_span(float(row["onset_offset"]), float(row["next_offset"]), float(row["head_rate_change"]),
-                       float(row["tail_rate_change"]))
-    add, rate, angle = detrend_integrate(angular[lead:], dt, integration, span=span, edges=edges)
-    return _contact_history(angle, rate, add, rec, a, 0, b - a, float(row["onset_offset"]),
-                            float(row["anchor_constant"]), float(row["theta_onset"]), rig,
-                            2.0 * math.pi * cam_speed_hz, dt, int(ev_row.name))
+    end = int(events.table["period_end"].iloc[position])
+    pulses = _pulses(rec, events, angular, rig, noise, positions=range(position, end + 1))
+    dt = 1.0 / rec.sample_rate_hz
+    window = _window_integral(angular, pulses, position, dt, integration, noise)
+    a = int(pulses.first[position])
+    return _contact_history(window.angle, window.rate, window.acceleration, rec, a, 0, window.angle.size,
+                            window.onset_offset, float(row["anchor_constant"]), float(row["theta_onset"]), rig,
+                            2.0 * math.pi * cam_speed_hz, dt, int(row.name))
 
 
 def reconstruct(recording: Recording, events: EventTable | None = None, *, integration="rk",
@@ -243,9 +267,18 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     events = _events_to_reconstruct(recording, events, warn=warn)
     windows = _integrate_events(recording, rig, events, integration, cam_speed_hz)
     anchored = method.anchor(windows)
+    noise = events.noise_sigma / rig.l_a
+    durations = _contact_by_force_balance(windows, anchored.constants, noise)
+    longer = _contacts_that_end_later(recording, events, windows, durations, cam_speed_hz)
+    if longer is not None:  # a tail the event detector's baselines followed: integrate and anchor again
+        events = longer
+        windows = _integrate_events(recording, rig, events, integration, cam_speed_hz)
+        anchored = method.anchor(windows)
+        durations = _contact_by_force_balance(windows, anchored.constants, noise)
     theta_on = _onset_cam_angles(windows, anchored)
-    table, contact, hertz = _event_table(windows, events.usable, anchored, theta_on)
-    messages = list(events.warnings)
+    table, contact, hertz = _event_table(windows, _refined_onsets(events.usable, windows), anchored, theta_on)
+    messages = list(events.warnings) + list(anchored.notes)
+    messages += _riding_by_force_balance(recording, table, durations, cam_speed_hz)
     messages += _plausibility(windows, anchored, hertz)
     messages += _reconstruction_notes(recording, table, anchor)
     int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
@@ -296,39 +329,37 @@ def _events_to_reconstruct(recording: Recording, events: EventTable | None, *, w
     if events.usable.empty:
         for message in events.warnings if warn and not given else ():  # they say why (clipped, overlapping)
             warnings.warn(message, EventWarning, stacklevel=3)
-        raise ImpactidError(f"{recording.source or 'recording'}: no usable impact events "
-                            f"({len(events)} found, none complete and clean)")
+        where = recording.source or "recording"
+        why = "; ".join(m.removeprefix(f"{where}: ") for m in events.warnings)
+        raise ImpactidError(f"{where}: no usable impact events ({len(events)} found, none complete and clean"
+                            + (f": {why})" if why else ")"))
     return events
 
 
 def _integrate_events(recording: Recording, rig: RigParameters, events: EventTable, integration,
                       cam_speed_hz: float) -> EventWindows:
-    """Each usable event's window integrated twice (before anchoring), with its onset state and the
-    free flight of the return-time anchor (:data:`ANCHOR_MARGIN`, :data:`ANCHOR_SEPARATION_DELAY`)."""
+    """Each usable event's window integrated twice (before anchoring, :func:`_window_integral`), with its
+    onset state and the free flight of the return-time anchor (:data:`ANCHOR_MARGIN`,
+    :data:`ANCHOR_SEPARATION_DELAY`)."""
     usable = events.usable
     rate_hz = recording.sample_rate_hz
     dt = 1.0 / rate_hz
+    angular = recording["accel_tangential"] / rig.l_a
+    noise = events.noise_sigma / rig.l_a
+    pulses = _pulses(recording, events, angular, rig, noise)
+    positions = [events.table.index.get_loc(e) for e in usable.index]
+    windows = [_window_integral(angular, pulses, p, dt, integration, noise) for p in positions]
     k0 = usable["onset_index"].to_numpy()
     k1 = usable["next_index"].to_numpy()
     ka = usable["separation_index"].to_numpy()
-    # sub-sample onset: how far (in samples) the onset lies before the first contact sample
-    onset_offset = (usable["onset_index"].to_numpy() - (usable["t_onset"].to_numpy() - recording.start_time_s)
-                    * rate_hz)
-    # Each window runs from the first contact sample to the last free sample before the next onset;
-    # the event's true span (EventSpan, for the event means of detrend_integrate) adds the two
-    # sub-sample pieces: the pulse's rise from the onset to the first sample, and the free flight
-    # from the last sample to the next onset.
-    next_offset = k1 - (usable["t_next"].to_numpy() - recording.start_time_s) * rate_hz
-    angular = recording["accel_tangential"] / rig.l_a
-    noise = events.noise_sigma / rig.l_a
-    head_change = _onset_rate_change(angular, k0, onset_offset, dt, noise)
-    tail_change = _free_tail_rate_change(angular, k1, next_offset, dt)
-    t_sep_samples = (usable["t_separation"].to_numpy() - recording.start_time_s) * rate_hz
+    onset_offset = np.array([w.onset_offset for w in windows])
+    next_offset = np.array([w.next_offset for w in windows])
+    head_change = np.array([w.head_rate_change for w in windows])
+    tail_change = np.array([w.tail_rate_change for w in windows])
     impulsive = usable["too_short"].to_numpy(dtype=bool)
-    edges = [() if impulsive[i] else _pulse_edges(angular, int(k0[i]), onset_offset[i], t_sep_samples[i], dt, noise)
-             for i in range(k0.size)]
-    spans = [_event_span(onset_offset[i], next_offset[i], head_change[i], tail_change[i]) for i in range(k0.size)]
-    angles, rates, accs = _integrate_windows(angular, k0, k1, edges, spans, dt, integration)
+    angles = [w.angle for w in windows]
+    rates = [w.rate for w in windows]
+    accs = [w.acceleration for w in windows]
     angle_onset, rate_onset, rate_after = _onset_states(angular, k0, ka, onset_offset, head_change, impulsive,
                                                         angles, rates, accs, dt)
     free_samples = k1 - ka
@@ -336,24 +367,138 @@ def _integrate_events(recording: Recording, rig: RigParameters, events: EventTab
     return EventWindows(
         recording=recording, rig=rig, sample_rate_hz=rate_hz, omega=2.0 * math.pi * cam_speed_hz, first_sample=k0,
         next_sample=k1, separation_sample=ka, onset_offset=onset_offset, next_offset=next_offset,
-        t_onset=usable["t_onset"].to_numpy() - recording.start_time_s, impulsive=impulsive,
+        t_onset=pulses.t_onset[positions] - recording.start_time_s, impulsive=impulsive,
         head_rate_change=head_change, tail_rate_change=tail_change, angles=angles, rates=rates, accelerations=accs,
         angle_onset=angle_onset, rate_onset=rate_onset, rate_after=rate_after,
-        contact_end=(ka - k0) + ANCHOR_MARGIN, free_start=(ka - k0) + delay, free_end=(k1 - k0) - 1 - ANCHOR_MARGIN)
+        contact_end=(ka - k0) + ANCHOR_MARGIN, free_start=(ka - k0) + delay, free_end=(k1 - k0) - 1 - ANCHOR_MARGIN,
+        t_next=pulses.t_onset[[p + 1 for p in positions]] - recording.start_time_s)
 
 
-def _integrate_windows(angular: np.ndarray, k0: np.ndarray, k1: np.ndarray, edges: list, spans: list, dt: float,
-                       integration) -> tuple[list[np.ndarray], list[np.ndarray], list[np.ndarray]]:
-    """Each window ``k0[i]:k1[i]`` of the angular acceleration [rad/s^2] detrended and integrated twice
-    (:func:`~impactid.signal.detrend_integrate` with the window's pulse edges and true span): per event the
-    angular acceleration [rad/s^2], rate [rad/s] and angle [rad] (before anchoring)."""
-    angles, rates, accs = [], [], []
-    for a, b, edge, span in zip(k0, k1, edges, spans):
-        add, rate, angle = detrend_integrate(angular[a:b], dt, integration, span=span, edges=edge)
-        angles.append(angle)
-        rates.append(rate)
-        accs.append(add)
-    return angles, rates, accs
+def _refined_onsets(usable: pd.DataFrame, windows: EventWindows) -> pd.DataFrame:
+    """The usable events with the onset times of the reconstruction (a modelled head's, :class:`PulseHead`)
+    in ``t_onset`` and ``t_next`` where they differ from the event detector's."""
+    start = windows.recording.start_time_s
+    onset = windows.t_onset + start
+    nxt = windows.t_next + start
+    moved = np.abs(onset - usable["t_onset"].to_numpy()) > 1e-12
+    moved_next = np.abs(nxt - usable["t_next"].to_numpy()) > 1e-12
+    if not (moved.any() or moved_next.any()):
+        return usable
+    out = usable.copy()
+    out.loc[moved, "t_onset"] = onset[moved]
+    out.loc[moved_next, "t_next"] = nxt[moved_next]
+    return out
+
+
+@dataclass(frozen=True)
+class _Pulses:
+    """The contact pulses of an :class:`~impactid.events.EventTable`, by position in its table.
+
+    ``first``: first contact sample; ``onset``: the onset [samples of the recording, fractional;
+    the head model's where it exists, the event detector's otherwise]; ``t_onset``: the same [s];
+    ``separation`` [samples, fractional]; ``impulsive``: fewer than 3 contact samples; ``period_end``:
+    the position of the event that closes the integration window; ``heads``: the :class:`PulseHead`
+    of each under-resolved pulse (None for the others).
+    """
+
+    first: np.ndarray
+    onset: np.ndarray
+    t_onset: np.ndarray
+    separation: np.ndarray
+    impulsive: np.ndarray
+    period_end: np.ndarray
+    heads: tuple
+
+
+def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: RigParameters, noise: float,
+            positions=None) -> _Pulses:
+    """The pulses of ``events`` with the head model fitted to the under-resolved ones among ``positions``
+    (all by default; :func:`_fit_pulse_head`). ``angular`` is the recording's angular acceleration
+    [rad/s^2] and ``noise`` its noise floor [rad/s^2]."""
+    table = events.table
+    rate_hz = recording.sample_rate_hz
+    first = table["onset_index"].to_numpy()
+    onset = (table["t_onset"].to_numpy() - recording.start_time_s) * rate_hz
+    t_onset = table["t_onset"].to_numpy().copy()
+    impulsive = table["too_short"].to_numpy(dtype=bool)
+    clean = ~(table["overlapping"] | table["clipped"]).to_numpy(dtype=bool)
+    heads: list[PulseHead | None] = [None] * len(table)
+    for p in range(len(table)) if positions is None else positions:
+        if p < 0 or p >= len(table) or impulsive[p] or not clean[p] or not math.isfinite(onset[p]):
+            continue
+        head = _fit_pulse_head(angular, int(first[p]), float(onset[p]), 1.0 / rate_hz, rig, noise)
+        if head is not None:
+            heads[p] = head
+            onset[p] = head.onset
+            t_onset[p] = recording.start_time_s + head.onset / rate_hz
+    return _Pulses(first=first, onset=onset, t_onset=t_onset,
+                   separation=(table["t_separation"].to_numpy() - recording.start_time_s) * rate_hz,
+                   impulsive=impulsive, period_end=table["period_end"].to_numpy(), heads=tuple(heads))
+
+
+@dataclass(frozen=True)
+class _WindowIntegral:
+    """One event's window integrated (:func:`_window_integral`): on the samples from its first contact
+    sample to the last before the next onset, the detrended angular acceleration [rad/s^2], the rate
+    [rad/s] and the angle [rad] up to its constant; the onset's and the next onset's sub-sample offsets
+    before their first contact samples [samples], and the rate changes [rad/s] over the sub-sample
+    pieces from the onset to the first sample and from the last sample to the next onset."""
+
+    acceleration: np.ndarray
+    rate: np.ndarray
+    angle: np.ndarray
+    onset_offset: float
+    next_offset: float
+    head_rate_change: float
+    tail_rate_change: float
+
+
+def _window_integral(angular: np.ndarray, pulses: _Pulses, position: int, dt: float, integration,
+                     noise: float) -> _WindowIntegral:
+    """The event at ``position`` integrated over one period of the motion, cut to its own window.
+
+    The event means of :func:`~impactid.signal.detrend_integrate` (the accelerometer's offset and the
+    rate's constant) are exact where the true acceleration and rate integrate to zero: over a span in
+    which the follower's state recurs, i.e. one period of the motion, from the event's onset to the
+    onset one period later (``period_end``; the next onset in period-1 motion, the ``m``-th next in
+    period-``k`` motion with ``m`` impacts, whose impacts differ from each other). The span is
+    integrated with every pulse's edges (:func:`_pulse_edges`) and the quadrature corrections of the
+    modelled heads (:class:`PulseHead`), and cut at the next onset.
+    """
+    p, q = position, int(pulses.period_end[position])
+    k0, k1, kend = int(pulses.first[p]), int(pulses.first[p + 1]), int(pulses.first[q])
+    onset_offset = float(k0 - pulses.onset[p])
+    next_offset = float(k1 - pulses.onset[p + 1])
+    end_offset = float(kend - pulses.onset[q])
+    n = kend - k0
+    edges: list[PowerLawEdge] = []
+    correction = None
+    for r in range(p, q):
+        if pulses.impulsive[r]:
+            continue
+        kr = int(pulses.first[r])
+        shift = (kr - k0) * dt
+        head = pulses.heads[r]
+        for edge in _pulse_edges(angular, kr, float(kr - pulses.onset[r]), float(pulses.separation[r]), dt, noise,
+                                 onset=head is None):
+            edges.append(edge if r == p else replace(edge, time=edge.time + shift))
+        if head is not None:
+            term = sampled_model_correction(n, dt, integration, kr - k0, head.values, head.exact)
+            correction = term if correction is None else correction + term
+    head = pulses.heads[p]
+    if head is not None:
+        head_change = head.rise_integral
+    else:
+        head_change = float(_onset_rate_change(angular, np.array([k0]), np.array([onset_offset]), dt, noise)[0])
+    span_tail = float(_free_tail_rate_change(angular, np.array([kend]), np.array([end_offset]), dt)[0])
+    span = _event_span(onset_offset, end_offset, head_change, span_tail)
+    add, rate, angle = detrend_integrate(angular[k0:kend], dt, integration, span=span, edges=tuple(edges),
+                                         rate_correction=correction)
+    own = k1 - k0
+    tail_change = span_tail if q == p + 1 else float(
+        _free_tail_rate_change(angular, np.array([k1]), np.array([next_offset]), dt)[0])
+    return _WindowIntegral(acceleration=add[:own], rate=rate[:own], angle=angle[:own], onset_offset=onset_offset,
+                           next_offset=next_offset, head_rate_change=head_change, tail_rate_change=tail_change)
 
 
 def _onset_states(angular: np.ndarray, k0: np.ndarray, ka: np.ndarray, onset_offset: np.ndarray,
@@ -433,6 +578,11 @@ def _event_row(windows: EventWindows, i: int, ev_row: pd.Series, hist: EventKine
     alpha_full = windows.angles[i] + constant
     j = int(np.argmax(alpha_full))
     alpha_m, t_m = _parabolic_max(alpha_full, j)
+    if j <= n_contact or j >= alpha_full.size - 2:
+        # no apex between this impact and the next (multi-impact motion: the cam catches the follower
+        # while it still rises, or the follower never rises above its onset angle): the window's
+        # largest angle is that at one of its ends, which any law reproduces; there is no alpha_m (NaN)
+        alpha_m = t_m = math.nan
     v_a = -float(rig.gap_rate(alpha_on, rate_on, theta_on, omega))
     if windows.impulsive[i]:
         v_s = float(rig.gap_rate(alpha_on, windows.rate_after[i], theta_on, omega))
@@ -453,6 +603,7 @@ def _event_row(windows: EventWindows, i: int, ev_row: pd.Series, hist: EventKine
         "onset_offset": onset_offset, "next_offset": windows.next_offset[i],
         "head_rate_change": windows.head_rate_change[i], "tail_rate_change": windows.tail_rate_change[i],
         "chattering": bool(ev_row["chattering"]), "not_period1": bool(ev_row["not_period1"]),
+        "periodic": bool(ev_row["periodic"]), "riding": bool(ev_row["riding"]),
         "hertz_ratio": hertz,
         "contact_consistent": bool(not math.isfinite(hertz)
                                    or 1.0 / CONTACT_HERTZ_TOLERANCE <= hertz <= CONTACT_HERTZ_TOLERANCE),
@@ -472,6 +623,118 @@ def _reconstruction_notes(recording: Recording, table: pd.DataFrame, anchor: str
     if failed:
         messages.append(f"{recording.source or 'recording'}: the {anchor} anchor did not converge at events {failed}")
     return messages
+
+
+#: Smallest contact force [N] the accelerometer's force balance tells from free flight (a follower riding
+#: the cam presses on it with about 3 N: the envelope validation's hc16 and hc44).
+CONTACT_FORCE_FLOOR = 0.3
+#: Samples per block of the force-balance test of a contact's end (:func:`_contact_by_force_balance`).
+FORCE_BALANCE_BLOCK = 32
+
+
+def _contact_by_force_balance(windows: EventWindows, constants: np.ndarray, noise: float) -> np.ndarray:
+    """Per event, how long [s] its contact lasts from the onset by the accelerometer's force balance.
+
+    In free flight the follower's angular acceleration is the free-flight torque over ``I_b``, a known
+    function of the angle (S-9); in contact it differs by the contact's torque. A follower that rides
+    the cam after an impact follows the cam smoothly, so no baseline of the signal alone tells the ride
+    from the flight (the event detector ends such a contact 6.7 ms into a 16 ms ride); the force
+    balance does (where the reconstruction holds, in periodic motion): ``alpha_ddot - Q(alpha) / I_b`` stays
+    at the contact's few newtons there and drops to
+    the free-flight level (the mean over the window's second half) when the follower lifts off.
+    The contact lasts through the blocks of :data:`FORCE_BALANCE_BLOCK` samples after the detected
+    separation whose mean stays beyond :data:`CONTACT_FORCE_FLOOR` (as an angular acceleration at the
+    0-state lever arm) and :data:`~impactid.events.TAIL_SNR` standard errors of the ``noise`` floor
+    [rad/s^2]. NaN where the window is too short or the constant unknown.
+    """
+    rig = windows.rig
+    out = np.full(len(windows), np.nan)
+    block = FORCE_BALANCE_BLOCK
+    threshold = max(TAIL_SNR * noise / math.sqrt(block), CONTACT_FORCE_FLOOR * rig.chi0 / rig.I_b)
+    for i, angle in enumerate(windows.angles):
+        if not math.isfinite(constants[i]):
+            continue
+        residual = windows.accelerations[i] - np.asarray(rig.free_torque(angle + constants[i])) / rig.I_b
+        start = int(windows.separation_sample[i] - windows.first_sample[i])
+        blocks = (residual.size - start) // block
+        if blocks < 2:
+            continue
+        level = float(np.mean(residual[residual.size // 2:]))
+        means = (residual[start:start + blocks * block] - level).reshape(blocks, block).mean(axis=1)
+        above = np.abs(means) > threshold
+        k = int(np.argmin(above)) if not above.all() else blocks
+        out[i] = (start + k * block + windows.onset_offset[i]) * windows.dt
+    return out
+
+
+def _contacts_that_end_later(recording: Recording, events: EventTable, windows: EventWindows, durations: np.ndarray,
+                             cam_speed_hz: float) -> EventTable | None:
+    """The events with the separations of the contacts that the accelerometer's force balance shows to last
+    longer than detected, or None when none does.
+
+    A contact's tail that is smooth over the event detector's 4 ms cubic baseline (a nearly plastic law
+    whose tail turns from compressive to tensile along a ramp of 5 ms; a follower riding the cam) passes for
+    free flight there. The force balance (``durations`` [s] from each onset, :func:`_contact_by_force_balance`;
+    periodic events only: their reconstruction holds) does not: where its contact lasts beyond the detected
+    separation by more than one of its blocks, the separation is found again from a free-flight baseline
+    started where the force balance ends the contact (:func:`~impactid.events.separation_before`), and the
+    ``riding`` flag follows the new duration. Contacts the detector ended right are untouched (their force
+    balance ends in the first block after them).
+    """
+    table = events.table
+    usable = events.usable
+    rate_hz = recording.sample_rate_hz
+    x = recording["accel_tangential"]
+    updated = table.copy()
+    changed = []
+    for i, event in enumerate(usable.index):
+        if not bool(usable.loc[event, "periodic"]) or not math.isfinite(durations[i]):
+            continue
+        k0, ka = int(windows.first_sample[i]), int(windows.separation_sample[i])
+        end = k0 + int(math.ceil(durations[i] * rate_hz - windows.onset_offset[i]))
+        if end <= ka + FORCE_BALANCE_BLOCK:
+            continue
+        peak = float(usable.loc[event, "peak"])
+        threshold = max(5.0 * events.noise_sigma, 1e-6 * abs(peak))
+        block = max(TAIL_SNR * events.noise_sigma / math.sqrt(TAIL_BLOCK), 1e-6 * abs(peak))
+        found = separation_before(x, ka, end + BASELINE_GAP, threshold, block, int(windows.next_sample[i]), rate_hz)
+        if found is None or found[0] <= ka:
+            continue
+        updated.loc[event, "separation_index"] = found[0]
+        updated.loc[event, "t_separation"] = recording.start_time_s + found[1] / rate_hz
+        updated.loc[event, "contact_samples"] = found[0] - int(updated.loc[event, "onset_index"])
+        changed.append(event)
+    if not changed:
+        return None
+    duration = (updated["t_separation"] - updated["t_onset"]).to_numpy()
+    updated["riding"] = updated["riding"].to_numpy(dtype=bool) | (np.isfinite(duration)
+                                                                  & (duration > RIDING_FRACTION / cam_speed_hz))
+    return replace(events, table=updated, provenance=events.provenance + (
+        f"separations moved to the force balance's contact end at events {changed[:12]}"
+        f"{' ...' if len(changed) > 12 else ''}",))
+
+
+def _riding_by_force_balance(recording: Recording, table: pd.DataFrame, duration: np.ndarray,
+                             cam_speed_hz: float) -> list[str]:
+    """Mark in ``table`` (column ``riding``) the events whose contact lasts, by the accelerometer's force balance
+    (``duration`` [s] from each onset, :func:`_contact_by_force_balance`), more than
+    :data:`~impactid.events.RIDING_FRACTION` of a cam revolution; return a note naming those the event detector
+    did not mark."""
+    table["contact_duration_force_balance"] = duration
+    period = 1.0 / cam_speed_hz
+    # (only where the reconstruction holds: an event whose onset does not recur is integrated wrongly, and
+    # its force balance would show any error as a contact)
+    riding = np.isfinite(duration) & (duration > RIDING_FRACTION * period) & table["periodic"].to_numpy(dtype=bool)
+    new = riding & ~table["riding"].to_numpy(dtype=bool)
+    table["riding"] = table["riding"].to_numpy(dtype=bool) | riding
+    if not new.any():
+        return []
+    longest = float(np.nanmax(duration[new]))
+    return [f"{recording.source or 'recording'}: the follower rides the cam after the impact at events "
+            f"{table.index[new].tolist()[:12]}{' ...' if new.sum() > 12 else ''}: by the accelerometer's force "
+            f"balance the contact lasts up to {longest * 1e3:.3g} ms, {longest / period:.0%} of a cam revolution "
+            f"(an impact lasts at most {RIDING_FRACTION:.0%}); the apex after it is set by the cam, not by the "
+            "contact law"]
 
 
 #: Events whose free flights enter the force-balance check (enough to average the noise).
@@ -627,11 +890,12 @@ def _onset_rate_change(angular: np.ndarray, k: np.ndarray, offset: np.ndarray, d
 
 
 def _pulse_edges(angular: np.ndarray, k0: int, onset_offset: float, t_separation: float,
-                 dt: float, noise: float) -> tuple[PowerLawEdge, ...]:
+                 dt: float, noise: float, *, onset: bool = True) -> tuple[PowerLawEdge, ...]:
     """The onset and separation edges of the pulse that starts the window at sample ``k0``
-    (``t_separation`` in samples of the recording), for :func:`~impactid.signal.edge_correction`."""
+    (``t_separation`` in samples of the recording), for :func:`~impactid.signal.edge_correction`
+    (the separation's only when ``onset`` is False: a modelled head, :class:`PulseHead`, corrects its own)."""
     edges = []
-    c, p = _edge_law(angular, k0, onset_offset, +1, noise)
+    c, p = _edge_law(angular, k0, onset_offset, +1, noise) if onset else (math.nan, math.nan)
     if not math.isnan(c):
         edges.append(PowerLawEdge(time=-onset_offset * dt, coefficient=c / dt ** p, exponent=p, side=+1))
     last = int(math.ceil(t_separation)) - 1  # last contact sample
@@ -697,3 +961,191 @@ def _reopening_rate(hist: EventKinematics) -> float:
         return math.nan
     j, w = crossing
     return float((1.0 - w) * hist.gap_rate[j] + w * hist.gap_rate[j + 1])
+
+
+# ---- under-resolved pulse heads ---------------------------------------------------------------------
+
+#: A pulse whose largest deviation comes within this many samples of its first contact sample is
+#: under-resolved: the head of a nearly plastic Hunt–Crossley contact (restitution below about 0.03)
+#: stops the approach within 10-20 us (its peak at the 2nd to 4th sample at 204.8 kHz, against the 8th
+#: to 25th of the contacts of the validation's period-1 points), and neither a power law of two samples
+#: nor any polynomial rule follows it there (onsets off by up to 0.4 samples, the rate after it by
+#: 0.5 % of its jump, beta by -3 to -14 %; at 819.2 kHz the same contacts give +0.2 %).
+HEAD_MODEL_PEAK_SAMPLES = 5
+#: The head model spans the samples until the pulse has decayed below this fraction of its peak...
+HEAD_MODEL_END = 5e-3
+#: ... and at most this many samples after the first contact sample.
+HEAD_MODEL_SAMPLES = 48
+#: Samples before the head whose least-squares line is the free-flight baseline under it.
+HEAD_BASELINE_SAMPLES = 16
+#: RK4 steps per sample interval of the head model's differential equation.
+HEAD_MODEL_SUBSTEPS = 32
+#: Largest rms misfit of the head model, relative to the pulse's peak, with which it is used (else the
+#: power-law edges are: a pulse the model does not describe is left to them).
+HEAD_MODEL_MISFIT = 0.02
+#: Lever arm [m] of the head model's scale: its value is immaterial (a change of it is a change of the
+#: model's scale of indentation, which the fitted coefficients and approach speed absorb exactly).
+HEAD_MODEL_LEVER = 0.09
+
+
+@dataclass(frozen=True)
+class PulseHead:
+    """The head of an under-resolved contact pulse, modelled as a Hunt–Crossley impact.
+
+    Near its onset a contact of rig P is an impact of the follower (effective mass ``I_b / chi^2``) on
+    a cam that moves on by less than its own curvature in the 10-50 us the head lasts: the indentation
+    ``delta`` obeys ``delta'' = -chi a(t)`` with the contact's angular acceleration
+    ``a = A delta^1.5 + B delta^q delta'`` (the Hertz term and the damping term of the generalised
+    Hunt–Crossley force, each times ``chi / I_b``; friction scales both), from ``delta = 0`` and
+    ``delta' = v0`` at the onset ``t0``. The five numbers ``t0, v0, A, B, q`` are fitted to the samples
+    of the head (:func:`_fit_pulse_head`); the model then gives the onset between samples, the rise's
+    integral up to the first contact sample and the rules' quadrature error on the head
+    (:func:`~impactid.signal.sampled_model_correction`). Nothing of it enters the estimate of the
+    contact law other than through these integrals.
+
+    Attributes
+    ----------
+    first_sample : the recording's first contact sample of the pulse.
+    onset : the onset [samples of the recording, fractional]: between ``first_sample - 1`` and ``first_sample``.
+    values : the model's angular acceleration [rad/s^2] at samples ``first_sample ... first_sample + len - 1``.
+    exact : its exact integral from ``first_sample`` to each of them [rad/s].
+    rise_integral : the angular acceleration's integral from the onset to ``first_sample`` [rad/s]: the
+        model's (exact) and the free-flight baseline's.
+    misfit : rms misfit relative to the peak.
+    """
+
+    first_sample: int
+    onset: float
+    values: np.ndarray
+    exact: np.ndarray
+    rise_integral: float
+    misfit: float
+
+
+@njit(cache=True)
+def _head_rhs(d, v, a_coef, b_coef, q):  # pragma: no cover - compiled
+    if d <= 0.0:
+        return 0.0
+    return a_coef * d ** 1.5 + b_coef * d ** q * v
+
+
+@njit(cache=True)
+def _head_model(t0, v0, a_coef, b_coef, q, lever, times, substeps, out_acc, out_rate):  # pragma: no cover
+    """Angular acceleration [rad/s^2] and indentation rate [m/s] of the head model at ``times`` [s]
+    (ascending; zero acceleration and ``v0`` before the onset ``t0``), RK4 with ``substeps`` steps per
+    unit of ``times``' spacing."""
+    d = 0.0
+    v = v0
+    t = t0
+    spacing = times[1] - times[0] if times.size > 1 else 1.0
+    for k in range(times.size):
+        tk = times[k]
+        if tk <= t0:
+            out_acc[k] = 0.0
+            out_rate[k] = v0
+            continue
+        m = max(1, int(math.ceil((tk - t) / spacing * substeps)))
+        h = (tk - t) / m
+        for _ in range(m):
+            a1 = _head_rhs(d, v, a_coef, b_coef, q)
+            k1d, k1v = v, -lever * a1
+            a2 = _head_rhs(d + 0.5 * h * k1d, v + 0.5 * h * k1v, a_coef, b_coef, q)
+            k2d, k2v = v + 0.5 * h * k1v, -lever * a2
+            a3 = _head_rhs(d + 0.5 * h * k2d, v + 0.5 * h * k2v, a_coef, b_coef, q)
+            k3d, k3v = v + 0.5 * h * k2v, -lever * a3
+            a4 = _head_rhs(d + h * k3d, v + h * k3v, a_coef, b_coef, q)
+            k4d, k4v = v + h * k3v, -lever * a4
+            d += h / 6.0 * (k1d + 2.0 * k2d + 2.0 * k3d + k4d)
+            v += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v)
+        t = tk
+        out_acc[k] = _head_rhs(d, v, a_coef, b_coef, q)
+        out_rate[k] = v
+
+
+def _head_baseline(angular: np.ndarray, k0: int):
+    """The free-flight baseline under a pulse whose first contact sample is ``k0``: the least-squares
+    line through the :data:`HEAD_BASELINE_SAMPLES` samples before it (a function of sample indices),
+    or None without room."""
+    lo = k0 - HEAD_BASELINE_SAMPLES
+    if lo < 0:
+        return None
+    idx = np.arange(lo, k0)
+    slope, intercept = np.polyfit(idx - k0, angular[lo:k0], 1)
+    return lambda at: intercept + slope * (np.asarray(at, dtype=float) - k0)
+
+
+def _fit_pulse_head(angular: np.ndarray, k0: int, onset_guess: float, dt: float, rig: RigParameters,
+                    noise: float) -> PulseHead | None:
+    """The head model (:class:`PulseHead`) of the pulse whose first contact sample is ``k0``, or None
+    when the pulse is resolved (its peak later than :data:`HEAD_MODEL_PEAK_SAMPLES` samples after
+    ``k0``), below :data:`EDGE_SNR` times the ``noise`` floor [rad/s^2], or not described by the model
+    (misfit above :data:`HEAD_MODEL_MISFIT`). ``onset_guess`` [samples] is the event detector's onset."""
+    baseline = _head_baseline(angular, k0)
+    hi = min(k0 + HEAD_MODEL_SAMPLES, angular.size)
+    if baseline is None or hi - k0 < 8:
+        return None
+    idx = np.arange(k0 - 2, hi)
+    dev = angular[idx] - baseline(idx)
+    contact = dev[2:]
+    j_peak = int(np.argmax(contact))
+    peak = float(contact[j_peak])
+    if j_peak >= HEAD_MODEL_PEAK_SAMPLES or not peak > EDGE_SNR * noise:
+        return None
+    below = np.flatnonzero(contact[j_peak:] < HEAD_MODEL_END * peak)
+    end = j_peak + int(below[0]) + 1 if below.size else contact.size
+    idx, dev = idx[: end + 2], dev[: end + 2]
+    times = (idx - k0) * dt
+    lever = HEAD_MODEL_LEVER
+    s0 = min(max(k0 - onset_guess, 0.05), 0.95)
+    q0 = 1.3
+    if contact[0] > 0.0 and contact[1] > contact[0]:
+        q0 = min(max(math.log(contact[1] / contact[0]) / math.log((1.0 + s0) / s0), 0.8), 2.5)
+    v0 = lever * float(np.sum(dev)) * dt
+    if not v0 > 0.0:
+        return None
+    a0 = lever * rig.k_H / rig.I_b
+    t_peak = (j_peak + s0) * dt
+    d_peak, v_peak = 0.5 * v0 * t_peak, 0.5 * v0
+    acc = np.empty(times.size)
+    rate = np.empty(times.size)
+
+    def residual(x):
+        _head_model(x[0] * dt, math.exp(x[1]), math.exp(x[2]), math.exp(x[3]), x[4], lever, times,
+                    HEAD_MODEL_SUBSTEPS, acc, rate)
+        out = (acc - dev) / peak
+        return np.where(np.isfinite(out), out, 1e6)
+
+    fit = None
+    for q in (q0, 1.5) if abs(q0 - 1.5) > 0.05 else (q0,):  # the damping-dominated and the Hertzian start
+        b = max(peak - a0 * d_peak ** 1.5, 0.1 * peak) / (d_peak ** q * v_peak)
+        start = np.array([-s0, math.log(v0), math.log(a0), math.log(b), q])
+        # the logarithms within e^+-12 (a factor of 1.6e5) of their starts: far beyond any head's, and
+        # short of the floating-point range
+        reach = np.array([0.0, 12.0, 12.0, 12.0, 0.0])
+        try:
+            trial = optimize.least_squares(residual, start, bounds=(np.array([-2.0, 0, 0, 0, 0.5]) + start * (reach > 0)
+                                                                    - reach,
+                                                                    np.array([0.2, 0, 0, 0, 3.0]) + start * (reach > 0)
+                                                                    + reach),
+                                           x_scale=[0.1, 0.1, 0.5, 0.5, 0.1], xtol=1e-10, ftol=1e-10, gtol=1e-10)
+        except (ValueError, ArithmeticError):
+            continue
+        if fit is None or trial.cost < fit.cost:
+            fit = trial
+    if fit is None:
+        return None
+    misfit = float(np.sqrt(np.mean(fit.fun ** 2)))
+    if not (fit.success and misfit <= HEAD_MODEL_MISFIT and -1.0 <= fit.x[0] < 0.0):
+        return None
+    t0, v0 = fit.x[0] * dt, math.exp(fit.x[1])
+    # the model on the first contact sample and after it (3 more samples for the rules' stencils)
+    model_times = np.concatenate(([0.0], (np.arange(1, end + 3)) * dt))
+    values = np.empty(model_times.size)
+    rates = np.empty(model_times.size)
+    _head_model(t0, v0, math.exp(fit.x[2]), math.exp(fit.x[3]), fit.x[4], lever, model_times,
+                HEAD_MODEL_SUBSTEPS, values, rates)
+    exact = (rates[0] - rates) / lever
+    s = -float(fit.x[0])  # the onset's distance before the first contact sample [samples]
+    rise = (v0 - rates[0]) / lever + float(baseline(k0 - 0.5 * s)) * s * dt
+    return PulseHead(first_sample=int(k0), onset=float(k0 - s), values=values, exact=exact,
+                     rise_integral=float(rise), misfit=misfit)

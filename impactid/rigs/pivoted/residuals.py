@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impactid.errors import ImpactidError
+from impactid.events import MAX_PATTERN_EVENTS
 from impactid.io import RecordingError
 from impactid.rigs.pivoted import PivotedFollowerRig
 from impactid.rigs.pivoted.reconstruct import Reconstruction
@@ -76,6 +77,27 @@ def force_misfit(t: np.ndarray, measured: np.ndarray, simulated: np.ndarray) -> 
     num = np.trapezoid((np.asarray(measured) - np.asarray(simulated)) ** 2, t)
     den = np.trapezoid(np.asarray(measured) ** 2, t)
     return math.sqrt(num / den) if den > 0.0 else math.nan
+
+
+def _names(index) -> str:
+    """The first twelve event numbers of ``index``, as the messages list them."""
+    events = list(index)
+    return f"{events[:12]}{' ...' if len(events) > 12 else ''}"
+
+
+def _riding_reason(rows) -> str:
+    """Why events whose follower rides the cam are left out (``rows``: their reconstruction table rows)."""
+    durations = np.concatenate([rows[c].to_numpy(dtype=float) for c in ("contact_duration",
+                                                                     "contact_duration_force_balance") if c in rows]
+                               + [np.array([np.nan])])
+    longest = float(np.nanmax(durations)) if np.any(np.isfinite(durations)) else math.nan
+    return (f"the follower rides the cam after the impact there (the contact lasts up to {longest * 1e3:.3g} ms): the "
+            "apex after it is set by the cam's motion, not by the contact law (d lambda1 / d ln beta is 1e-6 to "
+            "4e-5 there, against 4e-3 to 0.35 after impacts), so lambda1 cannot identify the law from them")
+
+
+#: Events left out before the others, by a flag of the reconstruction table, with the reason.
+_LEFT_OUT = (("riding", _riding_reason),)
 
 
 @dataclass(frozen=True)
@@ -123,19 +145,43 @@ class EventSet:
 
     @classmethod
     def from_reconstruction(cls, recon: Reconstruction, source: str | None = None) -> EventSet:
-        """Collect the events of a :class:`~impactid.rigs.pivoted.reconstruct.Reconstruction` with finite
-        onset states."""
+        """Collect the events of a :class:`~impactid.rigs.pivoted.reconstruct.Reconstruction` that can be
+        replayed, each left out one named in :attr:`dropped` with its reason, in this order: onsets that
+        do not recur with the cam (``periodic`` False: unknown integration constants), a follower that rides
+        the cam (``riding``), no apex between the impact and the next one (``alpha_m`` NaN), an onset state
+        that could not be reconstructed, and a contact that disagrees with the rig's Hertz contact."""
         tab = recon.table
         source = source or (recon._recording.source if recon._recording is not None else None) or "recording"
         states = tab[["alpha_onset", "alpha_dot_onset", "theta_onset"]].to_numpy(dtype=float)
         t_end = (tab["t_next"] - tab["t_onset"]).to_numpy(dtype=float)
         alpha_m = tab["alpha_m"].to_numpy(dtype=float)
-        ok = np.all(np.isfinite(states), axis=1) & np.isfinite(t_end) & (t_end > 0) & np.isfinite(alpha_m)
+        valid = np.all(np.isfinite(states), axis=1) & np.isfinite(t_end) & (t_end > 0)
+        ok = valid.copy()
         dropped: tuple[str, ...] = ()
-        if not np.all(ok):
-            bad = tab.index[~ok].tolist()
-            dropped += (f"{source}: events {bad[:12]}{' ...' if len(bad) > 12 else ''} left out: their onset "
-                        "state (angle, rate or cam angle at the gap zero) could not be reconstructed",)
+        if "periodic" in tab:
+            bad = ok & ~tab["periodic"].to_numpy(dtype=bool)
+            if np.any(bad):
+                dropped += (f"{source}: events {_names(tab.index[bad])} left out: their onsets do not recur with the "
+                            f"cam within {MAX_PATTERN_EVENTS} impacts (irregular motion, a transient, or a longer "
+                            "period), so their integration constants, which the reconstruction takes from the "
+                            "follower's state recurring one period later, are unknown",)
+            ok &= ~bad
+        for flag, reason in _LEFT_OUT:
+            if flag in tab:
+                bad = ok & tab[flag].to_numpy(dtype=bool)
+                if np.any(bad):
+                    dropped += (f"{source}: events {_names(tab.index[bad])} left out: {reason(tab[bad])}",)
+                ok &= ~bad
+        no_apex = ok & ~np.isfinite(alpha_m)
+        if np.any(no_apex):
+            dropped += (f"{source}: events {_names(tab.index[no_apex])} left out: the follower has no apex between the "
+                        "impact and the next one (the cam strikes it again while it still rises, or it never rises "
+                        "above its onset angle), so there is no alpha_m to compare",)
+        ok &= ~no_apex
+        unknown = ~valid
+        if np.any(unknown):
+            dropped += (f"{source}: events {_names(tab.index[unknown])} left out: their onset state (angle, rate or "
+                        "cam angle at the gap zero) could not be reconstructed",)
         consistent = (tab["contact_consistent"].to_numpy(dtype=bool) if "contact_consistent" in tab
                       else np.ones(len(tab), dtype=bool))
         if np.any(ok & ~consistent):

@@ -149,14 +149,23 @@ def test_unknown_names_and_missing_channels(s2_synthetic):
         find_events(only_cam)
 
 
-def test_period2_and_irregular_recordings_warn_naming_events():
+def test_period2_and_irregular_recordings_are_told_by_the_motion():
+    """Period-2 motion (two alternating impacts in two revolutions) is named as such and each event's window
+    closes one period later; irregular motion warns that its onsets do not recur (and chatters)."""
     period2 = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.15), 17.0, HuntCrossley(24.7e9, 1.5), 0.5)
-    with pytest.warns(EventWarning, match=r"not period-1 .* at events 0, 1, 2"):
+    with pytest.warns(EventWarning, match=r"the motion is period-2: 2 impacts every 2 cam revolutions"):
         events = find_events(period2.recording)
-    assert events.table["not_period1"].sum() >= 8
-    irregular = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.05), 23.0, HuntCrossley(24.7e9, 1.5), 0.5)
-    with pytest.warns(EventWarning, match="chattering"):
-        find_events(irregular.recording)
+    table = events.table
+    assert table["not_period1"].all() and table["periodic"].all() and not table["riding"].any()
+    ends = table["period_end"].to_numpy()
+    np.testing.assert_array_equal(ends[:-2], np.arange(2, len(table)))
+    assert np.all(ends[-2:] == -1) and not table["usable"].iloc[-2:].any()
+    irregular = synth_pivoted(SUNDAR2016.with_eccentricity_ratio(0.2), 18.0, HuntCrossley(24.7e9, 1.5), 0.5)
+    with pytest.warns(EventWarning) as caught:
+        events = find_events(irregular.recording)
+    messages = " | ".join(str(w.message) for w in caught)
+    assert "chattering" in messages and "do not recur with the cam" in messages
+    assert not events.table["periodic"].any()
 
 
 def test_noisy_recording_degrades_gracefully():
