@@ -11,6 +11,11 @@ natural answer, draws one with ``plot()`` (a :class:`matplotlib.figure.Figure`, 
 Non-finite numbers (an undetermined standard error, say) are legal values of a result; in JSON
 they are written as ``null``, and the report says "undetermined".
 
+Every fit states, beside its parameters, its **model check** (``model_check``: whether the model
+describes the data, :func:`impactid.engine.check_model`) and its **identifiability**
+(``identifiability``: condition number, correlations, bounds, profile shapes, law comparisons,
+:func:`impactid.engine.identifiability`); docs/identifiability.md says what each number means.
+
 A fit type subclasses :class:`FitResult`, sets ``kind`` (its name in JSON) and adds properties
 and a ``plot()``; :func:`FitResult.from_json` rebuilds the right subclass from ``kind``.
 """
@@ -189,6 +194,12 @@ class FitResult:
     details : further JSON-ready information (method settings, a valley, a profile, ...).
     provenance : what was read and done, oldest first.
     version : the impactid version that made the result.
+    model_check : whether the model describes the data (:func:`impactid.engine.combine_checks`:
+        ``verdict``, ``describes_data``, ``action``, ``inflation``, ``checks``, ``rule``); empty when
+        the fit made none.
+    identifiability : what the data determine (:func:`impactid.engine.identifiability`:
+        ``condition_number``, ``correlation``, ``near_bounds``, ``profiles``, ``model_comparison``,
+        ``determined``, ...; ``parts`` for a result of several fits); empty when the fit made none.
     """
 
     kind: ClassVar[str] = "fit"
@@ -201,6 +212,8 @@ class FitResult:
     details: Mapping[str, Any] = field(default_factory=dict, repr=False)
     provenance: tuple[str, ...] = ()
     version: str = ""
+    model_check: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    identifiability: Mapping[str, Any] = field(default_factory=dict, repr=False)
 
     def __init_subclass__(cls, **kwargs) -> None:
         super().__init_subclass__(**kwargs)
@@ -213,6 +226,8 @@ class FitResult:
         object.__setattr__(self, "statistics", MappingProxyType(dict(self.statistics)))
         object.__setattr__(self, "tables", MappingProxyType(dict(self.tables)))
         object.__setattr__(self, "details", MappingProxyType(dict(self.details)))
+        object.__setattr__(self, "model_check", MappingProxyType(dict(self.model_check or {})))
+        object.__setattr__(self, "identifiability", MappingProxyType(dict(self.identifiability or {})))
         object.__setattr__(self, "notes", tuple(self.notes))
         object.__setattr__(self, "provenance", tuple(self.provenance))
         if not self.version:
@@ -243,6 +258,7 @@ class FitResult:
                 lines.append(f"    {key:<22} = {text}")
         lines.append("[[Variables]]")
         lines += [p.report_line(width) for p in self.params.values()]
+        lines += _model_check_lines(self.model_check) + _identifiability_lines(self.identifiability)
         if self.notes:
             lines.append("[[Notes]]")
             lines += [f"    - {note}" for note in self.notes]
@@ -269,7 +285,8 @@ class FitResult:
                 "params": {name: p.to_dict() for name, p in self.params.items()},
                 "statistics": json_ready(dict(self.statistics)), "notes": list(self.notes),
                 "tables": {name: json_ready(frame) for name, frame in self.tables.items()},
-                "details": json_ready(dict(self.details)), "provenance": list(self.provenance)}
+                "details": json_ready(dict(self.details)), "model_check": json_ready(dict(self.model_check)),
+                "identifiability": json_ready(dict(self.identifiability)), "provenance": list(self.provenance)}
 
     def to_json(self, path: str | os.PathLike[str] | None = None, indent: int = 2) -> str:
         """JSON text of the result; written atomically to ``path`` when given."""
@@ -289,7 +306,9 @@ class FitResult:
         tables = {name: _frame_from(t) for name, t in data.get("tables", {}).items()}
         return target._rebuild(params=params, statistics=data.get("statistics", {}), notes=data.get("notes", ()),
                                tables=tables, details=data.get("details", {}),
-                               provenance=data.get("provenance", ()), version=data.get("impactid_version", ""))
+                               provenance=data.get("provenance", ()), version=data.get("impactid_version", ""),
+                               model_check=data.get("model_check") or {},
+                               identifiability=data.get("identifiability") or {})
 
     @classmethod
     def _rebuild(cls, **fields) -> FitResult:
@@ -317,3 +336,88 @@ class FitResult:
 
 
 _KINDS[FitResult.kind] = FitResult
+
+
+def _g(value, spec: str = ".3g") -> str:
+    """A number of a block (None or non-finite: "n/a")."""
+    if isinstance(value, bool) or value is None:
+        return "n/a" if value is None else str(value)
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        return str(value)
+    return format(number, spec) if math.isfinite(number) else "n/a"
+
+
+def _model_check_lines(block: Mapping[str, Any]) -> list[str]:
+    """The report's lines of a ``model_check`` block: the verdict and one line per check."""
+    if not block:
+        return []
+    action = block.get("action", "none")
+    head = f"    verdict: {block.get('verdict')}"
+    if action == "widened":
+        head += f" (intervals widened x {_g(block.get('inflation'))})"
+    elif action == "withheld":
+        head += " (standard errors and intervals withheld)"
+    lines = ["[[Model Check]]", head]
+    for check in block.get("checks", ()):
+        unit = check.get("unit") or ""
+        text = f"    {check.get('what')}: residual RMS {_g(check.get('residual_rms'))} {unit}".rstrip()
+        if _finite_or_none(check.get("residual_over_noise")) is not None:
+            text += (f" = {_g(check.get('residual_over_noise'))} x noise ({check.get('noise_reference')}); "
+                     f"chi2 {_g(check.get('chi_square'), '.4g')} for {check.get('dof')} dof, "
+                     f"p = {_g(check.get('chi_square_p_value'), '.2g')}")
+        else:
+            text += " (no noise reference)"
+        trend = check.get("trend") or {}
+        if check.get("covariate"):
+            text += f"; trend with {check['covariate']} r = {_g(trend.get('correlation'), '+.2f')} " \
+                    f"(p = {_g(trend.get('p_value'), '.2g')})"
+        if check.get("lag1_autocorrelation") is not None:
+            text += (f"; lag-1 {_g(check.get('lag1_autocorrelation'), '+.2f')}, "
+                     f"n_eff {_g(check.get('effective_samples'))}")
+        lines.append(text + f": {check.get('verdict')}")
+    for key, value in block.items():
+        if key in ("verdict", "describes_data", "action", "inflation", "checks", "rule"):
+            continue
+        if isinstance(value, Mapping) and "verdict" in value:
+            reason = f" ({value['reason']})" if value.get("reason") else ""
+            lines.append(f"    {key}: {value.get('verdict')}{reason}")
+    return lines
+
+
+def _identifiability_lines(block: Mapping[str, Any], indent: str = "    ") -> list[str]:
+    """The report's lines of an ``identifiability`` block: conditioning, correlation, bounds,
+    profiles, the law comparison (and its parts')."""
+    if not block:
+        return []
+    lines = ["[[Identifiability]]"] if indent == "    " else []
+    if "condition_number" in block:
+        largest = block.get("largest_correlation") or {}
+        pair = "/".join(largest.get("pair") or ())
+        lines.append(f"{indent}condition number {_g(block.get('condition_number'))} (limit "
+                     f"{_g(block.get('condition_limit'))}); largest correlation "
+                     + (f"{pair} {_g(largest.get('value'), '+.4f')}" if pair else "n/a")
+                     + f"; determined: {block.get('determined')}")
+        profiles = block.get("profiles") or {}
+        if profiles:
+            lines.append(f"{indent}profiles ({str(block.get('profile_method', '')).split(':')[0]}): "
+                         + ", ".join(f"{name} {p.get('shape')}" for name, p in profiles.items()))
+        near = block.get("near_bounds") or []
+        if near:
+            lines.append(f"{indent}near bounds: " + ", ".join(
+                f"{b['name']} {'on' if b.get('on_bound') else 'near'} {b['bound']}" for b in near))
+    comparison = block.get("model_comparison")
+    if comparison:
+        tests = "; ".join(f"{t['simple']} vs {t['general']}: LRT {_g(t.get('statistic'))} "
+                          f"(p = {_g(t.get('p_value'), '.2g')})" for t in comparison.get("likelihood_ratio", ()))
+        wald = comparison.get("wald")
+        if wald:
+            tests = "; ".join(filter(None, (f"Wald {_g(wald.get('statistic'))} (p = {_g(wald.get('p_value'), '.2g')})",
+                                            tests)))
+        lines.append(f"{indent}{comparison.get('choice') or 'laws'}: preferred {comparison.get('preferred')}"
+                     + (f"; {tests}" if tests else ""))
+    for name, part in (block.get("parts") or {}).items():
+        lines.append(f"{indent}{name}:")
+        lines += _identifiability_lines(part, indent + "  ")
+    return lines

@@ -1,6 +1,7 @@
 """Every fit command writes one JSON schema: the :class:`impactid.results.FitResult` document
 (docs/formats.md, "Fit results") at the top level, plus the command's own keys (``recordings_read``,
-``plots``), and the document rebuilds its result through ``FitResult.from_dict``.
+``plots``), and the document rebuilds its result through ``FitResult.from_dict``. Every document holds
+the model check and the identifiability blocks (docs/identifiability.md) with their keys.
 
 The commands run on small synthetic inputs (those of the rigs' command tests); the expensive ones
 (rig P's example estimate, the cycloidal train's surge fit) are marked ``slow``.
@@ -18,7 +19,19 @@ from impactid.cli import main
 from impactid.results import FitResult, result_kinds
 
 #: The keys of a FitResult document, and of each of its parameters.
-RESULT_KEYS = {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details", "provenance"}
+RESULT_KEYS = {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details", "provenance",
+               "model_check", "identifiability"}
+#: The keys of the ``model_check`` block, of each of its checks, and of an ``identifiability`` block.
+MODEL_CHECK_KEYS = {"verdict", "describes_data", "action", "inflation", "checks", "rule"}
+CHECK_KEYS = {"what", "unit", "noise_reference", "n", "n_params", "dof", "residual_rms", "noise_sd",
+              "residual_over_noise", "chi_square", "chi_square_p_value", "covariate", "trend", "between_groups",
+              "lag1_autocorrelation", "lag1_z", "runs", "runs_expected", "runs_z", "effective_samples",
+              "structure_floor", "assumed_sd", "assumed_over_noise", "findings", "verdict", "describes_data",
+              "inflation", "action", "notes"}
+IDENTIFIABILITY_KEYS = {"condition_number", "condition_limit", "names", "correlation", "largest_correlation",
+                        "near_bounds", "profiles", "profile_threshold", "profile_method", "profile_evaluations",
+                        "model_comparison", "determined", "notes"}
+VERDICTS = {"consistent", "not checked", "systematic misfit", "structured", "lack of fit", "rejected"}
 PARAMETER_KEYS = {"name", "value", "stderr", "interval", "confidence", "fixed", "vary", "unit", "note", "min", "max"}
 #: What a command may add beside the result: the files it read, the figures it wrote, and the
 #: ``warnings`` line of numbers written as null.
@@ -27,6 +40,33 @@ COMMAND_KEYS = {"recordings_read", "plots", "warnings"}
 
 def _number_or_null(value) -> bool:
     return value is None or (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value))
+
+
+def check_model_check(block: dict) -> None:
+    """Assert that ``block`` is a ``model_check`` block with its checks."""
+    assert MODEL_CHECK_KEYS <= set(block), f"model_check misses {MODEL_CHECK_KEYS - set(block)}"
+    assert block["verdict"] in VERDICTS and block["action"] in ("none", "widened", "withheld")
+    assert block["checks"] and isinstance(block["rule"], str) and block["rule"]
+    for check in block["checks"]:
+        assert CHECK_KEYS <= set(check), f"a check misses {CHECK_KEYS - set(check)}"
+        assert check["verdict"] in VERDICTS and isinstance(check["noise_reference"], str) and check["noise_reference"]
+    if block["action"] != "none":
+        assert block["verdict"] not in ("consistent", "not checked")
+
+
+def check_identifiability(block: dict) -> None:
+    """Assert that ``block`` is an ``identifiability`` block (or one of parts, each one)."""
+    if "parts" in block and "condition_number" not in block:
+        assert block["parts"] and isinstance(block["determined"], bool)
+        for part in block["parts"].values():
+            check_identifiability(part)
+        return
+    assert IDENTIFIABILITY_KEYS <= set(block), f"identifiability misses {IDENTIFIABILITY_KEYS - set(block)}"
+    assert isinstance(block["determined"], bool) and len(block["correlation"]) in (0, len(block["names"]))
+    for name, profile in block["profiles"].items():
+        assert profile["shape"] in ("bounded", "one-sided", "flat") and profile["method"], name
+    for part in block.get("parts", {}).values():
+        check_identifiability(part)
 
 
 def check_fit_document(data: dict, kind: str, recordings_read: list[str]) -> FitResult:
@@ -50,6 +90,24 @@ def check_fit_document(data: dict, kind: str, recordings_read: list[str]) -> Fit
     assert isinstance(data["notes"], list) and all(isinstance(n, str) for n in data["notes"])
     assert isinstance(data["provenance"], list) and all(isinstance(n, str) for n in data["provenance"])
     assert isinstance(data["details"], dict)
+    if kind == "bounce-analysis":
+        # the analysis of several laws: each law's fit carries its blocks (the analysis's own are empty
+        # until impactid.rigs.ball.analysis lifts the selected law's to the top level)
+        assert isinstance(data["model_check"], dict) and isinstance(data["identifiability"], dict)
+        for group in ("laws", "chained"):
+            for fit in (data["details"].get(group) or {}).values():
+                check_model_check(fit["model_check"])
+                check_identifiability(fit["identifiability"])
+    else:
+        check_model_check(data["model_check"])
+        check_identifiability(data["identifiability"])
+    # a model the check finds wanting is never "determined" nor "separable" (rig P: its contact damping's part)
+    parts = data["model_check"].get("parts", {})
+    wanting = (parts["contact_damping"]["verdict"] if "contact_damping" in parts
+               else data["model_check"].get("verdict")) not in (None, "consistent", "not checked")
+    if wanting:
+        assert data["identifiability"]["determined"] is False
+        assert data["statistics"].get("separable") is not True
     for name, table in data["tables"].items():
         assert set(table) == {"columns", "data"}, name
         assert all(len(row) == len(table["columns"]) for row in table["data"]), name

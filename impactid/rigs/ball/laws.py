@@ -67,6 +67,16 @@ Model selection by the Gaussian likelihood with the fitted variances: AIC and BI
 counted as a parameter); the law with the smallest criterion is selected, except that a simpler
 law within 2 of the best is preferred ("not worth more parameters").
 
+The engine's whole check (:func:`impactid.engine.check_model`) runs beside these: for the per-impact
+fits, the trend of the weighted residual with the impact speed within each drop (consecutive
+coefficients are not compared: neighbours share a flight and alternate by construction; the drops'
+means are not compared: the cluster-robust errors allow for drop-to-drop variation), the runs test's
+verdict joining it; for the chained fit, the event-time residuals against the timing noise with
+their persistence along each drop, which widens or withholds the law's intervals by the engine's
+rule. Each fit's identifiability block (:func:`impactid.engine.identifiability`: condition number, the
+correlation of the reported covariance, quadratic profiles, exact for the linear laws) compares, for
+the linear law, the constant law nested in it (``gamma = 0``: AIC, BIC, likelihood-ratio test).
+
 The chained trajectory fit (:func:`fit_chained`) predicts every accepted event time of a drop from
 the drop's first impact time and first launch speed, flight by flight with the law (missed
 bounces included as sums of flights), and fits all drops at once by nonlinear least squares (the
@@ -85,7 +95,19 @@ from scipy.optimize import nnls
 from scipy.stats import t as student
 
 from impactid import engine
-from impactid.engine import Free, Search, Uncertainty, residual_against_noise, search, uncertainty
+from impactid.engine import (
+    Free,
+    ModelCheck,
+    Search,
+    Uncertainty,
+    check_model,
+    combine_checks,
+    compare_models,
+    identifiability,
+    residual_against_noise,
+    search,
+    uncertainty,
+)
 from impactid.engine.covariance import Covariance
 from impactid.results import FitResult, Parameter
 from impactid.rigs.ball.flight import FlightConstants, flight_time, landing_speed, launch_speed
@@ -568,6 +590,41 @@ def _law_statistics(spec: Law, data: LawData, fit: LeastSquares, sandwich: Sandw
             "speed_min_m_s": float(data.v.min()), "speed_max_m_s": float(data.v.max())}
 
 
+def _law_model_check(spec: Law, data: LawData, fit: LeastSquares, runs: RunsCheck) -> ModelCheck:
+    """The engine's check of a per-impact fit (module doc): the weighted residuals, no independent
+    noise reference (the noise model comes from the same residuals), the impact speed as the
+    covariate within each drop, no lag or between-drop tests; a failed runs test makes it structured."""
+    order = np.argsort(data.groups, kind="stable")
+    checked = check_model(fit.residuals[order], None, noise_reference="", what="e (weighted)",
+                          n_params=spec.n_params, groups=np.asarray(data.groups)[order], order=False,
+                          covariate=data.v[order], covariate_name="impact speed [m/s]", between=False)
+    if runs.fails and checked.verdict in ("consistent", "not checked"):
+        finding = f"too few runs of one sign along the impact speed (z = {runs.z:.3g})"
+        checked = replace(checked, verdict="structured", findings=checked.findings + (finding,))
+    return checked
+
+
+def _law_identifiability(spec: Law, data: LawData, fit: LeastSquares, sandwich: Sandwich,
+                         checked: ModelCheck) -> dict:
+    """The identifiability block of a per-impact fit: the engine's, with the reported (sandwich)
+    covariance's standard errors and correlations, and for the linear law the constant law nested in
+    it compared (AIC, BIC, likelihood-ratio test with the same weights)."""
+    se = np.sqrt(np.clip(np.diag(sandwich.matrix), 0.0, None))
+    stated = replace(fit.engine, covariance=replace(fit.bread, matrix=np.asarray(sandwich.matrix, dtype=float),
+                                                    stderr=np.where(np.isfinite(fit.bread.stderr), se, np.nan)),
+                     correlation=_correlation(sandwich.matrix))
+    comparison = None
+    if spec.name == "linear":
+        w = data.weights
+        mean = float(np.sum(w * data.e) / np.sum(w))
+        rss_constant = float(np.sum(w * (data.e - mean) ** 2))
+        comparison = compare_models([{"name": "constant", "n_params": 1, "n_data": data.n, "rss": rss_constant},
+                                     {"name": "linear", "n_params": 2, "n_data": data.n, "rss": fit.rss}],
+                                    nested=[("constant", "linear")], choice="constant e or e = e0 - gamma v")
+    return identifiability(fit.found, stated, comparison=comparison, describes_data=checked.describes_data,
+                           quadratic_reason="the law is linear: the quadratic profile is exact")
+
+
 def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | TimingNoise | None = None,
             groups: Sequence | None = None, confidence: float = 0.95, hac_lag: int = 2, label: str = "") -> LawFit:
     """Fit a restitution law to per-impact coefficients by weighted least squares.
@@ -610,6 +667,8 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | Timin
     check = runs_check(data.v, fit.residuals)
     notes = [*fit.engine.notes, *filter(None, (_lack_of_fit_note(spec, check, data.v),))]
     notes += sandwich.notes
+    checked = _law_model_check(spec, data, fit, check)
+    notes += checked.notes
     n_drops = int(np.unique(data.groups).size)
     details = {"law": spec.name, "formula": spec.formula, "covariance": sandwich.matrix.tolist(),
                "correlation": _correlation(sandwich.matrix).tolist(), "covariance_model": cov_model.tolist(),
@@ -617,7 +676,8 @@ def fit_law(law: str | Law, v, e, *, weights=None, noise_cov: np.ndarray | Timin
                "speed_range": [float(data.v.min()), float(data.v.max())]}
     return LawFit(params=_law_parameters(fit.engine, sandwich.matrix, sandwich.dof, confidence),
                   statistics=_law_statistics(spec, data, fit, sandwich, check, n_drops), notes=tuple(notes),
-                  details=details,
+                  details=details, model_check=combine_checks([checked]),
+                  identifiability=_law_identifiability(spec, data, fit, sandwich, checked),
                   provenance=(f"fit {spec.name} law ({spec.formula}) to {data.n} coefficients from {n_drops} drop(s)"
                               + (f" [{label}]" if label else "")
                               + f": weighted least squares in closed form, stated through impactid.engine; errors "
@@ -928,6 +988,12 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
     check, lack = _chained_lack_of_fit(spec, r, N - P, timing_noise)
     notes += lack
     notes += sandwich.notes
+    drop_of = np.repeat(np.arange(len(data.sizes)), data.sizes)
+    checked = check_model(r, timing_noise if timing_noise is not None and math.isfinite(timing_noise) else None,
+                          noise_reference="the timing noise of one event, measured by the per-impact fits",
+                          what="event times", unit="s", n_params=P, groups=drop_of,
+                          assumed_sd=math.sqrt(rss / max(N - P, 1)))
+    notes += checked.further_notes
     loglik = -0.5 * N * (math.log(2.0 * math.pi * rss / N) + 1.0) if rss > 0 else math.inf
     statistics = {"n_events": N, "n_drops": len(drops), "n_params": P, "dof": sandwich.dof,
                   "timing_sigma_s": timing_sigma, **check, "loglik": loglik,
@@ -940,8 +1006,17 @@ def fit_chained(drops: Sequence[Mapping], law: str | Law, constants: FlightConst
                "drops": [{"name": name, "t0_s": float(x[p + 2 * j]), "u0_m_s": float(x[p + 2 * j + 1])}
                          for j, name in enumerate(data.names)],
                "residuals_s": r.tolist()}
-    return ChainedFit(params=_law_parameters(stated, sandwich.matrix, sandwich.dof, confidence),
-                      statistics=statistics, notes=tuple(notes), details=details,
+    params = checked.widen(_law_parameters(stated, sandwich.matrix, sandwich.dof, confidence))
+    se = np.sqrt(np.clip(np.diag(sandwich.matrix), 0.0, None))
+    law_se = np.where(np.isfinite(stated.covariance.stderr[:p]), se, np.nan)
+    reported = replace(stated, covariance=replace(stated.covariance,
+                                                  stderr=np.concatenate([law_se, stated.covariance.stderr[p:]])),
+                       correlation=np.pad(_correlation(sandwich.matrix), ((0, P - p), (0, P - p)),
+                                          constant_values=np.nan))
+    described = identifiability(found, reported, describes_data=checked.describes_data,
+                                quadratic_reason="a refit of every drop's start per point costs a whole fit")
+    return ChainedFit(params=params, statistics=statistics, notes=tuple(notes), details=details,
+                      model_check=combine_checks([checked]), identifiability=described,
                       provenance=(f"chained trajectory fit of the {spec.name} law to {N} event times of "
                                   f"{len(drops)} drop(s) ({constants.label}): impactid.engine's search and "
                                   f"uncertainty; errors {sandwich.method}",))

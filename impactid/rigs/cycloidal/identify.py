@@ -46,8 +46,13 @@ It assumes white noise and a correct model; a parameter whose interval is wider 
 reported as not determined. The model check is :func:`~impactid.engine.residual_against_noise`:
 each recording's residual against its own noise, measured from the first differences of the
 residual (the noise is white, the misfit of a model smooth; at least :data:`NOISE_FLOOR` of the
-channel's range, the simulator's accuracy). The EHL regression constants (1.67, 0.059, 0.541, 0.421, 96.775) are
-not identifiable from dynamic signals (the film does not enter the dynamics) and stay fixed.
+channel's range, the simulator's accuracy). The engine's whole check
+(:func:`impactid.engine.check_model`) adds the residual's persistence along each recording (a smooth
+misfit, ``n_eff``) and widens or withholds every fitted interval (``zeta1``'s with them) by its rule
+where it finds the model wanting. The identifiability block (:func:`impactid.engine.identifiability`)
+has quadratic profiles: a refit point costs a whole fit of periodic steady states. The EHL regression
+constants (1.67, 0.059, 0.541, 0.421, 96.775) are not identifiable from dynamic signals (the film does
+not enter the dynamics) and stay fixed.
 """
 
 from __future__ import annotations
@@ -61,7 +66,16 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from impactid.engine import Free, Search, residual_against_noise, search, uncertainty
+from impactid.engine import (
+    Free,
+    Search,
+    check_model,
+    combine_checks,
+    identifiability,
+    residual_against_noise,
+    search,
+    uncertainty,
+)
 from impactid.errors import ImpactidError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.cycloidal import cam
@@ -423,11 +437,18 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
     check, check_notes = residual_against_noise(r, np.concatenate(noise), what=chosen,
                                                 unit="N" if chosen == "contact_load" else "m")
     notes.extend(check_notes)
+    checked = check_model(r, np.concatenate(noise), noise_reference=f"the residual's first differences over sqrt 2 "
+                          f"(white noise; a smooth misfit cancels), at least {NOISE_FLOOR:g} of the channel's range",
+                          what=chosen, unit="N" if chosen == "contact_load" else "m", n_params=p,
+                          groups=np.concatenate([np.full(d.y.size, k) for k, d in enumerate(data)]),
+                          assumed_sd=math.sqrt(s2) if math.isfinite(s2) else None)
+    notes.extend(checked.further_notes)
     if not free_k0:
         params.append(Parameter("k0", float(base.k0), 0.0, (base.k0, base.k0), confidence, True, "N/m",
                                 "fixed at the rig file's spring rate"))
     q = float(stats.t.ppf(0.5 + 0.5 * confidence, fit.dof))
     params.append(_zeta_parameter(values, base.k0, cov, names, q, confidence))
+    params = list(checked.widen(params))
     notes.append("the EHL regression constants are not identified: the film does not enter the dynamics")
     if level == "B":
         notes.append("level-B fit of the valve displacement: it assumes the nominal lift exactly; a cam profile error "
@@ -457,4 +478,8 @@ def fit_surge(recordings, *, channel: str | None = None, rig: CycloidalEHLRig | 
                     details={"curves": curves, "unit": "N" if chosen == "contact_load" else "m",
                              "free_k0": free_k0, "covariance": cov.tolist(), "names": names},
                     provenance=tuple(f"fit_surge: {d.source} at {d.rpm:g} rpm ({d.y.size} samples of {chosen})"
-                                     for d in data))
+                                     for d in data),
+                    model_check=combine_checks([checked]),
+                    identifiability=identifiability(full, fit, describes_data=checked.describes_data,
+                                                    quadratic_reason="a refit point costs a whole fit of periodic "
+                                                    "steady states"))

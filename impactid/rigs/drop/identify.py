@@ -35,9 +35,21 @@ factor. Intervals are Student-t intervals on ``ln k``, ``ln beta`` and ``n`` (ma
 between impacts (each recording's residual divided by its own noise); above
 :data:`LACK_OF_FIT_FACTOR` times the noise the notes report a lack of fit, and a smaller but
 statistically significant excess (a mean square above ``1 + max(3 sqrt(2/m), 0.02)`` times the
-noise's for ``m`` samples) is reported as a systematic misfit below the noise level. Either way the
-intervals are the model's: a wrong model can give intervals that miss the truth however they are
-widened (``docs/drop.md`` shows one).
+noise's for ``m`` samples) is reported as a systematic misfit below the noise level. Beyond that
+the engine's whole check (:func:`impactid.engine.check_model`) looks at the residual's structure: its
+persistence within each impact's window (a smooth misfit: the effective number of independent
+samples ``n_eff``) and, with :data:`~impactid.engine.checks.MIN_STRUCTURE_DATA` impacts or more, a
+trend of each impact's amplitude misfit (``sum r m / sum m^2``) with its approach speed. When the
+model does not describe the data the intervals of ``k``, ``beta`` and ``n`` are widened by the
+engine's rule (``x sqrt(n / n_eff)`` beyond the misfit's variance already in the covariance) or,
+for a structured residual more than :data:`~impactid.engine.GROSS_LACK_OF_FIT` times the noise,
+withheld: a wrong model can give intervals that miss the truth however they are widened
+(``docs/drop.md`` shows one).
+
+Identifiability (:func:`impactid.engine.identifiability`): condition number, correlations of ``k``,
+``beta``, ``n``, bounds, quadratic profiles (a refit replays every impact about 30 times per point),
+and with ``n`` fitted the law with ``n`` held at :data:`N_COMPARED` (Hunt and Crossley's) compared
+with it by AIC, BIC and the likelihood-ratio test (one refit).
 """
 
 from __future__ import annotations
@@ -56,6 +68,11 @@ from impactid.engine import (
     SIGNIFICANT_EXCESS_FLOOR,
     SIGNIFICANT_EXCESS_SIGMAS,
     Free,
+    check_model,
+    combine_checks,
+    compare_models,
+    governing_check,
+    identifiability,
     residual_against_noise,
     search,
     uncertainty,
@@ -75,13 +92,19 @@ from impactid.rigs.drop.parameters import (
 )
 from impactid.rigs.drop.simulate import Tolerances, replay_impacts
 
-__all__ = ["FIT_TOLERANCES", "LACK_OF_FIT_FACTOR", "N_BOUNDS", "N_STARTS", "SIGNIFICANT_EXCESS_FLOOR",
+__all__ = ["DROP_NOISE", "FIT_TOLERANCES", "LACK_OF_FIT_FACTOR", "N_BOUNDS", "N_COMPARED", "N_STARTS",
+           "SIGNIFICANT_EXCESS_FLOOR",
            "SIGNIFICANT_EXCESS_SIGMAS", "DropFit", "IdentificationError", "fit_drop"]
 
 # LACK_OF_FIT_FACTOR, SIGNIFICANT_EXCESS_SIGMAS and SIGNIFICANT_EXCESS_FLOOR are the engine's
 # (impactid.engine), re-exported: the model check is impactid.engine.residual_against_noise.
 #: Damping indices the fit starts from (the best end point is kept).
 N_STARTS = (1.0, 1.5, 2.0)
+#: The damping index the fitted one is compared with (Hunt and Crossley's ``n = p`` for Hertz's ``p = 1.5``).
+N_COMPARED = 1.5
+#: The noise reference of the model check.
+DROP_NOISE = ("each channel between impacts (each recording's own, at least "
+              "impactid.rigs.drop.measure.NOISE_FLOOR of its peak)")
 #: The stiffness is searched within this factor of its Hertz starting value, the damping within
 #: this factor of its starting values at the ends of :data:`N_BOUNDS`.
 K_RANGE = 100.0
@@ -343,6 +366,7 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
                     "n_recordings": len(observations), "n_impacts": n_imp, "channels": ",".join(all_channels),
                     "speeds": speeds}
     residual = y_all - fitted
+    checks = []
     for c in all_channels:
         sel = np.concatenate([np.arange(lo, hi) for j, cc, lo, hi in blocks if cc == c])
         # each recording's residual against its own noise (noise levels differ between recordings)
@@ -358,6 +382,19 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
         for note in check_notes:
             notes.append(f"{note} (in the contact signals: sensor dynamics or filtering, a second contact, another "
                          f"force law?); the intervals are widened by the misfit (x {math.sqrt(max(s2, 1.0)):.3g})")
+        # the engine's whole check: structure within each impact, a trend of the amplitude misfit with speed
+        chunks = [(j, lo, hi) for j, cc, lo, hi in blocks if cc == c]
+        amplitude = np.array([float(residual[lo:hi] @ fitted[lo:hi]) / max(float(fitted[lo:hi] @ fitted[lo:hi]),
+                                                                            1e-300) for _, lo, hi in chunks])
+        checks.append(check_model(residual[sel], 1.0 / w_all[sel], noise_reference=DROP_NOISE, what=c, unit=_UNITS[c],
+                                  n_params=n_varying,
+                                  groups=np.concatenate([np.full(hi - lo, j) for j, lo, hi in chunks]),
+                                  covariate=np.array([v0[j] for j, _, _ in chunks]),
+                                  covariate_name="approach speed [m/s]", event_residual=amplitude,
+                                  assumed_over_noise=math.sqrt(max(s2, 0.0))))
+        notes.extend(checks[-1].further_notes)
+    governing = governing_check(checks)
+    params = list(governing.widen(params, names=("k", "beta", "n")))
     stats_.update(reduced_chi_square=s2, interval_inflation=math.sqrt(max(s2, 0.0)), dof=fit.dof,
                   condition_number=fit.statistics["condition_number"], success=found.success, cost=found.cost,
                   n_start=float(n_won))
@@ -401,12 +438,28 @@ def fit_drop(recordings, *, fix_n: float | None = None, channels: Sequence[str] 
         curves.append(curve)
     n_law_varying = 3 if fit_n else 2
     cov_law = fit.covariance.matrix[:n_law_varying, :n_law_varying]
+    comparison = None
+    if fit_n and N_BOUNDS[0] <= N_COMPARED <= N_BOUNDS[1]:
+        # the law with n held at N_COMPARED: one refit from the optimum, every other parameter free
+        held = [Free(f.name, N_COMPARED, f.min, f.max, vary=False, unit=f.unit) if f.name == "n"
+                else Free(f.name, min(max(values[f.name], f.min), f.max), f.min, f.max, vary=f.vary, unit=f.unit,
+                          log=f.log, report=f.report) for f in free]
+        again = search(lambda u: evaluate(u)[0], held, jacobian=lambda u: evaluate(u)[1], max_nfev=300)
+        comparison = compare_models([{"name": f"n = {N_COMPARED:g}", "n_params": n_varying - 1, "n_data": n_data,
+                                      "rss": 2.0 * again.cost},
+                                     {"name": "n fitted", "n_params": n_varying, "n_data": n_data,
+                                      "rss": 2.0 * found.cost}],
+                                    nested=[(f"n = {N_COMPARED:g}", "n fitted")],
+                                    choice=f"n fitted or held at {N_COMPARED:g}")
+    described = identifiability(found, fit, comparison=comparison, describes_data=governing.describes_data,
+                                quadratic_reason="a refit replays every impact about 30 times per point")
     return DropFit(params=params, statistics=stats_, notes=tuple(dict.fromkeys(notes)),
                    tables={"impacts": pd.DataFrame(rows), "starts": pd.DataFrame(tried)},
                    details={"curves": curves, "covariance_ln_k_ln_beta_n": cov_law.tolist(),
                             "names": ["ln_k", "ln_beta", "n"][:n_law_varying], "k_start": k0, "confidence": confidence},
                    provenance=tuple(f"fit_drop: {o.source}: {len(o.impacts)} impact(s) of {', '.join(o.channels)}"
-                                    for o in observations))
+                                    for o in observations),
+                   model_check=combine_checks(checks), identifiability=described)
 
 
 def _rate(imp: _Impact) -> float:

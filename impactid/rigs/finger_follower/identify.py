@@ -54,7 +54,19 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from impactid.engine import Free, Search, Uncertainty, residual_against_noise, search, uncertainty
+from impactid.engine import (
+    Free,
+    ModelCheck,
+    Search,
+    Uncertainty,
+    check_model,
+    combine_checks,
+    governing_check,
+    identifiability,
+    residual_against_noise,
+    search,
+    uncertainty,
+)
 from impactid.errors import ImpactidError, SimulationError
 from impactid.results import FitResult, Parameter
 from impactid.rigs.finger_follower.cam import CycloidalLift
@@ -322,6 +334,11 @@ def _fit_cycle(recording, channels: Sequence[str], train, bins: int | None) -> A
 # --------------------------------------------------------------------------------------------
 
 
+#: Search settings of the profile refits: the fits' own step and tolerances, fewer evaluations (a
+#: profile point needs the rise of the cost to a few percent, not the optimum to 1e-12).
+_PROFILE_SEARCH = {"x_scale": 1.0, "diff_step": 1e-5, "xtol": 1e-8, "ftol": 1e-8, "gtol": 1e-8, "max_nfev": 40}
+
+
 def _engine_fit(residual, free: Sequence[Free], n_linear: int, confidence: float, **options
                 ) -> tuple[Search, Uncertainty, int]:
     """The engine's search and uncertainty, the residual variance counting the ``n_linear`` offsets
@@ -358,6 +375,38 @@ def _noise_check(residual: np.ndarray, stderr: np.ndarray, *, what: str, unit: s
         rms = float(np.sqrt(np.mean(np.asarray(residual) ** 2)))
         return {"residual_rms": rms, "noise_sd": math.nan, "residual_over_noise": math.nan}, ()
     return residual_against_noise(residual, noise, what=what, unit=unit)
+
+
+#: The noise reference of a synchronous average, in words (for the model check).
+AVERAGE_NOISE = "the scatter of the synchronous average over the revolutions (pooled standard error of the bins)"
+
+
+def _pooled_noise(residual: np.ndarray, stderr: np.ndarray) -> float | None:
+    """The pooled standard error of the bins :func:`_noise_check` compares with (None without one)."""
+    se = np.asarray(stderr, dtype=float)
+    se = se[np.isfinite(se)]
+    noise = float(np.sqrt(np.mean(se**2))) if se.size >= max(1, np.asarray(residual).size // 2) else math.nan
+    return noise if noise > 0.0 else None
+
+
+#: Without a noise reference (one revolution), structure in a residual below this fraction of the
+#: channel's range is the model's own accuracy (the steady state's tolerance, the spline through the
+#: model grid: 1e-10 m on a lift of millimetres), not evidence against it.
+MODEL_ACCURACY = 1e-6
+
+
+def _model_check(residual: np.ndarray, stderr: np.ndarray, *, what: str, unit: str, n_params: int,
+                 assumed_sd: float, data_range: float, groups: np.ndarray | None = None) -> ModelCheck:
+    """The engine's model check (:func:`impactid.engine.check_model`) of a fit to synchronous averages:
+    the residual in cam-angle order (each recording a group) against the pooled standard error of
+    the bins (the revolutions' scatter; none for one revolution: the residual variance itself, and
+    structure counts only above :data:`MODEL_ACCURACY` of ``data_range`` [unit]), the persistence of
+    the residual along the cycle (a smooth misfit, ``n_eff``), no per-event covariate (one averaged
+    cycle per speed). ``assumed_sd``: the residual standard deviation the covariance assumed
+    (``sqrt(SSR / dof)`` [unit])."""
+    return check_model(residual, _pooled_noise(residual, stderr), noise_reference=AVERAGE_NOISE, what=what,
+                       unit=unit, n_params=n_params, groups=groups, assumed_sd=assumed_sd,
+                       structure_floor=MODEL_ACCURACY * data_range)
 
 
 def _project(r: np.ndarray, groups: list[np.ndarray]) -> np.ndarray:
@@ -501,9 +550,16 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
     if failed[0]:
         notes.append(f"{failed[0]} trial parameter set(s) could not be simulated and were penalised")
     # the model check: the residual against the scatter of the averages over the revolutions
-    check, check_notes = _noise_check(r, np.concatenate([c.stderr["tappet_displacement"] for c in cycles]),
-                                      what="tappet_displacement", unit="m")
-    notes.extend(check_notes)
+    bin_stderr = np.concatenate([c.stderr["tappet_displacement"] for c in cycles])
+    check, _ = _noise_check(r, bin_stderr, what="tappet_displacement", unit="m")
+    checked = _model_check(r, bin_stderr, what="tappet_displacement", unit="m", n_params=2 + len(cycles),
+                         assumed_sd=math.sqrt(fit.scale) * scale, data_range=float(np.ptp(data)),
+                         groups=np.concatenate([np.full(g.size, k) for k, g in enumerate(groups)]))
+    notes.extend(checked.notes)
+    if checked.describes_data is False:
+        separable = False
+        notes.append("the model does not describe the recording: c_t and k_t are not reported as separable "
+                     "(check the rig's constants: preloads, masses, the lift)")
     bound_note = "" if separable else "not separable"
     c_t, k_t = (replace(p, note=bound_note or p.note) for p in fit.parameters)
     alpha = Parameter("alpha", c_t.value / rig.C_d_plus, c_t.stderr / rig.C_d_plus,
@@ -513,7 +569,7 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
                      confidence, unit="", note=bound_note, min=0.0)
     tau_log_se = math.sqrt(max(cov[0, 0] + cov[1, 1] - 2 * cov[0, 1], 0.0)) if np.all(np.isfinite(cov)) else math.nan
     tau = _derived_log_parameter("tau", x[0] - x[1], tau_log_se, fit, "s")
-    params = [c_t, k_t, alpha, beta, tau]
+    params = list(checked.widen([c_t, k_t, alpha, beta, tau]))
     rows = []
     sims = []
     for k, (cycle, g) in enumerate(zip(cycles, groups)):
@@ -536,9 +592,13 @@ def fit_tappet_drag(recordings, rig=None, *, lift=None, joint: bool = False, sta
                            "bins": int(c.theta.size)} for c in cycles],
                "C_d_plus": rig.C_d_plus, "K_e": rig.K_e, "start": [c0, k0], "confidence": confidence,
                "joint": bool(joint)}
+    # the profiles of c_t and k_t by refit (each point a one-parameter search of the steady state)
+    described = identifiability(found, fit, residual=residual, search_options=_PROFILE_SEARCH,
+                                describes_data=checked.describes_data)
     return TappetFit(params=params, statistics=statistics, notes=tuple(dict.fromkeys(notes)),
                      tables={"cycles": pd.DataFrame(rows)}, details=details,
-                     provenance=tuple(f"fit_tappet_drag({c.source or 'recording'}, {c.rpm:.6g} rpm)" for c in cycles))
+                     provenance=tuple(f"fit_tappet_drag({c.source or 'recording'}, {c.rpm:.6g} rpm)" for c in cycles),
+                     model_check=combine_checks([checked]), identifiability=described)
 
 
 # --------------------------------------------------------------------------------------------
@@ -669,18 +729,24 @@ def fit_cam_lift(recording, rig=None, *, start: CycloidalLift | None = None, con
     notes = list(cycle.notes) + list(fit.notes)
     if not found.success:
         notes.append(f"the optimiser stopped without converging: {found.message}")
-    check, check_notes = _noise_check(r, cycle.stderr["valve_displacement"], what="valve_displacement", unit="m")
-    notes.extend(check_notes)
+    check, _ = _noise_check(r, cycle.stderr["valve_displacement"], what="valve_displacement", unit="m")
+    checked = _model_check(r, cycle.stderr["valve_displacement"], what="valve_displacement", unit="m", n_params=5,
+                         assumed_sd=math.sqrt(fit.scale) * scale, data_range=float(np.ptp(y)))
+    notes.extend(checked.notes)
+    params = list(checked.widen(params[:4])) + params[4:]
     corr = fit.correlation
     statistics = {"n_data": int(r.size), "dof": int(dof), "residual_rms_m": float(np.sqrt(np.mean(r * r))),
                   "rpm": cycle.rpm, "evaluations": int(state["n"]), "cost": float(0.5 * r @ r),
                   "noise_sd_m": check["noise_sd"], "residual_over_noise": check["residual_over_noise"],
                   "condition_number": fit.statistics["condition_number"], "success": found.success}
     table = pd.DataFrame({"cam_angle_deg": theta_deg, "measured_m": y, "fitted_m": sim + offset})
+    described = identifiability(found, fit, quadratic_reason="a refit of the four lift parameters costs about 100 "
+                                "steady states per point", describes_data=checked.describes_data)
     return LiftFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": table},
                    details={"correlation": corr.tolist(), "start": start.to_dict() | {"phase": phase0},
                             "confidence": confidence, "source": cycle.source},
-                   provenance=(f"fit_cam_lift({where}, {cycle.rpm:.6g} rpm)",))
+                   provenance=(f"fit_cam_lift({where}, {cycle.rpm:.6g} rpm)",),
+                   model_check=combine_checks([checked]), identifiability=described)
 
 
 # --------------------------------------------------------------------------------------------
@@ -794,11 +860,14 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
     if not found.success:
         notes.append(f"the optimiser stopped without converging: {found.message}")
     # the model check, per channel: the residual against the scatter of the averages over the revolutions
-    checks = {}
+    checks, models = {}, []
     for k, c in enumerate(names):
-        checks[c], check_notes = _noise_check(r[groups[k]] / weights[c], cycle.stderr[c][mask], what=c,
-                                              unit=_UNITS[c])
-        notes.extend(check_notes)
+        checks[c], _ = _noise_check(r[groups[k]] / weights[c], cycle.stderr[c][mask], what=c, unit=_UNITS[c])
+        models.append(_model_check(r[groups[k]] / weights[c], cycle.stderr[c][mask], what=c, unit=_UNITS[c],
+                                   n_params=3, assumed_sd=math.sqrt(fit.scale) / weights[c],
+                                   data_range=float(np.ptp(cycle.mean[c][mask]))))
+        notes.extend(models[-1].notes)
+    params = list(governing_check(models).widen(params))
     rho = float(fit.correlation[0, 1])
     fitted = model(x)
     table = {"cam_angle_deg": cycle.theta_deg[mask]}
@@ -813,10 +882,13 @@ def fit_damping(recording, rig=None, *, lift=None, window_deg: tuple[float, floa
                   "condition_number": fit.statistics["condition_number"], "success": found.success}
     for c in names:
         statistics[f"residual_over_noise_{c}"] = checks[c]["residual_over_noise"]
+    described = identifiability(found, fit, residual=residual, search_options={**_PROFILE_SEARCH, "max_nfev": 25},
+                                describes_data=all(m.describes_data is not False for m in models))
     return DampingFit(params=params, statistics=statistics, notes=tuple(notes), tables={"cycle": pd.DataFrame(table)},
                       details={"window_deg": list(window_deg), "confidence": confidence,
                                "weights": {c: w for c, w in weights.items()}},
-                      provenance=(f"fit_damping({where}, {cycle.rpm:.6g} rpm)",))
+                      provenance=(f"fit_damping({where}, {cycle.rpm:.6g} rpm)",),
+                      model_check=combine_checks(models), identifiability=described)
 
 
 class TappetFitSet(FitResult):
@@ -849,12 +921,32 @@ class TappetFitSet(FitResult):
         return cls(params=params, statistics={"fits": len(fits), "failed": len(failed)}, notes=notes,
                    tables={"fits": pd.DataFrame(rows)},
                    details={"fits": [fit.to_dict() for fit in fits], "failed": [dict(f) for f in failed]},
-                   provenance=provenance + ["impactid valvetrain fit-tappet: one fit per recording"])
+                   provenance=provenance + ["impactid valvetrain fit-tappet: one fit per recording"],
+                   model_check=_set_model_check(fits),
+                   identifiability={"determined": bool(fits) and all(f.identifiability.get("determined") for f in fits),
+                                    "parts": {f"fit{k}": dict(f.identifiability) for k, f in enumerate(fits)}})
 
     @property
     def fits(self) -> tuple:
         """The per-recording fits (:class:`~impactid.rigs.finger_follower.identify.TappetFit`)."""
         return tuple(FitResult.from_dict(d) for d in self.details.get("fits", ()))
+
+
+def _set_model_check(fits) -> dict:
+    """The ``model_check`` block of a set of fits: the worst verdict, the strongest action, every check
+    (each named ``fit<k>: <what>``)."""
+    from impactid.engine.checks import VERDICTS
+
+    blocks = [dict(f.model_check) for f in fits if f.model_check]
+    if not blocks:
+        return combine_checks([])
+    worst = max(blocks, key=lambda b: VERDICTS.index(b.get("verdict", "not checked")))
+    actions = {b.get("action", "none") for b in blocks}
+    checks = [{**c, "what": f"fit{k}: {c.get('what')}"} for k, b in enumerate(blocks) for c in b.get("checks", ())]
+    return {"verdict": worst["verdict"], "describes_data": worst.get("describes_data"),
+            "action": "withheld" if "withheld" in actions else ("widened" if "widened" in actions else "none"),
+            "inflation": max(float(b.get("inflation") or 1.0) for b in blocks), "checks": checks,
+            "rule": blocks[0].get("rule", "")}
 
 
 def _fit_recordings(fit) -> tuple[list[str], list[float]]:

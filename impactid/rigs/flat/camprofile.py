@@ -67,7 +67,12 @@ Fitting a profile to encoder data (:func:`fit_cam_profile`)
    ``nonnegative=False`` for signed amplitudes). Centres are free (the model is periodic in them).
    The residual is then checked against the recording's own noise (the edges' timing error times
    the profile's slope, or the follower channel's noise floor for means): a profile that misses
-   the data by more than their noise is noted as a lack of fit.
+   the data by more than their noise is noted as a lack of fit. The engine's whole check
+   (:func:`impactid.engine.check_model`: the residual in cam-angle order, its persistence along the
+   cam, ``n_eff``) widens or withholds the coefficients' intervals by its rule where it finds the
+   profile wanting; the identifiability block (:func:`impactid.engine.identifiability`, quadratic
+   profiles) states the condition number and correlations, and with ``terms="auto"`` compares the
+   orders (AIC, BIC, likelihood-ratio tests of each order against the next).
 5. *Seeding*: candidates are ``N`` equally spaced centres at several phases with common widths of
    0.5 to 1.4 times the spacing (translation-invariant, so they work for any cam zero offset; seven
    such terms span the harmonics 0..3 of a profile), and in ``terms="auto"`` also the previous
@@ -85,13 +90,23 @@ import json
 import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 from scipy.optimize import minimize_scalar, nnls
 
-from impactid.engine import Free, Search, residual_against_noise, search, uncertainty
+from impactid.engine import (
+    Free,
+    Search,
+    check_model,
+    combine_checks,
+    compare_models,
+    identifiability,
+    residual_against_noise,
+    search,
+    uncertainty,
+)
 from impactid.errors import ImpactidError
 from impactid.io import Recording, read_recording
 from impactid.results import FitResult
@@ -1136,6 +1151,41 @@ def _coefficients_search(found: Search, x, y, w, a, b, c, c_lo: float, c_hi: flo
                   nfev=found.nfev, success=found.success, message=found.message, starts=found.starts)
 
 
+def _fit_noise(data: CamProfileData, profile: GaussianSumProfile) -> np.ndarray:
+    """The noise of each fitted point [rad] (:func:`_noise_check`'s; NaN where the data show none)."""
+    if data.fit_noise is not None:
+        return np.asarray(data.fit_noise, dtype=float)
+    if data.edge_timing_sd is not None and math.isfinite(data.edge_timing_sd):
+        _, slope = profile(data.fit_cam_angle, derivatives=1)
+        return np.array(data.edge_timing_sd * math.sqrt(float(np.mean(slope * slope))))
+    return np.array(math.nan)
+
+
+#: The noise reference of the cam-profile fit, in words (for the model check).
+PROFILE_NOISE = ("the follower edges' timing error (uniform over a sample) times the profile's slope, or the "
+                 "follower channel's noise over the samples of each mean")
+
+
+def _model_check(data: CamProfileData, profile: GaussianSumProfile, n_params: int, variance_scale: float):
+    """The engine's model check (:func:`impactid.engine.check_model`) of the profile at its fitted
+    points, in cam-angle order; ``variance_scale`` is the reduced chi-square the covariance was scaled by."""
+    residual = data.fit_follower_angle - profile(data.fit_cam_angle)
+    noise = np.broadcast_to(_fit_noise(data, profile), residual.shape)
+    known = bool(np.all(np.isfinite(noise)) and np.all(noise > 0.0))
+    order = np.argsort(np.mod(data.fit_cam_angle, TWO_PI), kind="stable")
+    assumed = None
+    if known:
+        scale = float(np.median(np.asarray(data.fit_weight, dtype=float) * noise))
+        assumed = math.sqrt(variance_scale) / scale if scale > 0 and math.isfinite(variance_scale) else None
+    checked = check_model(residual[order], noise[order] if known else None, noise_reference=PROFILE_NOISE,
+                          what="follower_angle", unit="rad", n_params=n_params, assumed_over_noise=assumed,
+                          order=known)
+    if not known:  # noise-free data: the residual is rounding and interpolation, whatever its shape
+        checked = replace(checked, verdict="not checked", inflation=1.0, action="none",
+                          notes=("the recording shows no noise to check the profile against (noise-free data)",))
+    return checked
+
+
 def _noise_check(data: CamProfileData, profile: GaussianSumProfile) -> tuple[dict, tuple[str, ...]]:
     """The residual at the fitted points against the recording's own noise
     (:func:`impactid.engine.residual_against_noise`): for follower edges the timing error of an edge
@@ -1246,6 +1296,17 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
                                  tuple(values[f"c{k + 1}"] for k in range(pick)))
     res = data.follower_angle - profile(data.cam_angle)
     check, check_notes = _noise_check(data, profile)
+    checked = _model_check(data, profile, 3 * pick, float(fit.scale))
+    parameters = checked.widen(fit.parameters)
+    comparison = None
+    if table is not None and len(table) > 1:
+        comparison = compare_models([{"name": f"{int(row.terms)} terms", "n_params": int(row.nvarys),
+                                      "n_data": int(x.size), "rss": float(row.chisqr)} for row in table.itertuples()],
+                                    nested=[(f"{a} terms", f"{b} terms") for a, b in zip(table["terms"][:-1],
+                                                                                        table["terms"][1:])],
+                                    choice=f"the number of Gaussian terms (chosen by {criterion.upper()})")
+    described = identifiability(full, fit, comparison=comparison, describes_data=checked.describes_data,
+                                quadratic_reason=f"a refit of {3 * pick} coefficients per point costs a whole fit")
     statistics = {**fit.statistics, "terms": pick, "nsamples": data.nsamples, "chisqr": crit.chisqr, "aic": crit.aic,
                   "bic": crit.bic, "rms_residual": crit.rms, "max_residual": crit.max,
                   "rms_sample_residual": float(np.sqrt(np.mean(res * res))),
@@ -1256,7 +1317,7 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
     zero = [k + 1 for k in range(pick) if profile.a[k] == 0.0]
     if zero:
         notes.append(f"centre and width undetermined for the zero-amplitude term(s) {', '.join(map(str, zero))}")
-    notes += list(check_notes)
+    notes += list(check_notes) + list(checked.further_notes)
     notes += [f"revolution {k} rejected: {reason}" for k, reason in data.rejected_revolutions.items()]
     theta, value = profile.sample(3600)
     details = {
@@ -1288,8 +1349,9 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
     provenance = (*data.notes, f"impactid.rigs.flat.camprofile.fit_cam_profile: {pick} terms"
                   + (f" (chosen by {criterion.upper()} among 1..{orders[-1]})" if auto else "")
                   + f", {runs} start(s), {found.nfev} evaluations")
-    return CamProfileResult(params=fit.parameters, statistics=statistics, notes=tuple(notes), tables=tables,
-                            details=details, provenance=provenance, data=data)
+    return CamProfileResult(params=parameters, statistics=statistics, notes=tuple(notes), tables=tables,
+                            details=details, provenance=provenance, data=data, model_check=combine_checks([checked]),
+                            identifiability=described)
 
 
 # --------------------------------------------------------------------------------------------

@@ -44,7 +44,17 @@ import numpy as np
 import pandas as pd
 from scipy import optimize
 
-from impactid.engine import Free, Uncertainty, residual_against_noise, search, uncertainty
+from impactid.engine import (
+    Free,
+    Uncertainty,
+    check_model,
+    combine_checks,
+    compare_models,
+    identifiability,
+    residual_against_noise,
+    search,
+    uncertainty,
+)
 from impactid.errors import ImpactidError
 from impactid.io import Recording
 from impactid.results import FitResult
@@ -549,7 +559,14 @@ def fit_speed_law(points, *, confidence: float = 0.95) -> SpeedLawResult:
 
     The model is checked against the points' own noise (their standard errors,
     :func:`impactid.engine.residual_against_noise`): a line that misses the points by more than
-    their repeatability is noted as a lack of fit.
+    their repeatability is noted as a lack of fit. The engine's whole check
+    (:func:`impactid.engine.check_model`, the cam speed as the per-point covariate: a trend of the
+    residual with it, and persistence along the speeds, from :data:`~impactid.engine.checks.MIN_STRUCTURE_DATA`
+    speeds on) widens the intervals by its rule where it finds the model wanting; with the
+    covariance scaled by the residual scatter (ordinary least squares) the misfit's variance is
+    already in it. The identifiability block (:func:`impactid.engine.identifiability`: the line is
+    linear, so the quadratic profiles are exact) compares, with three speeds or more, the constant
+    ``r`` with the line (AIC, BIC, likelihood-ratio test).
 
     Raises
     ------
@@ -589,25 +606,45 @@ def fit_speed_law(points, *, confidence: float = 0.95) -> SpeedLawResult:
     values = found.values()
     resid = r - (values["a"] + values["b"] * omega)
     check_stats, check_notes = ({}, ())
-    if np.all(np.isfinite(se)) and np.all(se > 0.0):
+    noise_known = bool(np.all(np.isfinite(se)) and np.all(se > 0.0))
+    if noise_known:
         check_stats, check_notes = residual_against_noise(resid, se, what="restitution")
     else:
         notes.append("the points' standard errors are not all known: the law is not checked against them")
+    order = np.argsort(omega, kind="stable")
+    checked = check_model(resid[order], se[order] if noise_known else None,
+                          noise_reference="each cam speed's standard error (the scatter over its revolutions)",
+                          what="restitution", n_params=len(found.varying), covariate=omega[order],
+                          covariate_name="cam speed [rad/s]",
+                          assumed_over_noise=1.0 if exact else None,
+                          assumed_sd=math.sqrt(fit.scale) if not exact and math.isfinite(fit.scale) else None)
+    parameters = checked.widen(fit.parameters)
+    comparison = None
+    if not one_speed and len(pts) > 2:
+        constant = r - np.mean(r)
+        comparison = compare_models([{"name": "constant r", "n_params": 1, "n_data": len(pts),
+                                      "rss": float(constant @ constant)},
+                                     {"name": "a + b omega", "n_params": 2, "n_data": len(pts),
+                                      "rss": float(resid @ resid)}],
+                                    nested=[("constant r", "a + b omega")], choice="constant r or r = a + b omega")
+    described = identifiability(found, fit, comparison=comparison, describes_data=checked.describes_data,
+                                quadratic_reason="the law is linear: the quadratic profile is exact")
     statistics = {**fit.statistics, "speeds": len(pts), "residual_rms": float(np.sqrt(np.mean(resid**2))),
                   **{k: v for k, v in check_stats.items() if k != "residual_rms"}}
     b = values["b"]
     rpm = 2.0 * math.pi / 60.0
-    stderr_b = fit.parameters[1].stderr if not one_speed else math.nan
+    stderr_b = parameters[1].stderr if not one_speed else math.nan
     details = {"method": ", ".join(sorted({p.method for p in pts})),
                "law": {"a": values["a"], "b_per_rad_s": b, "b_per_rpm": b * rpm},
                "stderr_b_per_rpm": stderr_b * rpm, "covariance": how,
                "correlation": {"names": list(fit.names), "matrix": fit.correlation}}
     table = pd.DataFrame([{**{k: v for k, v in p.to_dict().items() if k != "warnings"},
                            "notes": "; ".join(p.warnings)} for p in pts])
-    return SpeedLawResult(params=fit.parameters, statistics=statistics, notes=(*notes, *fit.notes, *check_notes),
+    return SpeedLawResult(params=parameters, statistics=statistics,
+                          notes=(*notes, *fit.notes, *check_notes, *checked.further_notes),
                           tables={"points": table}, details=details, points=pts,
                           provenance=(f"impactid.rigs.flat.encoder_impacts.fit_speed_law: {len(pts)} cam speed(s), "
-                                      f"{how}",))
+                                      f"{how}",), model_check=combine_checks([checked]), identifiability=described)
 
 
 def _undetermined(fit: Uncertainty, reason: str) -> Uncertainty:

@@ -6,26 +6,71 @@
 * :func:`bound_notes`: an estimate on a search bound;
 * :func:`failure_note`: S1 runs with trial laws that could not be simulated;
 * :func:`per_event_table`: the per-event residuals at the estimate;
-* :func:`widen_interval`: an interval widened by an independent error, in quadrature.
+* :func:`widen_interval`: an interval widened by an independent error, in quadrature;
+* :func:`damping_model_check`: the engine's model check of the per-event residuals, with rig P's own
+  check of the measured contact durations (:func:`contact_duration_check`), and
+  :func:`apply_model_check`, which widens or withholds the intervals and never lets a model the
+  check rejects be called separable;
+* :func:`damping_identifiability`: the engine's identifiability block of the least-squares fit, with
+  the profile along the valley as ``n``'s refit profile and ``n`` fitted against ``n`` held at 1.5.
+
+The model check (docs/identifiability.md). The per-event residuals (``lambda1`` relative errors of
+``alpha_m``) have no independent noise reference: the noise of a measured ``alpha_m`` is not measured
+per event, so the residual variance itself is the scale (as the intervals' ``s^2`` is) and the scatter
+is not tested. Their structure is: a trend with the approach speed within each recording, and the
+alternation of consecutive impacts (the lag-1 autocorrelation within each recording). It counts only
+when the residual RMS exceeds the pipeline's own level (the indifference: the residual floor, or the
+calibrated systematic error), below which the noise-free pipeline makes residuals of every shape on
+data of the right law. The recordings' mean residuals are not tested against each other: they are
+what a joint fit's ``n`` and each recording's systematic error absorb, and the law comparison (``n``
+fitted against ``n`` held) states what the data say about them. Rig P's own check compares the
+measured first-contact durations with the fitted law's (one S1 run per event at the estimate,
+counted in the check, not in the fit's simulations): a law whose contacts last more than
+:data:`CONTACT_DURATION_MISMATCH` longer or shorter (median over the events) than measured, or a
+recording without any contact pulse (instantaneous impacts: a restitution law), is rejected.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
+from impactid.engine import (
+    Free,
+    ModelCheck,
+    Search,
+    check_model,
+    combine_checks,
+    compare_models,
+    identifiability,
+    profile_shape,
+    uncertainty,
+)
+from impactid.engine.checks import widen_interval as widen_by_factor
+from impactid.engine.identifiability import LRT_SIGNIFICANCE
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
 from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL
 
-__all__ = ["ALIKE_SPREAD", "SEPARABILITY_WIDTH", "approach_speed_spread", "bound_notes", "failure_note",
-           "per_event_table", "separability", "widen_interval"]
+__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "N_COMPARED", "SEPARABILITY_WIDTH", "apply_model_check",
+           "approach_speed_spread", "bound_notes", "contact_duration_check", "damping_identifiability",
+           "damping_model_check", "failure_note", "per_event_table", "search_identifiability", "separability",
+           "widen_interval"]
 
 #: Widest ``n`` interval for which ``beta`` and ``n`` count as separable.
 SEPARABILITY_WIDTH = 0.25
 #: Relative spread (std/mean) of approach speeds below which impacts count as "all alike".
 ALIKE_SPREAD = 0.02
+#: Median relative difference between the fitted law's first-contact durations and the measured ones
+#: beyond which the law is rejected: 50 %, against at most 11 % on the noisy example recordings of
+#: the right law (the measured duration is cut by the noise at the contact's ends) and 100 % on a
+#: recording of instantaneous impacts (measured 0 s).
+CONTACT_DURATION_MISMATCH = 0.5
+#: The damping index a fitted ``n`` is compared with (Hunt and Crossley's).
+N_COMPARED = 1.5
 
 
 def approach_speed_spread(problem: DampingProblem) -> float:
@@ -96,3 +141,211 @@ def widen_interval(interval: tuple[float, float], centre: float, extra: float) -
     """Widen ``(lo, hi)`` about ``centre`` by ``extra`` in quadrature on each side."""
     lo, hi = interval
     return (centre - math.hypot(centre - lo, extra), centre + math.hypot(hi - centre, extra))
+
+
+# ---- the model check ------------------------------------------------------------------------------
+
+
+def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> dict[str, Any]:
+    """Rig P's own model check: the fitted law's first-contact durations against the measured ones.
+
+    Parameters
+    ----------
+    problem : the fit (its event sets hold the measured durations [s]).
+    beta : [N s m^-(n+1)]; n : the fitted law.
+
+    Returns
+    -------
+    dict
+        ``verdict`` (``consistent``, ``rejected`` or ``not checked`` when no duration is measured),
+        ``events`` compared, ``measured_median_s``, ``model_median_s``, ``median_relative_difference``,
+        ``threshold`` (:data:`CONTACT_DURATION_MISMATCH`), ``simulations`` (one S1 run per event at the
+        estimate) and ``reason`` (in words).
+    """
+    measured, model, runs = [], [], 0
+    for s in problem.sets:
+        if s.contact_duration is None or len(s) == 0:
+            continue
+        measured.append(np.asarray(s.contact_duration, dtype=float))
+        model.append(np.asarray(s.simulate(np.array([[beta, n]])).contact_duration, dtype=float)[0])
+        runs += len(s)
+    block: dict[str, Any] = {"verdict": "not checked", "events": 0, "measured_median_s": math.nan,
+                             "model_median_s": math.nan, "median_relative_difference": math.nan,
+                             "threshold": CONTACT_DURATION_MISMATCH, "simulations": runs, "reason": ""}
+    if not measured:
+        block["reason"] = "no measured contact duration"
+        return block
+    m, f = np.concatenate(measured), np.concatenate(model)
+    ok = np.isfinite(m) & np.isfinite(f)
+    if not ok.any():
+        block["reason"] = "no event with both a measured and a simulated contact duration"
+        return block
+    m, f = m[ok], f[ok]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(m > 0.0, np.abs(f / np.where(m > 0.0, m, 1.0) - 1.0), np.where(f > 0.0, np.inf, 0.0))
+    median = float(np.median(rel))
+    block.update(events=int(m.size), measured_median_s=float(np.median(m)), model_median_s=float(np.median(f)),
+                 median_relative_difference=median)
+    if not median <= CONTACT_DURATION_MISMATCH:
+        block["verdict"] = "rejected"
+        if float(np.max(m)) <= 0.0:
+            block["reason"] = (f"the recordings show no contact pulse (every measured first contact lasts 0 s: "
+                               f"instantaneous impacts) while the fitted law's contacts last "
+                               f"{1e3 * block['model_median_s']:.3g} ms: a contact law does not describe these "
+                               "impacts (a restitution law may)")
+        else:
+            block["reason"] = (f"the fitted law's first contacts last {1e3 * block['model_median_s']:.3g} ms against "
+                               f"{1e3 * block['measured_median_s']:.3g} ms measured (median relative difference "
+                               f"{100 * median:.3g} %, more than {100 * CONTACT_DURATION_MISMATCH:g} %)")
+    else:
+        block["verdict"] = "consistent"
+    return block
+
+
+def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_params: int, beta: float,
+                        n: float, assumed_sd: float | None = None) -> tuple[ModelCheck, dict[str, Any]]:
+    """The model check of a contact-damping fit (module doc).
+
+    Parameters
+    ----------
+    problem : the fit.
+    per_event : the pooled per-event residuals at the estimate (NaN where an event is not used).
+    n_params : parameters fitted (1 with ``n`` fixed, else 2).
+    beta, n : the estimate [N s m^-(n+1)], [-].
+    assumed_sd : the residual standard deviation the intervals assumed (default ``sqrt(RSS / dof)``).
+
+    Returns
+    -------
+    (ModelCheck, contact_duration_check block); the check is :meth:`~impactid.engine.ModelCheck.rejected`
+    when the contact durations reject the law.
+    """
+    owner = np.concatenate([[k] * len(es) for k, es in enumerate(problem.sets)]).astype(int)
+    speed = np.concatenate([es.approach_speed for es in problem.sets])
+    used = np.isfinite(per_event)
+    check = check_model(per_event[used], None, noise_reference="", what=problem.residual, n_params=n_params,
+                        groups=owner[used], covariate=speed[used], covariate_name="approach speed [m/s]",
+                        structure_floor=max(problem.residual_floor, problem.systematic), assumed_sd=assumed_sd,
+                        between=False)
+    durations = contact_duration_check(problem, beta, n)
+    if durations["verdict"] == "rejected":
+        check = check.rejected(durations["reason"])
+    return check, durations
+
+
+def apply_model_check(check: ModelCheck, durations: dict[str, Any], beta: float, n: float,
+                      beta_interval: tuple[float, float], n_interval: tuple[float, float], separable: bool | None,
+                      notes: list[str]) -> tuple[tuple[float, float], tuple[float, float], bool | None, dict]:
+    """The intervals and the separability verdict after the model check, and the ``model_check`` block.
+
+    A check that widens moves each side of ``beta``'s interval away from the estimate by its
+    inflation in the logarithm (``beta`` spans decades), and ``n``'s linearly; one that withholds
+    (a law the contact durations reject) makes both intervals NaN. A model the check does not find
+    consistent is never separable (``separable`` False; None stays None with ``n`` fixed).
+    """
+    notes.extend(check.notes)
+    if check.action == "withheld":
+        beta_interval, n_interval = (math.nan, math.nan), ((n, n) if separable is None else (math.nan, math.nan))
+    elif check.action == "widened":
+        beta_interval = widen_by_factor(beta_interval, beta, check.inflation) if beta_interval[0] > 0 else beta_interval
+        if separable is not None:
+            n_interval = widen_by_factor(n_interval, n, check.inflation)
+    if check.describes_data is False and separable:
+        separable = False
+        notes.append("beta and n are not reported as separable: the model check finds that the law does not "
+                     "describe the data")
+    return beta_interval, n_interval, separable, combine_checks([check], extra={"contact_duration": durations})
+
+
+# ---- identifiability --------------------------------------------------------------------------------------
+
+
+def damping_identifiability(problem: DampingProblem, fit, describes_data: bool | None,
+                            n_interval: tuple[float, float] = (math.nan, math.nan)) -> dict[str, Any]:
+    """The identifiability block of the least-squares fit (:func:`impactid.engine.identifiability`) in
+    its search coordinates ``(log10 c, n)`` (``c = beta delta_ref^n`` [N s/m]).
+
+    ``log10 c``'s profile is quadratic (from the Gauss-Newton ``J^T J``); ``n``'s is the profile
+    along the valley the fit traced (``log10 c`` re-optimised at each ``n``: a refit profile), its
+    shape read from where it rises by the 95 % threshold. With ``n`` fitted, the law with ``n`` held
+    at :data:`N_COMPARED` is compared with it: AIC, BIC and the likelihood-ratio statistic from the sums
+    of squares (read off the valley profile, where it reaches ``N_COMPARED``), and the decision by the
+    Wald test on the reported ``n_interval`` (95 %), which holds the recordings' systematic errors
+    besides the statistics: the sums of squares alone ignore them and would reject a right ``n``
+    that the interval holds.
+    """
+    lc_lo, lc_hi = problem.log10_c_bounds
+    fixed = problem.fix_n is not None
+    x = np.asarray(fit.x, dtype=float)
+    free = [Free("log10_c", float(min(max(x[0], lc_lo), lc_hi)), lc_lo, lc_hi, unit="log10(N s/m)")]
+    if not fixed:
+        free.append(Free("n", float(min(max(x[1], problem.n_bounds[0]), problem.n_bounds[1])), *problem.n_bounds))
+    r = np.asarray(fit.residuals, dtype=float)
+    found = Search(free=tuple(free), x=x[:len(free)], residual=r, jacobian=np.asarray(fit.jacobian, dtype=float),
+                   cost=0.5 * float(r @ r), nfev=int(fit.evaluations), success=True, message="")
+    stated = uncertainty(found)
+    comparison = None
+    block = identifiability(found, stated, describes_data=describes_data,
+                            quadratic_reason="the profile along the valley stands for n's refit profile")
+    if not fixed:
+        prof = fit.profile
+        rise = (prof["rss"].to_numpy(float) - fit.rss) / fit.s2 if fit.s2 > 0 else np.full(len(prof), np.nan)
+        n_values = prof["n"].to_numpy(float)
+        low = float(np.nanmax(np.where(n_values < x[1], rise, -np.inf), initial=-np.inf))
+        high = float(np.nanmax(np.where(n_values > x[1], rise, -np.inf), initial=-np.inf))
+        block["profiles"]["n"] = {"shape": profile_shape(low, high), "method": "refit (the valley: log10 c "
+                                  "re-optimised at each n)", "points": np.column_stack([n_values, rise]).tolist()}
+        block["profile_method"] = ("mixed: n's profile is the valley (refit), log10 c's quadratic (Gauss-Newton "
+                                   "J^T J)")
+        if block["profiles"]["n"]["shape"] != "bounded":
+            block["determined"] = False
+        held = f"n = {N_COMPARED:g}"
+        if n_values.size and n_values.min() <= N_COMPARED <= n_values.max():
+            rss_held = float(np.interp(N_COMPARED, n_values, prof["rss"].to_numpy(float)))
+            comparison = compare_models([{"name": held, "n_params": 1, "n_data": r.size, "rss": rss_held},
+                                         {"name": "n fitted", "n_params": 2, "n_data": r.size, "rss": fit.rss}],
+                                        nested=[(held, "n fitted")], choice=f"n fitted or held at {N_COMPARED:g}")
+        else:
+            comparison = {"choice": f"n fitted or held at {N_COMPARED:g}", "models": [], "likelihood_ratio": [],
+                          "note": f"{held} lies beyond the profile along the valley (which stops where the sum of "
+                                  "squares rises by 1.5 times its 95 % threshold): no sums of squares to compare"}
+        half = 0.5 * (n_interval[1] - n_interval[0])
+        sd = half / 1.959963984540054 if math.isfinite(half) and half > 0 else math.nan
+        z2 = ((x[1] - N_COMPARED) / sd) ** 2 if math.isfinite(sd) else math.nan
+        p = float(stats.chi2.sf(z2, 1)) if math.isfinite(z2) else math.nan
+        comparison["wald"] = {"statistic": z2, "dof": 1, "p_value": p, "rejects_simple": bool(p < LRT_SIGNIFICANCE),
+                              "n_interval": list(n_interval)}
+        comparison["preferred"] = "n fitted" if p < LRT_SIGNIFICANCE else (held if math.isfinite(p) else "undecided")
+        comparison["rule"] = (f"{held} unless the Wald test on the reported 95 % interval of n (statistics and the "
+                              f"recordings' systematic errors) rejects it at p < {LRT_SIGNIFICANCE:g}; the "
+                              "likelihood-ratio statistic of the sums of squares is reported beside it")
+        block["model_comparison"] = comparison
+    block["coordinates"] = "log10_c = log10(beta delta_ref^n) [c in N s/m], n"
+    block["delta_ref"] = problem.delta_ref
+    return block
+
+
+def search_identifiability(problem: DampingProblem, separable: bool | None, n_interval: tuple[float, float],
+                           describes_data: bool | None) -> dict[str, Any]:
+    """The identifiability block of the ``"optimise"`` and ``"grid"`` methods, which have no Jacobian: the
+    shape of ``n``'s profile read from its interval (the lattice's indifference region and bootstrap)
+    against the search bounds, and the separability verdict."""
+    if problem.fix_n is not None:
+        profiles = {}
+    else:
+        lo, hi = problem.n_bounds
+        low_open = n_interval[0] <= lo + 1e-9
+        high_open = n_interval[1] >= hi - 1e-9
+        shape = "flat" if low_open and high_open else ("one-sided" if low_open or high_open else "bounded")
+        profiles = {"n": {"shape": shape, "method": "the lattice's indifference region and bootstrap", "points": []}}
+    determined = bool(separable in (None, True) and describes_data is not False
+                      and all(p["shape"] == "bounded" for p in profiles.values()))
+    from impactid.engine import CONDITION_LIMIT, PROFILE_THRESHOLD
+
+    return {"condition_number": math.nan, "condition_limit": CONDITION_LIMIT,
+            "names": ["log10_c"] + ([] if problem.fix_n is not None else ["n"]),
+            "correlation": [], "largest_correlation": {"pair": [], "value": math.nan}, "near_bounds": [],
+            "profiles": profiles, "profile_threshold": PROFILE_THRESHOLD,
+            "profile_method": "lattice (no Jacobian: the optimise and grid methods)", "profile_evaluations": 0,
+            "model_comparison": None, "determined": determined,
+            "notes": ["the optimise and grid methods have no Jacobian: the condition number and the correlations are "
+                      "those of the least-squares method"]}

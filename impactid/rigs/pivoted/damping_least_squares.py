@@ -13,7 +13,12 @@ Steps, one function each:
 4. the **intervals**: ``beta`` widened by them and kept inside the search box (:func:`clip_to_search_box`),
    ``n`` likewise (:func:`n_interval`);
 5. the **standard errors** and a **linearised bootstrap** over impacts (:func:`standard_errors`,
-   :func:`linearised_bootstrap`).
+   :func:`linearised_bootstrap`);
+6. the **model check** of the per-event residuals and the contact durations, which widens or withholds
+   the intervals and never lets a rejected law be separable, and the **identifiability** block
+   (:func:`~impactid.rigs.pivoted.damping_diagnostics.damping_model_check`,
+   :func:`~impactid.rigs.pivoted.damping_diagnostics.apply_model_check`,
+   :func:`~impactid.rigs.pivoted.damping_diagnostics.damping_identifiability`).
 
 Identifiability and the shared notes are :mod:`impactid.rigs.pivoted.damping_diagnostics`'.
 """
@@ -29,7 +34,10 @@ import pandas as pd
 from impactid.engine import linearised_bootstrap as engine_bootstrap
 from impactid.engine.valley import LeastSquaresFit, fit_least_squares
 from impactid.rigs.pivoted.damping_diagnostics import (
+    apply_model_check,
     bound_notes,
+    damping_identifiability,
+    damping_model_check,
     failure_note,
     per_event_table,
     separability,
@@ -88,6 +96,10 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
               f"residual error {systematic:.3g} per recording) stays open")
     separable = separability(problem, n_iv, beta_iv, region, notes)
     bound_notes(problem, logc_hat, n_hat, notes)
+    check, durations = damping_model_check(problem, per_event_hat, n_params=J.shape[1], beta=beta_hat, n=n_hat,
+                                           assumed_sd=math.sqrt(fit.s2))
+    beta_iv, n_iv, separable, model_block = apply_model_check(check, durations, beta_hat, n_hat, beta_iv, n_iv,
+                                                              separable, notes)
     if math.sqrt(fit.s2) > 0.05:
         notes.append(f"the residual scatter between impacts is large (rms {math.sqrt(fit.s2):.3g}); "
                      f"the estimate rests on {r.size} impacts")
@@ -104,7 +116,8 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
         separable=separable, phase_beta_sd=beta_hat * math.expm1(min(phase_logbeta, 700.0)), phase_n_sd=phase_n_sd,
         valley=valley, per_event=per_event_table(problem, per_event_hat), delta_ref=obj.delta_ref, bootstrap=boot,
         landscape=land, n_simulations=obj.n_simulations, seconds=math.nan, warnings=tuple(notes),
-        n_failed_simulations=obj.n_failed, beta_stderr=beta_se, n_stderr=n_se)
+        n_failed_simulations=obj.n_failed, beta_stderr=check.widen_stderr(beta_se), n_stderr=check.widen_stderr(n_se),
+        model_check=model_block, identifiability=damping_identifiability(problem, fit, check.describes_data, n_iv))
 
 
 def gauss_newton_search(problem: DampingProblem, obj: DampingObjective, systematic: float, notes: list[str],

@@ -13,7 +13,10 @@ Steps, one function each:
    (:func:`lattice_uncertainty`), combined into intervals (:func:`combined_intervals`);
 5. the **cam-phase propagation**: each recording's cam phase shifted by its standard error and the
    fit repeated near the estimate (:func:`cam_phase_spread`), widening the intervals
-   (:func:`widen_by_cam_phase`).
+   (:func:`widen_by_cam_phase`);
+6. the **model check** and the **identifiability** block, as the least-squares method's
+   (:mod:`~impactid.rigs.pivoted.damping_diagnostics`; without a Jacobian, the block reads ``n``'s
+   profile from its interval).
 
 Identifiability and the shared notes are :mod:`impactid.rigs.pivoted.damping_diagnostics`'.
 """
@@ -30,9 +33,12 @@ from scipy import interpolate, optimize
 
 from impactid.errors import ImpactidError, SimulationError
 from impactid.rigs.pivoted.damping_diagnostics import (
+    apply_model_check,
     bound_notes,
+    damping_model_check,
     failure_note,
     per_event_table,
+    search_identifiability,
     separability,
     widen_interval,
 )
@@ -172,6 +178,10 @@ def fit_by_search(problem: DampingProblem, obj: DampingObjective, method: str, g
     region = f"the mean {problem.residual} stays within {indifference.level:.3g} of its minimum"
     separable = separability(problem, n_iv, beta_iv, region, notes)
     bound_notes(problem, logc_hat, n_hat, notes)
+    check, durations = damping_model_check(problem, indifference.per_event, n_params=1 if fix_n is not None else 2,
+                                           beta=beta_hat, n=n_hat)
+    beta_iv, n_iv, separable, model_block = apply_model_check(check, durations, beta_hat, n_hat, beta_iv, n_iv,
+                                                              separable, notes)
     if indifference.level > 0.05:
         notes.append(f"the residual scatter between impacts is large (standard error of the mean "
                      f"{indifference.standard_error:.3g}); the estimate rests on {indifference.events_used} impacts")
@@ -184,7 +194,8 @@ def fit_by_search(problem: DampingProblem, obj: DampingObjective, method: str, g
         separable=separable, phase_beta_sd=phase_beta_sd, phase_n_sd=phase_n_sd, valley=valley.table(obj),
         per_event=per_event_table(problem, indifference.per_event), delta_ref=problem.delta_ref,
         bootstrap=lattice.bootstrap, landscape=land, n_simulations=obj.n_simulations, seconds=math.nan,
-        warnings=tuple(notes), n_failed_simulations=obj.n_failed)
+        warnings=tuple(notes), n_failed_simulations=obj.n_failed, model_check=model_block,
+        identifiability=search_identifiability(problem, separable, n_iv, check.describes_data))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -11,8 +11,9 @@ speeds [m/s], indentations [m].
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -120,6 +121,10 @@ class DampingEstimate:
     #: Gauss-Newton standard errors of beta and n (least-squares method; NaN otherwise)
     beta_stderr: float = math.nan
     n_stderr: float = math.nan
+    #: the model check (:func:`~impactid.rigs.pivoted.damping_diagnostics.damping_model_check`: the engine's
+    #: block, with rig P's contact-duration check) and the identifiability block (empty: not made)
+    model_check: Mapping[str, Any] = field(default_factory=dict)
+    identifiability: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def damping_at_reference(self) -> float:
@@ -141,7 +146,8 @@ class DampingEstimate:
                    "c_ref": self.damping_at_reference, "beta_bootstrap_95": list(self.beta_bootstrap_interval),
                    "n_bootstrap_95": list(self.n_bootstrap_interval)}
         return ContactDampingResult(params=params, statistics=statistics, notes=self.warnings,
-                                    tables={"per_event": self.per_event, "valley": self.valley}, details=details)
+                                    tables={"per_event": self.per_event, "valley": self.valley}, details=details,
+                                    model_check=self.model_check, identifiability=self.identifiability)
 
     def report(self) -> str:
         """An lmfit-style fit report (of :meth:`to_result`)."""
@@ -173,6 +179,10 @@ class RestitutionEstimate:
     impacts_used: int
     per_impact: pd.DataFrame
     warnings: tuple[str, ...] = ()
+    #: the model check of ``xi = 1 - gamma v_a`` and the identifiability block with the laws compared
+    #: (:func:`~impactid.rigs.pivoted.restitution.fit_restitution`; empty: not made)
+    model_check: Mapping[str, Any] = field(default_factory=dict)
+    identifiability: Mapping[str, Any] = field(default_factory=dict)
 
     def to_result(self) -> RestitutionResult:
         """The fit as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
@@ -189,7 +199,8 @@ class RestitutionEstimate:
                       "va_spread": self.va_spread}
         return RestitutionResult(params=params, statistics=statistics, notes=self.warnings,
                                  tables={"per_impact": self.per_impact},
-                                 details={"beta_equivalent_n1.5": self.beta_equivalent})
+                                 details={"beta_equivalent_n1.5": self.beta_equivalent},
+                                 model_check=self.model_check, identifiability=self.identifiability)
 
     def report(self) -> str:
         """An lmfit-style fit report (of :meth:`to_result`)."""
@@ -244,6 +255,10 @@ class Estimate:
         n_lo, n_hi = options.get("n_bounds") or (-math.inf, math.inf)
         scale = d.delta_ref ** d.n
         why = "" if d.separable in (None, True) else "beta and n are not separable from these data"
+        if (d.model_check or {}).get("action") == "withheld":
+            findings = [f for c in d.model_check.get("checks", ()) for f in c.get("findings", ())]
+            why = "; ".join(filter(None, (why, "interval withheld: the model check rejects the law"
+                                          + (f" ({findings[-1]})" if findings else ""))))
         params = [
             Parameter("beta", d.beta, stderr=d.beta_stderr, interval=d.beta_interval, unit=f"N s m^-({d.n:.4g}+1)",
                       note=why, min=c_lo / scale if math.isfinite(c_lo) else -math.inf,
@@ -297,9 +312,44 @@ class Estimate:
             "pipeline": options,
         }
         return PivotedEstimateResult(params=params, statistics=statistics, notes=self.warnings, tables=tables,
-                                     details=details, provenance=self.provenance)
+                                     details=details, provenance=self.provenance,
+                                     model_check=merged_model_check(d.model_check, r.model_check if r else {}),
+                                     identifiability=_with_parts(d.identifiability,
+                                                                 {"restitution": r.identifiability} if r else {}))
 
     def to_dict(self, per_impact: bool = True) -> dict:
         """The result as JSON-ready data: :meth:`to_result`'s document (the ``FitResult`` schema of
         docs/formats.md, SI units)."""
         return self.to_result(per_impact=per_impact).to_dict()
+
+
+def _with_parts(block: Mapping[str, Any], parts: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
+    """An identifiability block with the other fits' blocks under ``parts`` (empty ones left out)."""
+    out = dict(block)
+    parts = {name: dict(part) for name, part in parts.items() if part}
+    if parts:
+        out["parts"] = parts
+    return out
+
+
+def merged_model_check(damping: Mapping[str, Any], restitution: Mapping[str, Any]) -> dict[str, Any]:
+    """The ``model_check`` block of rig P's whole estimate: the contact damping's and the restitution
+    law's checks together (the worst verdict, the strongest action, every check), each part's own
+    verdict under ``parts`` and the contact-duration check of the damping."""
+    from impactid.engine.checks import VERDICTS
+
+    blocks = {name: dict(b) for name, b in (("contact_damping", damping), ("restitution", restitution)) if b}
+    if not blocks:
+        return {}
+    worst = max(blocks.values(), key=lambda b: VERDICTS.index(b.get("verdict", "not checked")))
+    actions = [b.get("action", "none") for b in blocks.values()]
+    out = {"verdict": worst.get("verdict"), "describes_data": worst.get("describes_data"),
+           "action": "withheld" if "withheld" in actions else ("widened" if "widened" in actions else "none"),
+           "inflation": max(float(b.get("inflation") or 1.0) for b in blocks.values()),
+           "checks": [c for b in blocks.values() for c in b.get("checks", ())],
+           "rule": next(iter(blocks.values())).get("rule", ""),
+           "parts": {name: {"verdict": b.get("verdict"), "action": b.get("action"), "inflation": b.get("inflation")}
+                     for name, b in blocks.items()}}
+    if "contact_duration" in blocks.get("contact_damping", {}):
+        out["contact_duration"] = blocks["contact_damping"]["contact_duration"]
+    return out

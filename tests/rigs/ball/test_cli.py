@@ -33,8 +33,12 @@ def test_json_and_figures(files, tmp_path, capsys):
     assert code == 0, err
     data = json.loads(out.read_text())
     # the analysis in the FitResult schema at the top level, plus the files read and the figures written
-    schema = {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details", "provenance"}
+    schema = {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details", "provenance",
+              "model_check", "identifiability"}
     assert set(data) == schema | {"recordings_read", "plots"} and data["kind"] == "bounce-analysis"
+    # every law's fit states its model check and identifiability (docs/identifiability.md)
+    for law in data["details"]["laws"].values():
+        assert law["model_check"]["verdict"] in ("consistent", "structured") and law["identifiability"]["names"]
     assert data["recordings_read"] == files and len(data["plots"]) == 2
     back = FitResult.from_dict(data)
     assert isinstance(back, BounceAnalysis) and back["linear.gamma"].value == data["params"]["linear.gamma"]["value"]

@@ -150,6 +150,31 @@ def test_not_separable_is_reported(rig):
 
 
 @pytest.mark.slow
+def test_a_wrong_rig_constant_is_caught_and_the_intervals_withheld(rig):
+    """The recording's rig has a lash-adjuster preload F_tf0 = 20 N; the fit is given 30 N. Without the
+    engine's whole check the fit returned alpha 4.4 % and beta 3.0 % low, the truth 20 and 39 standard
+    errors outside the intervals, and called them separable. The residual is 7.6 times the sensor noise
+    and persists along the cycle (11 independent residuals of 1440): the model check withholds the
+    intervals and nothing is called separable or determined. With the right preload: consistent."""
+    s = synth_recording(rig.replace(F_tf0=20.0), 900.0, revolutions=16, seed=2)
+    wrong = fit_tappet_drag(s.recording, rig.replace(F_tf0=30.0))
+    assert wrong.statistics["residual_over_noise"] > 5.0
+    check = wrong.model_check
+    assert check["verdict"] == "lack of fit" and check["action"] == "withheld"
+    assert check["checks"][0]["effective_samples"] < 50 and check["checks"][0]["lag1_autocorrelation"] > 0.9
+    for name in ("c_t", "k_t", "alpha", "beta", "tau"):
+        assert math.isnan(wrong[name].stderr) and math.isnan(wrong[name].interval[0]), name
+        assert "withheld" in wrong[name].note
+    assert not wrong.statistics["separable"] and wrong.identifiability["determined"] is False
+    assert any("lack of fit" in n for n in wrong.notes) and any("withheld" in n for n in wrong.notes)
+    right = fit_tappet_drag(s.recording, rig.replace(F_tf0=20.0))
+    assert right.model_check["verdict"] == "consistent" and right.identifiability["determined"]
+    for name in ("c_t", "k_t", "alpha", "beta"):
+        assert right[name].contains(s.truth[name]), (name, right[name], s.truth[name])
+    assert {p["shape"] for p in right.identifiability["profiles"].values()} == {"bounded"}
+
+
+@pytest.mark.slow
 def test_lift_fit_noise_free_and_noisy(rig):
     clean = synth_recording(rig, 600.0, revolutions=1, sensors=IDEAL, lift=CycloidalLift(5.5e-3, 1.45, 1.7))
     fit = fit_cam_lift(clean.recording)

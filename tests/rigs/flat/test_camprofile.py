@@ -381,7 +381,10 @@ def test_cam_fit_cli_round_trip(rec110, tmp_path, capsys):
     # the fit-result schema (docs/formats.md, "Fit results"), plus the command's own keys
     assert data["kind"] == "cam-profile" and data["recordings_read"] == [str(path)]
     assert set(data) == {"kind", "impactid_version", "params", "statistics", "notes", "tables", "details",
-                         "provenance", "recordings_read", "plots"}
+                         "provenance", "model_check", "identifiability", "recordings_read", "plots"}
+    # the edges' residual is their timing noise; seven overlapping terms are not determined separately
+    assert data["model_check"]["verdict"] == "consistent" and data["identifiability"]["determined"] is False
+    assert {p["shape"] for p in data["identifiability"]["profiles"].values()} == {"flat"}
     for key in ("rms_residual", "max_residual", "chisqr", "aic", "bic", "ndata", "nfev", "success",
                 "condition_number", "residual_over_noise"):
         assert key in data["statistics"]

@@ -157,3 +157,46 @@ def test_restitution_warns_outside_the_law_range():
     table = pd.DataFrame({"approach_speed": [0.5, 1.0, 1.5, 2.0], "xi": [0.6, 0.2, -0.2, -0.6]})
     with pytest.warns(EstimationWarning, match="outside the law's range"):
         fit_restitution(table, 8e9)
+
+
+# ---- the model check (issue "No confident wrong answers") -------------------------------------------
+
+
+def test_a_contact_law_fitted_to_restitution_law_impacts_is_rejected(s3_synthetic):
+    """Impacts made with the restitution law (instantaneous: no contact pulse) fitted with Hunt-Crossley
+    from one operating point: the lambda1 residuals cannot tell (they stay below the pipeline's own
+    level), but the measured contacts last 0 s against the fitted law's 0.3 ms: the law is rejected,
+    its intervals withheld, and beta, n are never separable. The restitution law's gamma keeps the
+    generator's 0.8 s/m inside its interval (the scatter's standard error, 3e-5 s/m, put it 90 standard
+    errors away: the pipeline's own error of xi does not show in the scatter)."""
+    from impactid.rigs.pivoted.restitution import XI_SYSTEMATIC
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        est = estimate(s3_synthetic.recording)
+    d = est.damping
+    durations = d.model_check["contact_duration"]
+    assert d.model_check["verdict"] == "rejected" and d.model_check["action"] == "withheld"
+    assert durations["measured_median_s"] == 0.0 and durations["model_median_s"] > 1e-4
+    assert d.separable is False and all(math.isnan(v) for v in (*d.beta_interval, *d.n_interval))
+    assert not d.identifiability["determined"] and any("no contact pulse" in w for w in d.warnings)
+    result = est.to_result()
+    assert "withheld" in result["beta"].note and result.model_check["parts"]["contact_damping"]["verdict"] == "rejected"
+    assert result.statistics["separable"] is False
+    r = est.restitution
+    assert r.gamma_stderr >= XI_SYSTEMATIC / r.va_mean and result["gamma"].contains(0.8)
+    assert math.isnan(r.intercept_stderr) and math.isnan(r.slope_stderr)  # speeds spread 0.004 %
+
+
+def test_gamma_of_identical_impacts_has_the_pipelines_floor_not_the_scatters():
+    """A settled orbit sampled at the same phase at every impact gives identical measured xi and v_a: the
+    scatter's standard error of gamma is rounding (about 1e-14 s/m); the reported one is the floor."""
+    from impactid.rigs.pivoted.restitution import XI_SYSTEMATIC
+
+    v = np.full(16, 0.4586)
+    table = pd.DataFrame({"approach_speed": v, "xi": 1.0 - 0.8 * v})
+    fit = fit_restitution(table, 8e9, warn=False)
+    assert fit.gamma == pytest.approx(0.8, rel=1e-12)
+    assert fit.gamma_stderr == pytest.approx(XI_SYSTEMATIC / 0.4586, rel=1e-12)
+    assert fit.r_constant_stderr == pytest.approx(XI_SYSTEMATIC, rel=1e-12)
+    assert any("floor" in w for w in fit.warnings)
