@@ -246,7 +246,9 @@ def apply_model_check(check: ModelCheck, durations: dict[str, Any], beta: float,
     if check.action == "withheld":
         beta_interval, n_interval = (math.nan, math.nan), ((n, n) if separable is None else (math.nan, math.nan))
     elif check.action == "widened":
-        beta_interval = widen_by_factor(beta_interval, beta, check.inflation) if beta_interval[0] > 0 else beta_interval
+        lo, hi = beta_interval
+        if lo > 0.0 and beta > 0.0:  # in the logarithm, on each side: beta's interval stays positive
+            beta_interval = (beta * (lo / beta) ** check.inflation, beta * (hi / beta) ** check.inflation)
         if separable is not None:
             n_interval = widen_by_factor(n_interval, n, check.inflation)
     if check.describes_data is False and separable:
