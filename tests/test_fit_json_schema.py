@@ -90,17 +90,15 @@ def check_fit_document(data: dict, kind: str, recordings_read: list[str]) -> Fit
     assert isinstance(data["notes"], list) and all(isinstance(n, str) for n in data["notes"])
     assert isinstance(data["provenance"], list) and all(isinstance(n, str) for n in data["provenance"])
     assert isinstance(data["details"], dict)
+    check_model_check(data["model_check"])
+    check_identifiability(data["identifiability"])
     if kind == "bounce-analysis":
-        # the analysis of several laws: each law's fit carries its blocks (the analysis's own are empty
-        # until impactid.rigs.ball.analysis lifts the selected law's to the top level)
-        assert isinstance(data["model_check"], dict) and isinstance(data["identifiability"], dict)
+        # the analysis of several laws: the selected law's blocks at the top, and each law's fit its own
+        assert data["model_check"]["law"] == data["identifiability"]["law"] == data["details"]["selected"]
         for group in ("laws", "chained"):
             for fit in (data["details"].get(group) or {}).values():
                 check_model_check(fit["model_check"])
                 check_identifiability(fit["identifiability"])
-    else:
-        check_model_check(data["model_check"])
-        check_identifiability(data["identifiability"])
     # a model the check finds wanting is never "determined" nor "separable" (rig P: its contact damping's part)
     parts = data["model_check"].get("parts", {})
     wanting = (parts["contact_damping"]["verdict"] if "contact_damping" in parts

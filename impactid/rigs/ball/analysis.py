@@ -765,7 +765,12 @@ def analyse_bounces(sources: Sequence, *, ball: Ball | None = None, drag: bool =
         notes += finding.notes
         details.update(finding.details)
     notes += [f"{name} law: {n}" for name, fit in fits.items() for n in fit.notes]
+    # the analysis states its selected law's model check and identifiability (each law's own are in details)
+    chosen = fits[selection.law]
     return BounceAnalysis(params=_parameters(fits), statistics=_statistics(drops, impacts, law_fits, selection),
                           notes=tuple(dict.fromkeys(notes)),
                           tables={"bounces": impacts.table, "laws": law_table(fits)},
-                          details=details, provenance=tuple(provenance))
+                          details=details, provenance=tuple(provenance),
+                          model_check={**chosen.model_check, "law": selection.law},
+                          identifiability={**chosen.identifiability, "law": selection.law,
+                                           "parts": {name: dict(f.identifiability) for name, f in fits.items()}})
