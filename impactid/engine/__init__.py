@@ -24,7 +24,7 @@ value, min, max, vary). The engine then
 The rig keeps what is its own: its residual, the noise it measures, its tables and its result
 type (a :class:`~impactid.results.FitResult` built from :attr:`Uncertainty.parameters`).
 
-The modules: :mod:`~impactid.engine.search` (the search), :mod:`~impactid.engine.uncertainty`
+The modules: :mod:`~impactid.engine.least_squares` (the search), :mod:`~impactid.engine.intervals`
 (covariance, intervals, the linearised bootstrap), :mod:`~impactid.engine.covariance` (the one rule
 for an undetermined standard error), :mod:`~impactid.engine.checks` (the model check),
 :mod:`~impactid.engine.identifiability` (the identifiability block) and
@@ -49,8 +49,8 @@ from impactid.engine.checks import (
 )
 from impactid.engine.covariance import CONDITION_LIMIT, Covariance, covariance_from_jacobian
 from impactid.engine.identifiability import PROFILE_THRESHOLD, compare_models, identifiability, profile_shape
-from impactid.engine.search import Free, Search, search
-from impactid.engine.uncertainty import BOUND_TOLERANCE, Uncertainty, linearised_bootstrap, uncertainty
+from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty, linearised_bootstrap, uncertainty
+from impactid.engine.least_squares import Free, Search, search
 
 __all__ = ["BOUND_TOLERANCE", "CONDITION_LIMIT", "GROSS_LACK_OF_FIT", "LACK_OF_FIT_FACTOR", "NO_NOISE_REFERENCE",
            "PROFILE_THRESHOLD", "SIGNIFICANT_EXCESS_FLOOR", "SIGNIFICANT_EXCESS_SIGMAS", "STRUCTURE_SIGNIFICANCE",

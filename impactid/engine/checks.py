@@ -30,17 +30,17 @@ Two levels:
 
 The verdict, and what the fit does about it (:meth:`ModelCheck.widen`):
 
-==================== ===================================================================================
-verdict              meaning
-==================== ===================================================================================
-``consistent``       no evidence against the model: intervals as computed
-``systematic misfit`` the residual's mean square exceeds the noise's significantly, below
-                     :data:`LACK_OF_FIT_FACTOR` times it
-``structured``       the residual trends with the covariate, alternates, or persists along its order
-``lack of fit``      the residual RMS is more than :data:`LACK_OF_FIT_FACTOR` times the noise
-``rejected``         a rig's own check (a measured quantity the fit did not use, the model contradicts)
-``not checked``      too few data for any test and no noise reference
-==================== ===================================================================================
+====================== ===================================================================================
+verdict                meaning
+====================== ===================================================================================
+``consistent``         no evidence against the model: intervals as computed
+``systematic misfit``  the residual's mean square exceeds the noise's significantly, below
+                       :data:`LACK_OF_FIT_FACTOR` times it
+``structured``         the residual trends with the covariate, alternates, or persists along its order
+``lack of fit``        the residual RMS is more than :data:`LACK_OF_FIT_FACTOR` times the noise
+``rejected``           a rig's own check (a measured quantity the fit did not use, the model contradicts)
+``not checked``        too few data for any test and no noise reference
+====================== ===================================================================================
 
 **Widening rule.** Unless the verdict is ``consistent`` or ``not checked``, every standard error is
 multiplied by ``inflation = sqrt(max(1, s_obs^2 / s_assumed^2)) * sqrt(max(1, n / n_eff))``: the

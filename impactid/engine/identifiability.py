@@ -34,8 +34,8 @@ import numpy as np
 from scipy import stats
 
 from impactid.engine.covariance import CONDITION_LIMIT
-from impactid.engine.search import Search, search
-from impactid.engine.uncertainty import BOUND_TOLERANCE, Uncertainty
+from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty
+from impactid.engine.least_squares import Search, search
 
 __all__ = ["LRT_SIGNIFICANCE", "NEAR_BOUND_STDERR", "PROFILE_STEPS", "PROFILE_THRESHOLD", "compare_models",
            "identifiability", "profile_shape"]

@@ -47,9 +47,9 @@ from impactid.rigs.pivoted.damping_diagnostics import (
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
 from impactid.rigs.pivoted.estimate_results import DampingEstimate, Progress
 
-__all__ = ["PHASE_REFIT_Z", "by_contact_duration", "cam_phase_refits", "cam_phase_shifts", "clip_to_search_box",
-           "fit_by_least_squares", "gauss_newton_search", "linearised_bootstrap", "n_interval", "profile_interval",
-           "quadrature", "standard_errors", "systematic_shifts"]
+__all__ = ["PHASE_REFIT_Z", "REFIT_PROBE", "by_contact_duration", "cam_phase_refits", "cam_phase_shifts",
+           "clip_to_search_box", "fit_by_least_squares", "gauss_newton_search", "linearised_bootstrap", "n_interval",
+           "profile_interval", "quadrature", "standard_errors", "systematic_shifts"]
 
 
 def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: list[str], progress: Progress,
@@ -86,7 +86,7 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
     # the phase's effect on beta is far from linear where alpha_m barely depends on beta (restitution
     # near 1, slow impacts near the top of the cam's lift): refits at the phase +-1.96 standard errors
     # bound it as well (the hull of both)
-    refit_lo, refit_hi = cam_phase_refits(problem, obj, logc_hat, n_hat)
+    refit_lo, refit_hi = cam_phase_refits(problem, obj, logc_hat, n_hat, phase_shifts)
     log_iv = (min(log_iv[0], refit_lo), max(log_iv[1], refit_hi))
     beta_iv = clip_to_search_box(problem, obj, log_iv, n_hat, notes)
     phase_n_sd = quadrature(phase_shifts, grad, 1) if fix_n is None else 0.0
@@ -234,38 +234,62 @@ def cam_phase_shifts(problem: DampingProblem, obj: DampingObjective, fit: LeastS
 
 #: Standard errors of the cam phase at which :func:`cam_phase_refits` refits (the 95 % range).
 PHASE_REFIT_Z = 1.96
+#: Spacing [decades of c] of the three points that test the linear prediction of a refit (2 % of beta).
+REFIT_PROBE = 0.01
 
 
-def cam_phase_refits(problem: DampingProblem, obj: DampingObjective, logc_hat: float,
-                     n_hat: float) -> tuple[float, float]:
+def cam_phase_refits(problem: DampingProblem, obj: DampingObjective, logc_hat: float, n_hat: float,
+                     linear_shifts: Sequence[np.ndarray] = ()) -> tuple[float, float]:
     """The range of ``ln beta`` over refits with each recording's cam phase moved by +-:data:`PHASE_REFIT_Z`
-    standard errors (``n`` held at ``n_hat``; ``log10 c`` by a 41-point scan of the search box and bounded
-    Brent around its best point).
+    standard errors (``n`` held at ``n_hat``).
 
     Where the phase's effect is linear this lies within the linear propagation (:func:`cam_phase_shifts`);
     where it is not (slow impacts near the top of the cam's lift with a restitution near 1: beta moved by
-    factors while alpha_m barely moves, docs/estimation.md) it is what covers the truth. The simulations
-    count in ``obj``. Returns ``(ln beta_hat, ln beta_hat)`` without a phase error.
+    factors while alpha_m barely moves, docs/estimation.md) it is what covers the truth. Each refit first
+    tries the linear prediction (``linear_shifts``, the shift of ``(log10 c[, n])`` for +1 standard error of
+    each recording's phase, in :func:`cam_phase_shifts`' order): three points :data:`REFIT_PROBE` decades
+    apart around it; if the middle one is the lowest, the parabola's vertex through them is the refit
+    (the linear prediction held, to within the probe). Otherwise ``log10 c`` is scanned over the search
+    box (41 points) and refined by bounded Brent around its best point. The simulations count in ``obj``.
+    Returns ``(ln beta_hat, ln beta_hat)`` without a phase error.
     """
     lo_box, hi_box = problem.log10_c_bounds
     centre = math.log(float(obj.beta(logc_hat, n_hat)))
     low = high = centre
     grid = np.linspace(lo_box, hi_box, 41)
+    shifts = iter(linear_shifts)
     for k, es in enumerate(problem.sets):
         if not (math.isfinite(es.phase_stderr) and es.phase_stderr > 0):
             continue
+        shift = next(shifts, None)  # cam_phase_shifts has one entry per recording with a phase error
         for sign in (-1.0, 1.0):
             sets = list(problem.sets)
             sets[k] = es.shift_phase(sign * PHASE_REFIT_Z * es.phase_stderr)
             sub = problem.objective(sets)
-            rss = np.nansum(sub.per_event(grid, np.full(grid.size, n_hat)) ** 2, axis=1)
-            j = int(np.argmin(rss))
-            best = optimize.minimize_scalar(lambda g, sub=sub: float(np.nansum(sub.per_event(g, n_hat)[0] ** 2)),
-                                            bounds=(grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]),
-                                            method="bounded", options={"xatol": 1e-4})
+
+            def rss(g, sub=sub):
+                return np.nansum(np.atleast_2d(sub.per_event(np.atleast_1d(g), np.full(np.size(g), n_hat))) ** 2,
+                                 axis=1)
+
+            best = None
+            if shift is not None and np.all(np.isfinite(shift)):
+                # cam_phase_shifts holds (J^T J)^+ J^T dr: the optimum moves by minus that
+                guess = float(np.clip(logc_hat - sign * PHASE_REFIT_Z * shift[0], lo_box + REFIT_PROBE,
+                                      hi_box - REFIT_PROBE))
+                probe = guess + REFIT_PROBE * np.array([-1.0, 0.0, 1.0])
+                values = rss(probe)
+                if np.all(np.isfinite(values)) and values[1] < values[0] and values[1] < values[2]:
+                    curvature = values[0] - 2.0 * values[1] + values[2]
+                    best = guess + 0.5 * REFIT_PROBE * (values[0] - values[2]) / curvature
+            if best is None:
+                scan = rss(grid)
+                j = int(np.nanargmin(scan)) if np.any(np.isfinite(scan)) else grid.size // 2
+                best = optimize.minimize_scalar(lambda g: float(rss(g)[0]),
+                                                bounds=(grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]),
+                                                method="bounded", options={"xatol": 1e-4}).x
             obj.n_simulations += sub.n_simulations
             obj.n_failed += sub.n_failed
-            value = math.log(float(obj.beta(best.x, n_hat)))
+            value = math.log(float(obj.beta(best, n_hat)))
             low, high = min(low, value), max(high, value)
     return low, high
 

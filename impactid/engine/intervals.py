@@ -12,7 +12,7 @@ import numpy as np
 from scipy import stats
 
 from impactid.engine.covariance import Covariance, covariance_from_jacobian
-from impactid.engine.search import Search
+from impactid.engine.least_squares import Search
 from impactid.results import Parameter
 
 __all__ = ["BOUND_TOLERANCE", "Uncertainty", "linearised_bootstrap", "uncertainty"]
