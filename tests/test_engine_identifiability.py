@@ -125,3 +125,36 @@ def test_blocks_round_trip_through_json_and_the_report_shows_them():
     bare = FitResult(params=fit.parameters)
     assert bare.to_dict()["model_check"] == {} and "[[Model Check]]" not in bare.report()
     assert again.to_pandas().shape[0] == 2  # the parameters' table, unaffected
+
+
+def test_profile_interval_matches_lmfit_conf_interval_on_misra1a():
+    """The engine's profile interval of one parameter against lmfit's ``conf_interval`` (the F-test
+    interval of one parameter), on NIST's Misra1a; and against the covariance's for a linear model."""
+    import lmfit
+
+    from impactid.engine import Free, profile_interval, search, uncertainty
+    from tests.test_engine import MISRA1A_X, MISRA1A_Y, _misra
+
+    found = search(_misra, (Free("b1", 500.0, 0.0, 1e4), Free("b2", 1e-4, 0.0, 1.0)))
+    fit = uncertainty(found)
+    params = lmfit.Parameters()
+    params.add("b1", 500.0, min=0.0, max=1e4)
+    params.add("b2", 1e-4, min=0.0, max=1.0)
+    model = lmfit.Minimizer(lambda p: MISRA1A_Y - p["b1"] * (1.0 - np.exp(-p["b2"] * MISRA1A_X)), params)
+    reference = model.minimize(method="leastsq")
+    limits = lmfit.conf_interval(model, reference, p_names=["b1", "b2"], sigmas=[0.95])
+    for name in ("b1", "b2"):
+        low, high = profile_interval(_misra, found, fit, name)
+        (_, ref_low), _, (_, ref_high) = limits[name]  # [(0.95, low), (0, best), (0.95, high)]
+        assert low == pytest.approx(ref_low, rel=2e-4) and high == pytest.approx(ref_high, rel=2e-4)
+    # a linear model: the profile interval is the covariance's
+    x = np.linspace(0.0, 1.0, 30)
+    y = 1.0 + 2.0 * x + np.random.default_rng(0).normal(0.0, 0.1, x.size)
+
+    def line(u):
+        return y - (u[0] + u[1] * x)
+
+    found = search(line, (Free("a", 0.5), Free("b", 1.0)))
+    fit = uncertainty(found)
+    slope = fit.parameters[1]
+    assert profile_interval(line, found, fit, "b") == pytest.approx(slope.interval, rel=1e-5)

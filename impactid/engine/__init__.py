@@ -48,7 +48,13 @@ from impactid.engine.checks import (
     residual_against_noise,
 )
 from impactid.engine.covariance import CONDITION_LIMIT, Covariance, covariance_from_jacobian
-from impactid.engine.identifiability import PROFILE_THRESHOLD, compare_models, identifiability, profile_shape
+from impactid.engine.identifiability import (
+    PROFILE_THRESHOLD,
+    compare_models,
+    identifiability,
+    profile_interval,
+    profile_shape,
+)
 from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty, linearised_bootstrap, uncertainty
 from impactid.engine.least_squares import Free, Search, search
 
@@ -56,4 +62,4 @@ __all__ = ["BOUND_TOLERANCE", "CONDITION_LIMIT", "GROSS_LACK_OF_FIT", "LACK_OF_F
            "PROFILE_THRESHOLD", "SIGNIFICANT_EXCESS_FLOOR", "SIGNIFICANT_EXCESS_SIGMAS", "STRUCTURE_SIGNIFICANCE",
            "Covariance", "Free", "ModelCheck", "Search", "Uncertainty", "check_model", "combine_checks",
            "compare_models", "covariance_from_jacobian", "governing_check", "identifiability", "linearised_bootstrap",
-           "profile_shape", "residual_against_noise", "search", "uncertainty"]
+           "profile_interval", "profile_shape", "residual_against_noise", "search", "uncertainty"]

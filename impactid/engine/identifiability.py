@@ -38,7 +38,7 @@ from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty
 from impactid.engine.least_squares import Search, search
 
 __all__ = ["LRT_SIGNIFICANCE", "NEAR_BOUND_STDERR", "PROFILE_STEPS", "PROFILE_THRESHOLD", "compare_models",
-           "identifiability", "profile_shape"]
+           "identifiability", "profile_interval", "profile_shape"]
 
 #: A parameter within this many standard errors of a bound of its search is "near" it.
 NEAR_BOUND_STDERR = 2.0
@@ -281,3 +281,78 @@ def compare_models(models: Sequence[Mapping[str, Any]], nested: Sequence[tuple[s
             "rule": (f"the simpler of nested laws unless the likelihood-ratio test rejects it at p < "
                      f"{LRT_SIGNIFICANCE:g}; AIC and BIC (lmfit's definitions, the fitted scale counted) for laws "
                      "the tests do not relate")}
+
+
+def profile_interval(residual: Callable[[np.ndarray], np.ndarray], found: Search, fit: Uncertainty, name: str, *,
+                     confidence: float | None = None, search_options: Mapping[str, Any] | None = None,
+                     max_standard_errors: float = 50.0) -> tuple[float, float]:
+    """The profile-likelihood interval of one parameter: where ``chi^2`` with it held and the others
+    re-optimised rises above its minimum by the threshold of ``confidence``.
+
+    The threshold is ``t^2`` times the fit's variance scale (:attr:`Uncertainty.scale`), ``t`` the
+    Student quantile of the fit's degrees of freedom (normal with none): the interval the covariance
+    gives when the problem is linear, and the likelihood-ratio (F-test) interval of one parameter
+    otherwise, as lmfit's ``conf_interval`` computes it. Each side is found by stepping out in standard
+    errors until the rise exceeds the threshold and bisecting (relative tolerance 1e-4 of the standard
+    error); a side that does not reach it within ``max_standard_errors`` or the search's bound is open
+    (that bound, or infinite), as a profile that stays flat is.
+
+    Parameters
+    ----------
+    residual : the search's residual function (every parameter's coordinate, as :func:`search` takes it).
+    found, fit : the search and its :func:`uncertainty`.
+    name : the parameter (a varying one).
+    confidence : coverage (default: the fit's).
+    search_options : keyword arguments of the refits' :func:`search`.
+    max_standard_errors : farthest step [standard errors].
+
+    Returns
+    -------
+    ``(low, high)`` in the parameter's unit (mapped back from its logarithm where it is searched in one).
+    """
+    names = [p.name for p in found.free]
+    index = names.index(name)
+    free = found.free[index]
+    if not free.vary:
+        return (free.value, free.value)
+    k = [p.name for p in found.varying].index(name)
+    x, se = float(found.x[k]), float(fit.covariance.stderr[k])
+    level = fit.confidence if confidence is None else confidence
+    q = float(stats.t.ppf(0.5 + 0.5 * level, fit.dof) if fit.dof > 0 else stats.norm.ppf(0.5 + 0.5 * level))
+    threshold = q * q
+    options = dict(search_options or {})
+    lo_bound, hi_bound = free.bounds()
+    if not (math.isfinite(se) and se > 0.0):
+        se = max(abs(x), 1.0) * 1e-3
+
+    def rise(coordinate: float) -> float:
+        return _refit_rise(residual, found, index, coordinate, fit.scale, options)[0]
+
+    ends = []
+    for side, bound in ((-1, lo_bound), (1, hi_bound)):
+        inner, outer, step = x, None, 1.0
+        while step <= max_standard_errors:
+            trial = x + side * step * se
+            if math.isfinite(bound) and (trial - bound) * side >= 0.0:
+                trial = bound
+            if rise(trial) >= threshold:
+                outer = trial
+                break
+            inner = trial
+            if trial == bound:
+                break
+            step *= 2.0
+        if outer is None:
+            ends.append(bound if math.isfinite(bound) else side * math.inf)
+            continue
+        while abs(outer - inner) > 1e-4 * se:
+            middle = 0.5 * (inner + outer)
+            if rise(middle) >= threshold:
+                outer = middle
+            else:
+                inner = middle
+        ends.append(0.5 * (inner + outer))
+    low, high = ends
+    if free.log:
+        return (math.exp(low), math.exp(high))
+    return (low, high)
