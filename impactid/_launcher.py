@@ -1,13 +1,15 @@
 """The ``impactid`` console script: a Ctrl-C or SIGTERM at any moment ends in one line.
 
 The command line's own handlers (:func:`impactid.cli.main`) are in place only once its modules are
-imported, and those imports (NumPy, SciPy, pandas, numba, the rigs) take a second or more. This
-module imports nothing heavy at load time: it installs SIGINT and SIGTERM handlers, imports
-:mod:`impactid.cli` inside :func:`main` (the one reason for a function-level import here: the import
-is the slow part a signal must not break), and turns a signal during the imports or the parser's
-construction into the same one-line error and exit status as a signal during a command. A signal
-during the imports is recorded and acted on when they end, not raised inside a library's
-initialisation.
+imported. Those are light (the parser is built from data: ``impactid --help`` loads no NumPy, SciPy,
+pandas or numba); the heavy imports happen when a command runs, inside the command's environment,
+which defers a stop that arrives during an import in the same way (:func:`impactid.cli._after_imports`).
+This module imports nothing of impactid's at load time but the signal helpers: it installs SIGINT
+and SIGTERM handlers, imports :mod:`impactid.cli` inside :func:`main` (the one reason for a
+function-level import here: no import may be broken by a signal, and the handlers come first), and
+turns a signal during the import or the parser's construction into the same one-line error and exit
+status as a signal during a command. A signal during the import is recorded and acted on when it
+ends, not raised inside a library's initialisation.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ class _Terminated(BaseException):
 
 
 #: The signals that arrived while the modules were imported. The first is only recorded, and acted on
-#: once the imports are done (a second or two at most): an exception raised in the middle of a
+#: once the imports are done (a fraction of a second): an exception raised in the middle of a
 #: library's initialisation can leave its C state half-built (NumPy re-raises it as ``ImportError``;
 #: an old numba/llvmlite was seen to crash). A second signal is raised at once, as an escape hatch.
 _arrived: list[int] = []
@@ -90,7 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         _importing[0] = True
         try:
-            from impactid import cli  # the slow imports; a signal meanwhile is acted on right after them
+            from impactid import cli  # a signal meanwhile is acted on right after the import
         except BaseException:
             if _arrived:  # whatever a library made of a second signal's exception
                 return _stopped(_arrived[0])

@@ -34,10 +34,10 @@ import sys
 import threading
 import types
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 from impactid._files import TerminationRequested, request_termination, termination_requested
-from impactid._signals import arrived_stop, forget_stops, stopping_handler
+from impactid._signals import RETRY_S, arrived_stop, forget_stops, stopping_handler
 from impactid._version import __version__
 from impactid.commandline import (
     UsageError,
@@ -53,9 +53,18 @@ from impactid.commandline import (
     say_written,
     stage_progress,
 )
+from impactid.distributed import add_scheduler_arguments
 from impactid.errors import ImpactidError
-from impactid.pipeline import Pipeline, read_recordings, recordings_model, rig_estimator
-from impactid.rigs.registry import estimable_models, estimator
+from impactid.rigs.base import argument_dests
+from impactid.rigs.registry import (
+    PLUGINS,
+    estimable_models,
+    estimate_arguments,
+    estimate_title,
+    resolve_rig,
+    rig_commands,
+    rig_model,
+)
 
 __all__ = ["UsageError", "build_parser", "main"]
 
@@ -67,10 +76,17 @@ EXIT_BROKEN_PIPE = 141
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (``impactid: error: argument --x: ...``) raised, not printed."""
+    """argparse with one-line errors (``impactid: error: argument --x: ...``) raised, not printed, and
+    a description that may be a function, called when the help is printed (a text that lives in a
+    heavy module: building the parser does not import it)."""
 
     def error(self, message: str):  # noqa: D401 - argparse API
         raise UsageError(message)
+
+    def format_help(self) -> str:
+        if callable(self.description):
+            self.description = self.description()
+        return super().format_help()
 
 
 # ---- commands ---------------------------------------------------------------------------------
@@ -145,6 +161,10 @@ _ESTIMATE_ARGUMENTS = frozenset({"recordings", "example", "rig", "out", "plots",
 
 def cmd_estimate(args) -> int:
     """``impactid estimate``: the estimate of the recordings' rig (:class:`impactid.pipeline.Pipeline`)."""
+    # the pipeline loads the recordings' reader (numba) and the estimators: when the command runs, not
+    # when the parser is built (``impactid --help`` starts in a fraction of a second)
+    from impactid.pipeline import Pipeline, read_recordings, recordings_model, rig_estimator
+
     paths = recording_paths(args, several=True)
     inputs = command_inputs(args, paths)
     check_outputs(args, inputs)
@@ -176,23 +196,24 @@ def _refuse_foreign_estimate_options(args, model: str, est) -> None:
     for dest, value in sorted(vars(args).items()):
         if dest in own or dest in _ESTIMATE_ARGUMENTS or dest not in defaults or value == defaults[dest]:
             continue
-        owners = [name for name in estimable_models() if dest in estimator(name).argument_dests()]
+        owners = [name for name in estimable_models() if dest in argument_dests(estimate_arguments(name))]
         raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'estimate' for the {model!r} rig "
                          f"(it is an option of the {' and '.join(repr(o) for o in owners)} rig's estimate)")
 
 
 def _add_estimate_command(sub) -> None:
-    """``impactid estimate``: the generic arguments and the union of the rigs' estimate arguments."""
-    estimators = {name: estimator(name) for name in estimable_models()}
-    titles = "; ".join(e.title for e in estimators.values() if e.title)
+    """``impactid estimate``: the generic arguments and the union of the rigs' estimate arguments (read
+    from each rig's light declaration of them: building the parser imports no estimation module)."""
+    models = estimable_models()
+    titles = "; ".join(title for title in map(estimate_title, models) if title)
     p = sub.add_parser("estimate", help=f"estimate a contact law from recordings of one rig ({titles})",
                        description="Estimate the contact law of the recordings' rig (their /rig model picks the "
-                                   f"estimate: {', '.join(estimators)}); several recordings: a joint fit. Options of "
+                                   f"estimate: {', '.join(models)}); several recordings: a joint fit. Options of "
                                    "one rig's estimate are refused for another rig's recordings.")
     for argument in recording_arguments(several=True):
         argument.add_to(p)
-    for est in estimators.values():
-        for argument in est.arguments:
+    for name in models:
+        for argument in estimate_arguments(name):
             argument.add_to(p)
     p.add_argument("--out", metavar="RESULT.json", help="write the result as JSON (atomically)")
     p.add_argument("--plots", metavar="DIR", help="write figures (rig P: hysteresis, restitution, landscape, "
@@ -203,16 +224,19 @@ def _add_estimate_command(sub) -> None:
     p.set_defaults(func=cmd_estimate, option_defaults=types.MappingProxyType({a.dest: a.default for a in p._actions}))
 
 
-def _add_campaign_command(sub) -> None:
+def _campaign_description() -> str:
+    """``impactid campaign --help``'s text: the campaign file's format (:data:`impactid.campaign.FORMAT_HELP`;
+    that module loads pandas and the pipeline, so it is imported when this help is printed)."""
     from impactid.campaign import FORMAT_HELP
-    from impactid.distributed import add_scheduler_arguments
 
+    return FORMAT_HELP + ("\nExit status: 0 when every fit ended in an estimate, 1 when some failed (the table and "
+                          "the\nfailed: lines say why), 2 when the campaign could not be run.")
+
+
+def _add_campaign_command(sub) -> None:
     p = sub.add_parser("campaign", help="fit every recording of a campaign alone and its groups jointly, on a dask "
                                         "cluster; a rerun skips finished fits",
-                       formatter_class=argparse.RawDescriptionHelpFormatter,
-                       description=FORMAT_HELP + "\nExit status: 0 when every fit ended in an estimate, 1 when some "
-                                                 "failed (the table and the\nfailed: lines say why), 2 when the "
-                                                 "campaign could not be run.")
+                       formatter_class=argparse.RawDescriptionHelpFormatter, description=_campaign_description)
     p.add_argument("source", metavar="CAMPAIGN.toml|DIR", help="campaign file, or a folder of recordings")
     p.add_argument("--out", metavar="DIR", help="output folder (default: [campaign] out of the campaign file)")
     add_scheduler_arguments(p, local_default=True)
@@ -250,18 +274,18 @@ def _add_rig_commands(sub) -> None:
     implementation; its arguments are the union of theirs. ``--rig`` is a model name among theirs
     (``rig_argument="model"``), or a model name, preset name or rig file resolved through the
     registry (``rig_argument="resolve"``; the spec with ``default_rig`` runs without ``--rig``).
-    Commands are grouped (``impactid valvetrain simulate``) or top-level (group ``""``)."""
-    from impactid.rigs.registry import MODELS
-
+    Commands are grouped (``impactid valvetrain simulate``) or top-level (group ``""``). The rigs'
+    commands modules are read without building the rigs' models (:func:`~impactid.rigs.registry.rig_commands`):
+    a command builds its rig's model when it runs."""
     specs: dict[tuple[str, str], list] = {}
-    for model in MODELS.values():
-        for spec in model.command_specs():
+    for model in list(PLUGINS):
+        for spec in rig_commands(model):
             specs.setdefault((spec.group, spec.name), []).append((model, spec))
     groups: dict[str, argparse._SubParsersAction] = {}
     for (group, name), entries in specs.items():
         if group:
             if group not in groups:
-                rigs = ", ".join(sorted({m.name for m, _ in entries}))
+                rigs = ", ".join(sorted({m for m, _ in entries}))
                 holder = sub.add_parser(group, help=f"{group} commands ({rigs})")
                 groups[group] = holder.add_subparsers(dest=f"{group}_command", required=True, parser_class=_Parser)
             target = groups[group]
@@ -269,9 +293,9 @@ def _add_rig_commands(sub) -> None:
             target = sub
         command = f"{group} {name}".strip()
         p = target.add_parser(name, help=entries[0][1].help, description=entries[0][1].description or None)
-        names = [m.name for m, _ in entries]
+        names = [m for m, _ in entries]
         modes = {spec.rig_argument for _, spec in entries}
-        defaults = [m.name for m, spec in entries if spec.default_rig]
+        defaults = [m for m, spec in entries if spec.default_rig]
         if len(modes) > 1 or len(defaults) > 1:
             raise ValueError(f"the rigs contributing '{command}' ({', '.join(names)}) disagree on its --rig")
         resolve = modes == {"resolve"}
@@ -288,7 +312,7 @@ def _add_rig_commands(sub) -> None:
                 argument.add_to(p)
         option_defaults = types.MappingProxyType({a.dest: a.default for a in p._actions})
         p.set_defaults(func=functools.partial(_run_rig_command, command=command,
-                                              specs={m.name: spec for m, spec in entries},
+                                              specs={m: spec for m, spec in entries},
                                               choose=resolve or bool(group) or len(names) > 1,
                                               resolve=resolve, default=default),
                        option_defaults=option_defaults)
@@ -299,8 +323,6 @@ def _run_rig_command(args, *, command: str, specs: dict, choose: bool, resolve: 
     one rig, which may declare and resolve a ``--rig`` of its own). ``args.option_defaults`` holds
     the command's option defaults (a rig can tell an option of another rig's version of a shared
     command that was given from one that was not)."""
-    from impactid.rigs.registry import resolve_rig, rig_model
-
     if resolve:
         resolved = resolve_rig(args.rig, default=default)
         spec = specs.get(resolved.model.name)
@@ -340,7 +362,8 @@ def _command_environment() -> Iterator[None]:
         raise KeyboardInterrupt()
 
     # raised only outside numba's and llvmlite's machinery (impactid._signals: an exception there
-    # crashed the process)
+    # crashed the process) and outside a module's initialisation (the command's heavy imports)
+    stop, end_deferral = _after_imports(stop)
     handler = stopping_handler(stop, _last_words)
 
     def unraisable(info):
@@ -370,11 +393,69 @@ def _command_environment() -> Iterator[None]:
             if stop is not None:
                 raise KeyboardInterrupt()
     finally:
+        end_deferral()
         forget_stops()
         sys.unraisablehook = previous_hook
         if in_main:
             signal.signal(signal.SIGTERM, previous_handler)
             signal.signal(signal.SIGINT, previous_interrupt)
+
+
+def _importing(frame: types.FrameType | None) -> bool:
+    """Whether ``frame`` or one of its callers is the import machinery (a module is being initialised)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _after_imports(stop: Callable[[int], None]) -> tuple[Callable[[int], None], Callable[[], None]]:
+    """``stop``, deferred while a module is being imported, and the function that ends the deferral.
+
+    A command imports its heavy modules (NumPy, pandas, SciPy, numba, the rig's numerics) when it
+    runs, inside the command's environment: an exception raised in the middle of a library's
+    initialisation can leave its C state half-built (pyarrow's, under pandas, was seen to kill the
+    process at exit or hang it), so a stop that arrives during an import is sent again every
+    :data:`~impactid._signals.RETRY_S` and acts once the import has ended, as the launcher does for
+    its own imports (:mod:`impactid._launcher`). A second signal from outside while one waits ends
+    the process at once, with the one-line message."""
+    state = {"waiting": False, "resent": 0, "active": True}
+    lock = threading.Lock()
+
+    def resend(signum: int) -> None:
+        with lock:
+            if not state["active"]:  # the command has ended: nothing left to stop
+                return
+            state["resent"] += 1
+        with contextlib.suppress(OSError):
+            os.kill(os.getpid(), signum)
+
+    def deferred(signum: int) -> None:
+        with lock:
+            own = state["resent"] > 0
+            if own:
+                state["resent"] -= 1
+        if not own and state["waiting"]:  # a second signal from outside: now
+            try:
+                sys.stderr.write(f"impactid: error: {_last_words(signum)}\n")
+                sys.stderr.flush()
+            finally:
+                os._exit(128 + signum)
+        if _importing(sys._getframe(1)):
+            state["waiting"] = True
+            timer = threading.Timer(RETRY_S, resend, (signum,))
+            timer.daemon = True
+            timer.start()
+            return
+        state["waiting"] = False
+        stop(signum)
+
+    def end() -> None:
+        with lock:
+            state["active"] = False
+
+    return deferred, end
 
 
 def _last_words(signum: int) -> str:

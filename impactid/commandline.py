@@ -21,7 +21,6 @@ from pathlib import Path
 
 from impactid._files import StagedFiles, check_distinct_inputs, check_output
 from impactid.errors import ImpactidError
-from impactid.results import json_ready
 from impactid.rigs.base import Argument
 from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, RIG_MODELS, rig_by_name, rig_model
 
@@ -102,6 +101,8 @@ def pair(text: str) -> tuple[float, float]:
 
 def json_text(data: dict) -> str:
     """JSON text of a result: non-finite numbers are written as null and listed in ``warnings``."""
+    from impactid.results import json_ready  # results loads pandas: only when a result is written
+
     undetermined: list[str] = []
     clean = json_ready(data, undetermined)
     shown = [p for p in undetermined if not p.startswith("per_impact")]

@@ -16,6 +16,18 @@ A rig that identifies a contact law from its recordings names its estimation mod
 command-line arguments, ``prepare`` (one recording) and ``fit`` (the prepared recordings of one
 rig, jointly), and how a result is written and told. :func:`estimate_options` checks a rig's
 options (an unknown one is an :class:`OptionError` naming it and the rig).
+
+The command line is built from light modules only (``impactid --help`` and every ``impactid COMMAND
+--help`` load no numba, pandas, SciPy, matplotlib or rig numerics): a rig's commands module declares
+its arguments as data and imports the numerics inside each command's ``run``; the arguments of its
+estimate live in a light module named by :attr:`RigModel.estimate_arguments` (its ``ARGUMENTS`` and
+``TITLE``; the estimation module imports them from there), so that ``impactid estimate --help``
+does not import the estimation. The registry reads these import paths without building the
+rig's ``MODEL`` when the rig's package also declares them as module constants named like the fields
+in upper case (``COMMANDS``, ``ESTIMATION``, ``ESTIMATE_ARGUMENTS``; and ``PRESET_NAMES``, the names of
+:attr:`RigModel.presets`, so that ``--rig PRESET`` builds no other rig's model) and builds ``MODEL``
+(which imports the rig's parameters) on first access (:func:`lazy_attributes`,
+:func:`impactid.rigs.registry.rig_commands`).
 """
 
 from __future__ import annotations
@@ -23,6 +35,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import sys
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,7 +45,8 @@ from impactid._version import __version__
 from impactid.errors import ImpactidError
 
 __all__ = ["Argument", "ChannelSpec", "CommandSpec", "ContactLaw", "Estimator", "OptionError", "PreparedRecording",
-           "RigModel", "estimate_options", "options_record", "pipeline_provenance"]
+           "RigModel", "argument_dests", "estimate_options", "lazy_attributes", "options_record",
+           "pipeline_provenance"]
 
 
 @dataclass(frozen=True)
@@ -172,6 +187,11 @@ class RigModel:
         :class:`Estimator`) identifies the contact law from the rig's recordings (``impactid
         estimate``, :class:`impactid.pipeline.Pipeline`); a string, as :attr:`kernel`, so that reading
         a rig file does not load it. None: impactid estimates nothing from this rig's recordings.
+    estimate_arguments : import path of the light module (no numerics at module level) that holds
+        the command-line arguments of the rig's estimate as ``ARGUMENTS`` (what
+        :attr:`Estimator.arguments` is) and its one-line ``TITLE`` (:attr:`Estimator.title`): what
+        ``impactid estimate`` and its ``--help`` read without importing :attr:`estimation`. None: they
+        are read from the ``ESTIMATOR`` (which imports the estimation module).
     """
 
     name: str
@@ -192,6 +212,7 @@ class RigModel:
     example: Callable | None = None
     commands: Sequence[CommandSpec] | str = ()
     estimation: str | None = None
+    estimate_arguments: str | None = None
     replay: str | None = None
     calibrate: str | None = None
 
@@ -222,6 +243,35 @@ class RigModel:
             return self.presets[name]
         except KeyError:
             raise KeyError(f"no preset {name!r} for rig {self.name!r}; presets: {', '.join(self.presets)}") from None
+
+
+def lazy_attributes(module: str, names: Mapping[str, str],
+                    built: Mapping[str, Callable[[], Any]] | None = None) -> Callable[[str], Any]:
+    """The module ``__getattr__`` (PEP 562) of a rig's package, so that importing the package (the
+    registry, the command line) loads none of the rig's parameters or numerics.
+
+    Each of ``names`` (name -> the module that defines it) is imported on first access; each of
+    ``built`` (name -> a function of no argument: the rig's ``MODEL``) is built once, on first
+    access. Either is then kept in the module ``module`` (a second access costs nothing).
+    """
+    lock = threading.RLock()
+    built = dict(built or {})
+
+    def __getattr__(name: str) -> Any:
+        if name in names:
+            value = getattr(importlib.import_module(names[name]), name)
+        elif name in built:
+            with lock:  # one record, whichever thread asks first
+                namespace = vars(sys.modules[module])
+                if name in namespace:
+                    return namespace[name]
+                value = built[name]()
+        else:
+            raise AttributeError(f"module {module!r} has no attribute {name!r}")
+        vars(sys.modules[module])[name] = value
+        return value
+
+    return __getattr__
 
 
 # ---- estimation -------------------------------------------------------------------------------------
@@ -315,12 +365,7 @@ class Estimator:
 
     def argument_dests(self) -> tuple[str, ...]:
         """The ``dest`` of each of :attr:`arguments` (what they set in an :class:`argparse.Namespace`)."""
-        out = []
-        for argument in self.arguments:
-            options = argument.options() if callable(argument.options) else argument.options
-            flag = argument.flags[0]
-            out.append(options.get("dest") or (flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag))
-        return tuple(out)
+        return argument_dests(self.arguments)
 
     def options_from_arguments(self, args: argparse.Namespace) -> dict[str, Any]:
         """The options ``args`` gives (:attr:`from_arguments`, or the arguments named as options)."""
@@ -328,6 +373,16 @@ class Estimator:
             return dict(self.from_arguments(args))
         return {dest: getattr(args, dest) for dest in self.argument_dests()
                 if dest in self.options and hasattr(args, dest)}
+
+
+def argument_dests(arguments: Sequence[Argument]) -> tuple[str, ...]:
+    """The ``dest`` of each of ``arguments`` (what they set in an :class:`argparse.Namespace`)."""
+    out = []
+    for argument in arguments:
+        options = argument.options() if callable(argument.options) else argument.options
+        flag = argument.flags[0]
+        out.append(options.get("dest") or (flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag))
+    return tuple(out)
 
 
 def _frozen_value(value: Any) -> Any:

@@ -5,18 +5,18 @@ from __future__ import annotations
 import importlib
 import math
 import os
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from impactid.errors import RigParameterError
 from impactid.rigs._toml import read_toml, write_text_atomic
-from impactid.rigs.base import Estimator, RigModel
+from impactid.rigs.base import Argument, CommandSpec, Estimator, RigModel
 
-__all__ = ["DEFAULT_EXAMPLE_MODEL", "MODELS", "PLUGINS", "RIG_MODELS", "ResolvedRig", "estimable_models", "estimator",
-           "is_rig_parameters", "load_rig_toml", "register", "resolve_rig", "rig_by_name", "rig_from_mapping",
-           "rig_model", "save_rig_toml"]
+__all__ = ["DEFAULT_EXAMPLE_MODEL", "MODELS", "PLUGINS", "RIG_MODELS", "ResolvedRig", "estimable_models",
+           "estimate_arguments", "estimate_title", "estimator", "is_rig_parameters", "load_rig_toml", "register",
+           "resolve_rig", "rig_by_name", "rig_commands", "rig_from_mapping", "rig_model", "save_rig_toml"]
 
 #: The built-in rigs, one line per rig: the docs/formats.md model name, the package whose ``MODEL``
 #: (a :class:`~impactid.rigs.base.RigModel`) it is, and whether the rig is described by TOML rig
@@ -114,23 +114,93 @@ def rig_model(name: str) -> RigModel:
     return _load(name)
 
 
+#: The import-path fields of a rig model that its package may also declare as module constants (the
+#: field's name in upper case), so that the command line is built without building ``MODEL``.
+_LIGHT_FIELDS = ("commands", "estimation", "estimate_arguments")
+_NOT_DECLARED = object()
+
+
+def _declared(name: str, constant: str, read: Callable[[RigModel], Any]) -> Any:
+    """What the rig model ``name``'s package declares as the module constant ``constant``, read without
+    building its ``MODEL`` (which imports the rig's parameters, and for some rigs its kernel); else (a
+    package that does not declare it, or a model registered at run time) ``read(model)``."""
+    model = _LOADED.get(name)
+    if model is None:
+        declared = vars(importlib.import_module(PLUGINS[name][0])).get(constant, _NOT_DECLARED)
+        if declared is not _NOT_DECLARED:
+            return declared
+        model = _load(name)
+    return read(model)
+
+
+def _path(name: str, field: str) -> Any:
+    """The import-path field ``field`` of the rig model ``name`` (:data:`_LIGHT_FIELDS`), read without
+    building its ``MODEL`` when its package declares it as a module constant (``COMMANDS``, ...): the
+    parser and every ``--help`` load no rig's parameters or numerics. Unknown names raise ``KeyError``."""
+    if name not in PLUGINS:
+        raise KeyError(f"unknown rig model {name!r} (known: {', '.join(PLUGINS) or 'none'})")
+    return _declared(name, field.upper(), lambda model: getattr(model, field))
+
+
+def _preset_names(name: str) -> tuple[str, ...]:
+    """The names of the rig model ``name``'s presets (its package's ``PRESET_NAMES``, read without
+    building its ``MODEL``; else the model's :attr:`~impactid.rigs.base.RigModel.presets`)."""
+    return tuple(_declared(name, "PRESET_NAMES", lambda model: tuple(model.presets)))
+
+
+def rig_commands(name: str) -> tuple[CommandSpec, ...]:
+    """The commands the rig model ``name`` contributes (:meth:`~impactid.rigs.base.RigModel.command_specs`),
+    read from its commands module without building its ``MODEL`` when its package declares ``COMMANDS``."""
+    path = _path(name, "commands")
+    if isinstance(path, str):
+        return tuple(importlib.import_module(path).COMMANDS)
+    return rig_model(name).command_specs()
+
+
 def estimator(name: str) -> Estimator | None:
     """The :class:`~impactid.rigs.base.Estimator` of the rig model ``name`` (the ``ESTIMATOR`` of its
     :attr:`~impactid.rigs.base.RigModel.estimation` module, imported on first use), or None when
     impactid estimates nothing from that rig's recordings. Unknown names raise ``KeyError``."""
-    model = rig_model(name)
-    if model.estimation is None:
+    path = _path(name, "estimation")
+    if path is None:
         return None
-    found = getattr(importlib.import_module(model.estimation), "ESTIMATOR", None)
+    found = getattr(importlib.import_module(path), "ESTIMATOR", None)
     if not isinstance(found, Estimator):
-        raise RuntimeError(f"{model.estimation}.ESTIMATOR of rig {name!r} is not an Estimator")
+        raise RuntimeError(f"{path}.ESTIMATOR of rig {name!r} is not an Estimator")
     return found
 
 
+def _estimate_declaration(name: str, attribute: str) -> Any:
+    """``ARGUMENTS`` or ``TITLE`` of the rig's :attr:`~impactid.rigs.base.RigModel.estimate_arguments`
+    module (light: the estimation is not imported), else the estimator's own; None without an estimation."""
+    if _path(name, "estimation") is None:
+        return None
+    path = _path(name, "estimate_arguments")
+    if path is not None:
+        return getattr(importlib.import_module(path), attribute)
+    found = estimator(name)
+    return found.arguments if attribute == "ARGUMENTS" else found.title
+
+
+def estimate_arguments(name: str) -> tuple[Argument, ...]:
+    """The command-line arguments of the rig model ``name``'s estimate (its
+    :attr:`~impactid.rigs.base.Estimator.arguments`), read from its light
+    :attr:`~impactid.rigs.base.RigModel.estimate_arguments` module when it names one (the estimation
+    module is not imported); empty when impactid estimates nothing from that rig."""
+    found = _estimate_declaration(name, "ARGUMENTS")
+    return tuple(found) if found is not None else ()
+
+
+def estimate_title(name: str) -> str:
+    """What the rig model ``name``'s estimate identifies, one line (:attr:`~impactid.rigs.base.Estimator.title`),
+    read as :func:`estimate_arguments` reads the arguments; empty without an estimation."""
+    return _estimate_declaration(name, "TITLE") or ""
+
+
 def estimable_models() -> tuple[str, ...]:
-    """The names of the registered rig models with an estimation (loads each rig's package, not its
-    estimation module)."""
-    return tuple(name for name in PLUGINS if rig_model(name).estimation is not None)
+    """The names of the registered rig models with an estimation (imports each rig's package, neither
+    its estimation module nor, when the package declares ``ESTIMATION``, its parameters)."""
+    return tuple(name for name in PLUGINS if _path(name, "estimation") is not None)
 
 
 def is_rig_parameters(value: Any) -> bool:
@@ -167,12 +237,16 @@ def rig_by_name(name: str) -> tuple[RigModel, Any] | None:
         return None
     if name in MODELS:
         return MODELS[name], MODELS[name].default
-    exact = [(m, m.presets[name]) for m in MODELS.values() if name in m.presets]
+    folded = name.casefold()
+    # the rigs ``name`` may stand for, found by their names and preset names without building the
+    # others' models (a rig file's path, the usual case, names none: no rig's model is built here)
+    meant = [MODELS[m] for m in PLUGINS
+             if m.casefold() == folded or any(p.casefold() == folded for p in _preset_names(m))]
+    exact = [(m, m.presets[name]) for m in meant if name in m.presets]
     if len(exact) == 1:
         return exact[0]
-    folded = name.casefold()
-    loose = [(m, m.default) for m in MODELS.values() if m.name.casefold() == folded]
-    loose += [(m, rig) for m in MODELS.values() for key, rig in m.presets.items() if key.casefold() == folded]
+    loose = [(m, m.default) for m in meant if m.name.casefold() == folded]
+    loose += [(m, rig) for m in meant for key, rig in m.presets.items() if key.casefold() == folded]
     unique = {(m.name, id(rig)): (m, rig) for m, rig in exact + loose}
     if len(unique) > 1:
         raise RigParameterError(f"rig name {name!r} is ambiguous: a preset of "

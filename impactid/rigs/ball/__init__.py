@@ -15,44 +15,18 @@ enough to measure ``e`` as a function of the impact speed. The modules follow th
 * :mod:`~impactid.rigs.ball.laws`: constant, linear and viscoelastic laws, cluster-robust errors,
   AIC/BIC, the chained trajectory fit;
 * :mod:`~impactid.rigs.ball.analysis`: the whole job, :func:`analyse_bounces`;
-* :mod:`~impactid.rigs.ball.figures`, :mod:`~impactid.rigs.ball.synth`, :mod:`~impactid.rigs.ball.cli`.
+* :mod:`~impactid.rigs.ball.figures`, :mod:`~impactid.rigs.ball.synth`, :mod:`~impactid.rigs.ball.commands`
+  (``impactid bounces``, its arguments) and :mod:`~impactid.rigs.ball.cli` (what it runs).
 
-See ``docs/bounces.md`` for the method, the formats and the results on real recordings.
+See ``docs/bounces.md`` for the method, the formats and the results on real recordings. Importing
+this package loads nothing of the rig: the names below are imported from their modules on first use
+and :data:`MODEL` is built on first use, so that building the command line (which reads
+:data:`COMMANDS`) loads neither numpy nor SciPy.
 """
 
-from impactid.rigs.ball.analysis import BounceAnalysis, BounceAnalysisError, analyse_bounces
-from impactid.rigs.ball.flight import (
-    FlightConstants,
-    flight_constants,
-    flight_time,
-    invert_flights,
-    landing_speed,
-    launch_speed,
-    restitution_from_flights,
-)
-from impactid.rigs.ball.laws import LAWS, ChainedFit, Law, LawFit, fit_chained, fit_law, get_law, select_law
-from impactid.rigs.ball.onsets import Onsets, detect_onsets
-from impactid.rigs.ball.parameters import (
-    BALL_PRESETS,
-    GOLF,
-    TABLE_TENNIS,
-    TENNIS,
-    Ball,
-    BallParameterError,
-    ball_preset,
-)
-from impactid.rigs.ball.readers import (
-    Audio,
-    BounceFileError,
-    BounceRecording,
-    read_audio,
-    read_bounces,
-    read_event_csv,
-    read_many,
-    read_phyphox,
-    read_wav,
-)
-from impactid.rigs.ball.sequence import CleanedSequence, clean_sequence
+from __future__ import annotations
+
+from impactid.rigs.base import RigModel, lazy_attributes
 
 __all__ = [
     "BALL_PRESETS", "GOLF", "MODEL", "LAWS", "TABLE_TENNIS", "TENNIS", "Audio", "Ball", "BallParameterError",
@@ -63,17 +37,58 @@ __all__ = [
     "read_wav", "restitution_from_flights", "select_law",
 ]
 
-# ---- the rig model (registered in impactid.rigs.registry) ----
-from impactid.rigs.base import RigModel  # noqa: E402
+#: The rig's command by import path (:data:`MODEL`'s field, read by the registry without building
+#: :data:`MODEL`); impactid's generic estimate takes no bounce recordings.
+COMMANDS = "impactid.rigs.ball.commands"
+ESTIMATION = None
+ESTIMATE_ARGUMENTS = None
 
-#: The bouncing ball behind the rig-model protocol: no cam, no compiled kernel; its measurement model
-#: turns bounce recordings into per-bounce restitution and its command is ``impactid bounces``.
-MODEL = RigModel(
-    name="bouncing-ball",
-    title="A ball bouncing on a floor, timed by the sound of its bounces (phyphox, CSV, WAV)",
-    citation="",
-    parameters=Ball,
-    presets=BALL_PRESETS,
-    measure=analyse_bounces,
-    commands="impactid.rigs.ball.cli",
-)
+#: The names of the rig's presets, the default first (``MODEL.presets``): ``--rig NAME`` finds its rig
+#: without building the other rigs' models.
+PRESET_NAMES = ("table-tennis", "pingpong", "ping-pong", "tabletennis", "golf", "tennis")
+
+#: Where the public names live, imported on first use.
+_LAZY = {
+    **dict.fromkeys(("BounceAnalysis", "BounceAnalysisError", "analyse_bounces"), "impactid.rigs.ball.analysis"),
+    **dict.fromkeys(("FlightConstants", "flight_constants", "flight_time", "invert_flights", "landing_speed",
+                     "launch_speed", "restitution_from_flights"), "impactid.rigs.ball.flight"),
+    **dict.fromkeys(("LAWS", "ChainedFit", "Law", "LawFit", "fit_chained", "fit_law", "get_law", "select_law"),
+                    "impactid.rigs.ball.laws"),
+    **dict.fromkeys(("Onsets", "detect_onsets"), "impactid.rigs.ball.onsets"),
+    **dict.fromkeys(("BALL_PRESETS", "GOLF", "TABLE_TENNIS", "TENNIS", "Ball", "BallParameterError", "ball_preset"),
+                    "impactid.rigs.ball.parameters"),
+    **dict.fromkeys(("Audio", "BounceFileError", "BounceRecording", "read_audio", "read_bounces", "read_event_csv",
+                     "read_many", "read_phyphox", "read_wav"), "impactid.rigs.ball.readers"),
+    **dict.fromkeys(("CleanedSequence", "clean_sequence"), "impactid.rigs.ball.sequence"),
+}
+
+
+def _measure(sources, **options):
+    """:func:`~impactid.rigs.ball.analysis.analyse_bounces` (imported on use: it loads numpy and SciPy)."""
+    from impactid.rigs.ball.analysis import analyse_bounces
+
+    return analyse_bounces(sources, **options)
+
+
+def _model() -> RigModel:
+    """The bouncing ball behind the rig-model protocol: no cam, no compiled kernel; its measurement model
+    turns bounce recordings into per-bounce restitution and its command is ``impactid bounces``. Built on
+    first use of :data:`MODEL` (registered in :mod:`impactid.rigs.registry`)."""
+    from impactid.rigs.ball.parameters import BALL_PRESETS, Ball
+
+    return RigModel(
+        name="bouncing-ball",
+        title="A ball bouncing on a floor, timed by the sound of its bounces (phyphox, CSV, WAV)",
+        citation="",
+        parameters=Ball,
+        presets=BALL_PRESETS,
+        measure=_measure,
+        commands=COMMANDS,
+    )
+
+
+__getattr__ = lazy_attributes(__name__, _LAZY, {"MODEL": _model})
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -8,12 +8,12 @@
 Each command checks its outputs before computing, writes them as one transaction, prints a short
 report or, with ``--json``, the JSON document, and raises :class:`~impactid.errors.ImpactidError`
 for what the user can fix. SI units on the command line (heights in m, speeds in m/s, ``beta`` in
-N s m^-(n+1)). Importing this module loads no numerics.
+N s m^-(n+1)). Importing this module loads no numerics (nor numpy: the figures' module is imported
+when a figure is written); the fit's arguments are declared in :mod:`impactid.rigs.drop.arguments`.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import os
 from pathlib import Path
@@ -41,9 +41,9 @@ from impactid.commandline import (
     write_synthetic,
 )
 from impactid.rigs.base import Argument, CommandSpec
-from impactid.rigs.drop.figures import save
+from impactid.rigs.drop.arguments import fit_arguments
 
-__all__ = ["COMMANDS"]
+__all__ = ["COMMANDS", "fit_arguments", "fit_figures"]
 
 MODEL_NAME = "drop-impact"
 
@@ -188,7 +188,7 @@ def run_simulate(args, model) -> int:
             "impacts": table.to_dict(orient="list")}
 
     def figures(staged):
-        from impactid.rigs.drop.figures import drop_figure
+        from impactid.rigs.drop.figures import drop_figure, save
 
         return [save(drop_figure(run), Path(args.plots) / "drop_force.png", staged)]
 
@@ -216,44 +216,13 @@ def run_simulate(args, model) -> int:
 # ---- impactid drop fit ---------------------------------------------------------------------------
 
 
-def _channel_list(text: str) -> tuple[str, ...]:
-    from impactid.rigs.drop.parameters import ACCELERATION_CHANNEL, FORCE_CHANNEL
-
-    names = {"acceleration": ACCELERATION_CHANNEL, ACCELERATION_CHANNEL: ACCELERATION_CHANNEL,
-             "force": FORCE_CHANNEL, FORCE_CHANNEL: FORCE_CHANNEL}
-    out = []
-    for part in text.split(","):
-        part = part.strip()
-        if part not in names:
-            raise argparse.ArgumentTypeError(f"unknown channel {part!r} (acceleration, force)")
-        out.append(names[part])
-    return tuple(dict.fromkeys(out))
-
-
-def fit_arguments(prefix: str = "") -> tuple[Argument, ...]:
-    """The options of the drop fit (:func:`~impactid.rigs.drop.identify.fit_drop`), declared once for
-    ``impactid drop fit`` and the generic ``impactid estimate`` (which prefixes their help with the
-    rig's name: its options are the union of the rigs')."""
-    return (
-        Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
-                                "help": "fix the exponent n of the damping (0: viscous)"}),
-        Argument(("--channels",), {"type": _channel_list, "default": None, "metavar": "acceleration,force",
-                                   "help": f"{prefix}the signals fitted (default: those the recordings have)"}),
-        Argument(("--max-impacts",), {"type": integer_in(1, 1000), "default": 4,
-                                      "help": f"{prefix}impacts fitted per recording, the first ones (default 4)"}),
-        Argument(("--speeds",), {"choices": ["fit", "measured"], "default": "fit",
-                                 "help": f"{prefix}onset speeds fitted with the contact (default) or held at the "
-                                         "measured values"}),
-        Argument(("--confidence",), {"type": fraction, "default": 0.95,
-                                     "help": f"{prefix}coverage of the intervals (default 0.95)"}),
-    )
-
-
 def fit_figures(result, plots: str | os.PathLike[str]):
     """The figure of a drop fit's ``--plots``: its name and its writer (measured and simulated contact
     signals with the residuals)."""
 
     def write(staged):
+        from impactid.rigs.drop.figures import save
+
         return [save(result.plot(), Path(plots) / "drop_fit.png", staged)]
 
     return ["drop_fit.png"], write

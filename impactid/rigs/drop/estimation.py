@@ -18,7 +18,8 @@ from dataclasses import replace
 from typing import Any
 
 from impactid.rigs.base import Estimator, PreparedRecording, pipeline_provenance
-from impactid.rigs.drop.commands import fit_arguments, fit_figures
+from impactid.rigs.drop.arguments import ARGUMENTS, TITLE
+from impactid.rigs.drop.commands import fit_figures
 from impactid.rigs.drop.identify import N_STARTS, DropFit, fit_drop
 from impactid.rigs.drop.measure import ImpactObservations, measure_impacts
 from impactid.rigs.drop.parameters import ACCELERATION_CHANNEL, FORCE_CHANNEL, N_BOUNDS, N_MAX
@@ -128,10 +129,11 @@ def figures(result: DropFit, args: argparse.Namespace):
     return fit_figures(result, args.plots)
 
 
-ARGUMENTS = fit_arguments("drop-impact: ")
+# ARGUMENTS and TITLE are declared in the light impactid.rigs.drop.arguments (MODEL.estimate_arguments), so that
+# ``impactid estimate --help`` does not import this module
 
 #: What the generic estimate runs for the drop rig's recordings.
 ESTIMATOR = Estimator(
     options=OPTIONS, arguments=ARGUMENTS, prepare=prepare, fit=fit, to_dict=to_dict, summary=summary, notes=_notes,
     warning=DropEstimateWarning, figures=figures, check=check_options, prepare_options=PREPARE_OPTIONS,
-    title="Hunt-Crossley k, beta, n (drop-impact)")
+    title=TITLE)

@@ -13,7 +13,8 @@ jump speed; the decision is documented in :class:`impactid.rigs.valvespring.CamS
 commands are shared with the other valve train, so argparse accepts the union of both rigs' options:
 the flags both declare are declared alike, with no choices or defaults that would reject or hide the
 other's values; this rig checks its own and refuses an option of the other rig instead of ignoring
-it.
+it. Light: the arguments are data and each command imports the numerics when it runs (``impactid
+valvetrain COMMAND --help`` loads neither numpy nor pandas).
 """
 
 from __future__ import annotations
@@ -27,7 +28,6 @@ from typing import Any
 
 from impactid.commandline import integer_in, positive, refuse_foreign_options
 from impactid.errors import RigParameterError, SimulationError, SimulationInputError
-from impactid.results import FitResult
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["COMMANDS"]
@@ -461,6 +461,7 @@ def run_fit_lift(args, model) -> int:
 def run_fit_damping(args, model) -> int:
     """``impactid valvetrain fit-damping REC``: the contact and valve-spring damping ratios from the
     valve's ringing at closure (the tappet drag is the rig's: fit it first and put it in the rig file)."""
+    from impactid.results import FitResult
     from impactid.rigs.finger_follower.cam import read_lift
     from impactid.rigs.finger_follower.identify import fit_damping
 

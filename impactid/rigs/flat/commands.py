@@ -5,6 +5,9 @@ flat-follower``, ``--rig ALZATE2007`` or a flat-follower rig file runs them).
 Thin: parse arguments, call the public API, print results. Cam speeds in rpm or Hz as in the paper;
 output paths are checked before any computation and written as transactions
 (:mod:`impactid.commandline`).
+
+Light: the arguments are data, and each command imports the numerics (numpy included) when it runs,
+so that ``impactid --help`` and ``impactid COMMAND --help`` load neither numpy nor the rig's parameters.
 """
 
 from __future__ import annotations
@@ -12,8 +15,6 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
-
-import numpy as np
 
 from impactid.commandline import (
     CAM_PPR,
@@ -49,7 +50,9 @@ from impactid.commandline import (
 )
 from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
-from impactid.rigs.flat.parameters import MODEL_NAME
+
+#: The rig's model name (``impactid.rigs.flat.parameters.MODEL_NAME``; that module loads numpy).
+MODEL_NAME = "flat-follower"
 
 __all__ = ["COMMANDS"]
 
@@ -80,6 +83,8 @@ def _restitution_law(args):
 
 
 def run_bifurcation(args, model) -> int:
+    import numpy as np
+
     from impactid._files import StagedFiles
     from impactid.rigs.flat.figures import write_bifurcation
     from impactid.rigs.flat.simulate import bifurcation

@@ -12,31 +12,35 @@ The folder holds the rig's parts, following the data:
 The measurement model (accelerometer and force channels to per-impact kinematics) is
 :func:`impactid.rigs.pivoted.reconstruct.reconstruct` (``MODEL.measure``); the estimators are in
 :mod:`impactid.rigs.pivoted.estimates`, and what the generic ``impactid estimate`` runs for this
-rig (``MODEL.estimation``) in :mod:`impactid.rigs.pivoted.estimation`.
+rig (``MODEL.estimation``) in :mod:`impactid.rigs.pivoted.estimation` (its command-line arguments in the
+light :mod:`impactid.rigs.pivoted.arguments`).
+
+Importing this package loads nothing of the rig: the names below are imported from
+:mod:`~impactid.rigs.pivoted.parameters` on first use and :data:`MODEL` is built on first use, so that
+building the command line (which reads :data:`COMMANDS`, :data:`ESTIMATION` and
+:data:`ESTIMATE_ARGUMENTS`) loads neither numpy nor SciPy.
 """
 
-from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel
-from impactid.rigs.pivoted.parameters import (
-    MODEL_NAME,
-    SUNDAR2016,
-    PivotedFollowerRig,
-    free_torque,
-    gap,
-    gap_paper,
-    gap_rate,
-    gap_rate_paper,
-    lever_arm,
-    sliding_velocity,
-    spring_force,
-    tangential_gap_paper,
-    tangential_gap_rate,
-    tangential_gap_rate_paper,
-    zero_state_angle,
-)
+from __future__ import annotations
+
+from impactid.rigs.base import ChannelSpec, ContactLaw, RigModel, lazy_attributes
 
 __all__ = ["MODEL", "MODEL_NAME", "SUNDAR2016", "PivotedFollowerRig", "free_torque", "gap", "gap_paper", "gap_rate",
            "gap_rate_paper", "lever_arm", "sliding_velocity", "spring_force", "tangential_gap_paper",
            "tangential_gap_rate", "tangential_gap_rate_paper", "zero_state_angle"]
+
+#: The rig's commands, estimation and estimate arguments, by import path: the values of
+#: :data:`MODEL`'s fields, read by the registry without building :data:`MODEL`.
+COMMANDS = "impactid.rigs.pivoted.commands"
+ESTIMATION = "impactid.rigs.pivoted.estimation"
+ESTIMATE_ARGUMENTS = "impactid.rigs.pivoted.arguments"
+
+#: The names of the rig's presets, the default first (``MODEL.presets``): ``--rig NAME`` finds its rig
+#: without building the other rigs' models.
+PRESET_NAMES = ("SUNDAR2016",)
+
+#: The names of :mod:`~impactid.rigs.pivoted.parameters` (numpy, SciPy), imported on first use.
+_LAZY = {name: "impactid.rigs.pivoted.parameters" for name in __all__ if name != "MODEL"}
 
 
 def _simulate(*args, **kwargs):
@@ -76,31 +80,43 @@ def _pack_law(law):
     return pack_law(law)
 
 
-MODEL = RigModel(
-    name=MODEL_NAME,
-    title="Eccentric cam on a pivoted follower with point contact (Sundar, Dreyer & Singh 2016)",
-    citation="sundar2016",
-    parameters=PivotedFollowerRig,
-    presets={"SUNDAR2016": SUNDAR2016},
-    channels={
-        "accel_tangential": ChannelSpec("accel_tangential", "acceleration", "m/s^2",
-                                        "tangential acceleration of the follower tip", required=True),
-        "force_x": ChannelSpec("force_x", "force", "N", "pivot reaction, horizontal"),
-        "force_y": ChannelSpec("force_y", "force", "N", "pivot reaction, vertical"),
-        "cam_angle": ChannelSpec("cam_angle", "angle", "rad", "cam encoder angle"),
-    },
-    laws=(ContactLaw(name="hunt-crossley", law_type=object,
-                     parameters={"beta": ("N s m^-(n+1)", (1e8, 1e13)), "n": ("1", (0.5, 2.5))}, pack=_pack_law),),
-    gap=lambda rig, state, cam_angle: rig.gap(state[0], cam_angle),
-    gap_rate=lambda rig, state, cam_angle, cam_rate: rig.gap_rate(state[0], state[1], cam_angle, cam_rate),
-    detachment=_detachment,
-    pack=_pack_rig,
-    kernel="impactid.rigs.pivoted.kernel",
-    simulate=_simulate,
-    measure=_measure,
-    example=_example,
-    commands="impactid.rigs.pivoted.commands",
-    estimation="impactid.rigs.pivoted.estimation",
-    replay="impactid.rigs.pivoted.damping_objective:DampingObjective",
-    calibrate="impactid.rigs.pivoted.calibration:pipeline_bias",
-)
+def _model() -> RigModel:
+    """The rig model record (registered in :mod:`impactid.rigs.registry`), built on first use of :data:`MODEL`."""
+    from impactid.rigs.pivoted.parameters import MODEL_NAME, SUNDAR2016, PivotedFollowerRig
+
+    return RigModel(
+        name=MODEL_NAME,
+        title="Eccentric cam on a pivoted follower with point contact (Sundar, Dreyer & Singh 2016)",
+        citation="sundar2016",
+        parameters=PivotedFollowerRig,
+        presets={"SUNDAR2016": SUNDAR2016},
+        channels={
+            "accel_tangential": ChannelSpec("accel_tangential", "acceleration", "m/s^2",
+                                            "tangential acceleration of the follower tip", required=True),
+            "force_x": ChannelSpec("force_x", "force", "N", "pivot reaction, horizontal"),
+            "force_y": ChannelSpec("force_y", "force", "N", "pivot reaction, vertical"),
+            "cam_angle": ChannelSpec("cam_angle", "angle", "rad", "cam encoder angle"),
+        },
+        laws=(ContactLaw(name="hunt-crossley", law_type=object,
+                         parameters={"beta": ("N s m^-(n+1)", (1e8, 1e13)), "n": ("1", (0.5, 2.5))}, pack=_pack_law),),
+        gap=lambda rig, state, cam_angle: rig.gap(state[0], cam_angle),
+        gap_rate=lambda rig, state, cam_angle, cam_rate: rig.gap_rate(state[0], state[1], cam_angle, cam_rate),
+        detachment=_detachment,
+        pack=_pack_rig,
+        kernel="impactid.rigs.pivoted.kernel",
+        simulate=_simulate,
+        measure=_measure,
+        example=_example,
+        commands=COMMANDS,
+        estimation=ESTIMATION,
+        estimate_arguments=ESTIMATE_ARGUMENTS,
+        replay="impactid.rigs.pivoted.damping_objective:DampingObjective",
+        calibrate="impactid.rigs.pivoted.calibration:pipeline_bias",
+    )
+
+
+__getattr__ = lazy_attributes(__name__, _LAZY, {"MODEL": _model})
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -7,13 +7,14 @@ Thin: parse arguments, call the public API, print results. Units on the command 
 (``--beta`` in N s m^-(n+1), e.g. 24.7e9 for the paper's 24.7 GN s m^-2.5), except cam speeds
 (``--cam-speed`` in Hz, ``--rpm``). Output paths are checked before any computation and written as
 transactions (:mod:`impactid.commandline`).
+
+Light: the arguments are data, and each command imports the numerics when it runs, so that
+``impactid --help`` and ``impactid COMMAND --help`` load neither numpy nor the rig's parameters.
 """
 
 from __future__ import annotations
 
 import argparse
-
-import numpy as np
 
 from impactid.commandline import (
     CAM_PPR,
@@ -46,11 +47,23 @@ from impactid.commandline import (
 )
 from impactid.distributed import scheduler_arguments
 from impactid.rigs.base import Argument, CommandSpec
-from impactid.rigs.pivoted.parameters import MODEL_NAME
+from impactid.rigs.pivoted.arguments import kinematics_arguments
+
+#: The rig's model name (``impactid.rigs.pivoted.parameters.MODEL_NAME``; that module loads numpy and SciPy).
+MODEL_NAME = "pivoted-follower"
 
 __all__ = ["COMMANDS", "kinematics_arguments"]
 
 # ---- argument types ---------------------------------------------------------------------------
+
+
+def _linspace(start: float, stop: float, count: int) -> list[float]:
+    """``numpy.linspace(start, stop, count)`` as floats, value for value (``start + i * step``, the last
+    ``stop``), without numpy."""
+    if count == 1:
+        return [start]
+    step = (stop - start) / (count - 1)
+    return [start + i * step for i in range(count - 1)] + [stop]
 
 
 def _range(text: str) -> list[float]:
@@ -61,7 +74,7 @@ def _range(text: str) -> list[float]:
             count = int(n)
             if not 1 <= count <= MAX_SWEEP_POINTS:
                 raise argparse.ArgumentTypeError(f"the count in {text!r} must lie in [1, {MAX_SWEEP_POINTS}]")
-            values = [float(x) for x in np.linspace(number(a), number(b), count)]
+            values = _linspace(number(a), number(b), count)
         else:
             values = [number(x) for x in text.split(",") if x.strip()]
     except ValueError:
@@ -259,25 +272,6 @@ def _simulated_rig_arguments(with_ratio: bool = True) -> tuple[Argument, ...]:
         out += (Argument(("--e-over-rc",), {"type": positive, "default": None,
                                             "help": "eccentricity ratio e/r_c (default: rig's)"}),)
     return out
-
-
-def kinematics_arguments(anchor: str) -> tuple[Argument, ...]:
-    """``--integration`` and ``--anchor``; their choices are read when the parser is built (the module
-    that defines the anchors loads the simulator, which a rig's import must not)."""
-
-    def integration():
-        from impactid.signal import INTEGRATORS
-
-        return {"default": "rk", "choices": list(INTEGRATORS), "help": "integration method (default rk, as in the "
-                                                                         "paper)"}
-
-    def anchors():
-        from impactid.rigs.pivoted.reconstruct import ANCHORS
-
-        return {"default": anchor, "choices": list(ANCHORS),
-                "help": f"integration-constant anchor (default {anchor}; return-time is the paper's)"}
-
-    return Argument(("--integration",), integration), Argument(("--anchor",), anchors)
 
 
 MU = Argument(("--mu",), {"type": nonnegative, "default": None, "help": "friction coefficient (default: rig's)"})

@@ -23,13 +23,13 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from impactid.commandline import UsageError, exponent, num
+from impactid.commandline import UsageError, num
 from impactid.contact import HuntCrossley
 from impactid.errors import ImpactidError
-from impactid.rigs.base import Argument, Estimator, PreparedRecording, options_record, pipeline_provenance
+from impactid.rigs.base import Estimator, PreparedRecording, options_record, pipeline_provenance
 from impactid.rigs.pivoted import figures
+from impactid.rigs.pivoted.arguments import ARGUMENTS, MAX_GRID_POINTS, TITLE
 from impactid.rigs.pivoted.calibration import RecordingSampling, pipeline_bias
-from impactid.rigs.pivoted.commands import kinematics_arguments
 from impactid.rigs.pivoted.estimates import (
     BOOTSTRAP_RESAMPLES,
     BOOTSTRAP_SEED,
@@ -48,9 +48,6 @@ from impactid.rigs.pivoted.reconstruct import Reconstruction, reconstruct
 from impactid.rigs.pivoted.residuals import EventSet, residual_name
 
 __all__ = ["ESTIMATOR", "MAX_GRID_POINTS", "OPTIONS", "PreparedImpacts", "check_options", "fit", "prepare"]
-
-#: Largest grid of trial laws ``--grid NB,NN`` accepts (each costs one S1 run per impact).
-MAX_GRID_POINTS = 100_000
 
 #: Every option of rig P's estimate and its default:
 #:
@@ -305,38 +302,8 @@ def estimate_figures(result: Estimate, args: argparse.Namespace):
 # ---- the command line -------------------------------------------------------------------------------
 
 
-def _grid_counts(text: str) -> tuple[int, int]:
-    try:
-        parts = [int(x) for x in text.replace("x", ",").split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected NB[,NN] grid counts, got {text!r}") from None
-    if len(parts) == 1:
-        parts.append(21)
-    if len(parts) != 2 or min(parts) < 3:
-        raise argparse.ArgumentTypeError(f"grid counts must be NB[,NN] with each >= 3, got {text!r}")
-    if parts[0] * parts[1] > MAX_GRID_POINTS:
-        raise argparse.ArgumentTypeError(
-            f"{text!r} asks for {parts[0] * parts[1]:,} trial laws (each simulated for every impact); at most "
-            f"{MAX_GRID_POINTS:,}: use the optimiser (no --grid) for a precise estimate")
-    return parts[0], parts[1]
-
-
-ARGUMENTS = (
-    Argument(("--residual",), {"default": "lambda1", "choices": ["lambda1", "lambda2", "lambda3"],
-                               "help": "pivoted-follower: residual minimised (default lambda1: accelerometer only)"}),
-    Argument(("--fix-n",), {"type": exponent, "default": None, "metavar": "N",
-                            "help": "fix the exponent n of the damping (0: viscous)"}),
-    Argument(("--method",), {"choices": ["least-squares", "optimise"], "default": "least-squares",
-                             "help": "pivoted-follower: least-squares (default: trust-region Gauss-Newton, profile "
-                                     "intervals) or optimise (nested Brent searches, lattice and bootstrap "
-                                     "intervals; about 100x the simulations)"}),
-    Argument(("--grid",), {"type": _grid_counts, "default": None, "metavar": "NB[,NN]",
-                           "help": "pivoted-follower: paper-style grid search with NB values of beta (log) and NN "
-                                   "of n instead of --method"}),
-    Argument(("--n-range",), {"type": exponent, "nargs": 2, "default": [0.5, 2.5], "metavar": ("LO", "HI"),
-                              "help": "pivoted-follower: search bounds of n (default 0.5 2.5)"}),
-    *kinematics_arguments("cam-phase"),
-)
+# the arguments (ARGUMENTS) are declared in the light impactid.rigs.pivoted.arguments (MODEL.estimate_arguments),
+# so that ``impactid estimate --help`` does not import this module
 
 
 def from_arguments(args: argparse.Namespace) -> dict[str, Any]:
@@ -357,5 +324,4 @@ def _notes(result: Estimate) -> tuple[str, ...]:
 ESTIMATOR = Estimator(
     options=OPTIONS, arguments=ARGUMENTS, prepare=prepare, fit=fit, to_dict=to_dict, summary=summary, notes=_notes,
     warning=EstimationWarning, figures=estimate_figures, from_arguments=from_arguments, check=check_options,
-    compact=compact, prepare_options=PREPARE_OPTIONS,
-    title="Hunt-Crossley beta, n and the restitution law (pivoted-follower)")
+    compact=compact, prepare_options=PREPARE_OPTIONS, title=TITLE)
