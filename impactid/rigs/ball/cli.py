@@ -10,78 +10,20 @@ figures), and every failure is one line ``impactid: error: ...`` with exit statu
 
 from __future__ import annotations
 
-import argparse
 import math
 from pathlib import Path
 
 from impactid._files import StagedFiles, check_output
 from impactid.commandline import UsageError
 from impactid.commandline import json_text as _json_text
-from impactid.commandline import nonnegative as _nonnegative
-from impactid.commandline import positive as _positive
 from impactid.commandline import print_json as _print_json
 from impactid.rigs.ball.analysis import analyse_bounces
 from impactid.rigs.ball.figures import figure_names, write_figures
 from impactid.rigs.ball.flight import flight_constants
-from impactid.rigs.ball.laws import LAWS
 from impactid.rigs.ball.parameters import AIR_DENSITY, STANDARD_GRAVITY, Ball, BallParameterError, ball_preset
 from impactid.rigs.ball.readers import check_files, read_bounces
-from impactid.rigs.base import Argument, CommandSpec
 
-__all__ = ["command", "run"]
-
-
-def _ball_name(text: str) -> str:
-    try:
-        return ball_preset(text).name
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def _drag_coefficient(text: str) -> float:
-    value = _nonnegative(text)
-    if value > 10.0:
-        raise argparse.ArgumentTypeError(f"must lie in [0, 10], got {text!r}")
-    return value
-
-
-def _arguments() -> tuple[Argument, ...]:
-    """The arguments of ``impactid bounces``."""
-    return (
-        Argument(("files",), dict(metavar="FILE", nargs="+", help="one drop per file")),
-        Argument(("--ball",), dict(type=_ball_name, default=None, metavar="NAME",
-                                   help="preset ball: pingpong (table-tennis), golf, tennis")),
-        Argument(("--mass",), dict(type=_positive, default=None, metavar="KG", help="mass of a custom ball [kg]")),
-        Argument(("--diameter",), dict(type=_positive, default=None, metavar="M",
-                                       help="diameter of a custom ball [m]")),
-        Argument(("--drag-coefficient",), dict(type=_drag_coefficient, default=None, metavar="CD",
-                                               help="drag coefficient (default: the preset's; 0.42 custom)")),
-        Argument(("--air-density",), dict(type=_nonnegative, default=None, metavar="KG/M3",
-                                          help="air density [kg/m^3] (default 1.204)")),
-        Argument(("--gravity",), dict(type=_positive, default=None, metavar="M/S2",
-                                      help="gravitational acceleration [m/s^2] (default 9.80665)")),
-        Argument(("--no-drag",), dict(action="store_true",
-                                      help="analyse the flights without air even for a known ball")),
-        Argument(("--law",), dict(choices=["auto", *LAWS], default="auto",
-                                  help="law to report: auto (selected by --criterion) or one by name")),
-        Argument(("--criterion",), dict(choices=["bic", "aic"], default="bic",
-                                        help="model selection criterion (default bic)")),
-        Argument(("--no-chained",), dict(action="store_true", help="skip the chained trajectory fits (faster)")),
-        Argument(("--out",), dict(metavar="RESULT.json", help="write the result as JSON (atomically)")),
-        Argument(("--plots",), dict(metavar="DIR", help="write figures (restitution, intervals, audio onsets)")),
-        Argument(("--json",), dict(action="store_true", help="print the result as JSON")),
-    )
-
-
-def command() -> CommandSpec:
-    """``impactid bounces``: the command the bouncing-ball rig contributes to the command line."""
-    return CommandSpec(
-        group="", name="bounces",
-        help="restitution e(v) of a ball on a floor from bounce timings (phyphox exports, CSV, WAV)",
-        description="Restitution of a ball on a floor from the times of its bounces: phyphox 'Acoustic "
-                    "stopwatch' exports (.xlsx, .xls, CSV, zip), a CSV of event times, or WAV audio. Several "
-                    "files are several drops of one ball on one surface.",
-        arguments=_arguments(), run=lambda args, model: run(args))
+__all__ = ["run"]
 
 
 def _ball(args):
@@ -182,6 +124,3 @@ def _print_report(result, args) -> None:
     if args.plots:
         print(f"  figures written to {args.plots}")
 
-
-#: The commands the bouncing-ball rig contributes (``RigModel.commands`` names this module).
-COMMANDS = (command(),)
