@@ -385,6 +385,9 @@ def _command_environment() -> Iterator[None]:
             # numba's pedantic SSA check warns, on first compilation, about variables of the DP5 core's
             # inlined overloads (harmless, numba issue 7236): not a message for the user
             warnings.filterwarnings("ignore", message=r"variable '.*' is not in scope")
+            # a file a library left open when a stop interrupted it is closed by its finalizer: not news
+            # for the user (it made a second line after "interrupted" when Ctrl-C landed in pandas' reader)
+            warnings.filterwarnings("ignore", category=ResourceWarning)
             warnings.showwarning = show
             yield
             stop = signal.SIGTERM if termination_requested() else arrived_stop()
