@@ -16,7 +16,13 @@ Method
 * Error norm: the RMS over the state components of ``err_i / (atol_i + rtol max(|y_i|, |y1_i|))``,
   as in SciPy; a step is accepted when the norm is at most 1.
 * Step-size controller (:func:`step_factor`): ``0.9 err^(-1/5)`` within the factor limits 0.2 and 10,
-  no growth right after a rejection.
+  no growth right after a rejection. The same controller on the squared norm
+  (:func:`error_norm_squared`, :func:`accepted_squared`, :func:`step_factor_squared`,
+  :func:`shrink_factor_squared`) leaves out the square root, whose latency is on every step's
+  critical path: it accepts a step exactly when the square root of its squared norm is at most 1,
+  the squared norm equals :func:`error_norm`'s square to a few ulp (the scales' reciprocals
+  multiply), and its factors equal ``step_factor``'s to about an ulp (``err2^(-1/10)`` instead of
+  ``sqrt(err2)^(-1/5)``).
 * Starting step (:func:`initial_step`): Hairer, Nørsett & Wanner's algorithm, as SciPy's
   ``select_initial_step``.
 * Event location (:func:`brent`): Brent's method on any scalar function of the step fraction
@@ -83,8 +89,9 @@ from numba.extending import overload
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
 __all__ = ["BAD_INPUT", "EVENTS_FULL", "LAW_RANGE", "MAX_STEPS", "NONFINITE", "OK", "SAMPLES_FULL",
-           "STATUS_MESSAGES", "STEP_UNDERFLOW", "advance", "brent", "combine", "dense", "dense_coefficients",
-           "error_norm", "initial_step", "step", "step_factor", "tableau_combine"]
+           "STATUS_MESSAGES", "STEP_UNDERFLOW", "accepted_squared", "advance", "brent", "combine", "dense",
+           "dense_coefficients", "error_norm", "error_norm_squared", "initial_step", "shrink_factor",
+           "shrink_factor_squared", "step", "step_factor", "step_factor_squared", "tableau_combine"]
 
 # numba's pedantic SSA check warns about variables of inlined overloads; harmless (numba issue 7236)
 warnings.filterwarnings("ignore", category=NumbaIRAssumptionWarning)
@@ -236,6 +243,31 @@ def _error_norm(y0, y1, err, rtol, atol):
     return vector
 
 
+def error_norm_squared(y0, y1, err, rtol, atol):  # pragma: no cover - replaced by the overload in compiled code
+    """The square of :func:`error_norm` (the mean over the components of ``(err / scale)^2``), without
+    its square root; the scales' reciprocals multiply (they depend on the states only, which are
+    known before the error estimate, so the divisions leave the step's critical path)."""
+
+
+@overload(error_norm_squared, inline="always")
+def _error_norm_squared(y0, y1, err, rtol, atol):
+    if _is_pair(y0):
+        def pair(y0, y1, err, rtol, atol):
+            ia = 1.0 / (atol[0] + rtol * max(abs(y0[0]), abs(y1[0])))
+            idd = 1.0 / (atol[1] + rtol * max(abs(y0[1]), abs(y1[1])))
+            return 0.5 * ((err[0] * ia) ** 2 + (err[1] * idd) ** 2)
+        return pair
+
+    def vector(y0, y1, err, rtol, atol):
+        n = y0.shape[0]
+        total = 0.0
+        for i in range(n):
+            inv = 1.0 / (atol[i] + rtol * max(abs(y0[i]), abs(y1[i])))
+            total += (err[i] * inv) ** 2
+        return total / n
+    return vector
+
+
 def dense(x, h, y0, Q, out):  # pragma: no cover - replaced by the overload in compiled code
     """The state at fraction ``x`` of a step of length ``h`` from ``y0`` (continuous extension ``Q``)."""
 
@@ -302,6 +334,32 @@ def step_factor(err, rejected):
     at most 10; at most 1 right after a rejection)."""
     factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** (-1.0 / ORDER))
     return min(1.0, factor) if rejected else factor
+
+
+#: The largest squared norm whose square root rounds to at most 1: ``sqrt(x) <= 1`` (correctly
+#: rounded) exactly when ``x <= 1 + 2^-52``, so :func:`accepted_squared` is the square-root
+#: controller's test ``sqrt(err2) <= 1``, without the square root.
+ACCEPT_SQUARED = 1.0 + 2.0**-52
+
+
+@_jit
+def accepted_squared(err2):
+    """True if a step with squared error norm ``err2`` is accepted (its norm is at most 1)."""
+    return err2 <= ACCEPT_SQUARED
+
+
+@_jit
+def step_factor_squared(err2, rejected):
+    """:func:`step_factor` from the squared norm: ``0.9 err2^(-1/10)``, at most 10 (at most 1 right
+    after a rejection). Equal to ``step_factor(sqrt(err2), rejected)`` to about an ulp."""
+    factor = 10.0 if err2 == 0.0 else min(10.0, 0.9 * err2 ** (-0.5 / ORDER))
+    return min(1.0, factor) if rejected else factor
+
+
+@_jit
+def shrink_factor_squared(err2, exponent, floor):
+    """:func:`shrink_factor` from the squared norm: ``0.9 err2^(-exponent/2)``, at least ``floor``."""
+    return max(floor, 0.9 * err2 ** (-0.5 * exponent))
 
 
 @_jit

@@ -13,7 +13,11 @@ Method
 * Cost: the right-hand side is inlined into the step; the last stage also returns the monitored
   quantities (gap, gap rate, force, force rate, sliding velocity) from the same trigonometry; the
   stages' sines and cosines come from those at the step start by angle addition
-  (``_sincos_shifted``).
+  (``_sincos_shifted``, with as many terms of the series as the increment needs); the library
+  sines and cosines at the step's end, which the next step starts from, are computed by the last
+  stage, beside the error estimate rather than after the step-size controller; the controller
+  works on the squared error norm (no square root); the step functions are compiled with FMA
+  contraction (``_STEP_FLAGS``). docs/simulator.md ("Speed") says what each saves.
 * The state is ``(alpha, alpha_dot)``; the cam angle is ``Theta(t) = theta_ref + omega t``.
 * Modes: ``FREE`` (S-9), ``CONTACT`` (S-16 with the generalised Hunt–Crossley force
   ``k delta^p - beta delta^n dpsi/dt``, S-11..S-18),
@@ -141,17 +145,30 @@ def _sincos_shifted(x0, s0, c0, d):
     """``sin(x0 + d), cos(x0 + d)`` from ``s0 = sin(x0), c0 = cos(x0)``.
 
     For the small in-step increments (``|d| < 0.03``) by the angle-addition formulas with the
-    Taylor series of ``sin d`` and ``cos d - 1`` (truncation below 1e-19 relative, i.e. below
-    round-off), which is about 4x cheaper than two library calls; otherwise directly. The series'
-    divisions are multiplications by the reciprocals (constants): a division's latency, taken seven
-    times in a chain at every stage, was most of a free-flight step's time.
+    Taylor series of ``sin d`` and ``cos d - 1``, which is about 4x cheaper than two library calls;
+    otherwise directly. The series' divisions are multiplications by the reciprocals (constants): a
+    division's latency, taken seven times in a chain at every stage, was most of a free-flight
+    step's time. The series stop at the first term that no longer matters: the first term left
+    out is below 1e-20 (absolute; a thousandth of an ulp of a sine or cosine above 0.1) in every
+    branch (``|d| < 2.6e-4``: ``d^5/120``, ``d^6/720``; ``|d| < 4.3e-3``: ``d^7/5040``,
+    ``d^8/40320``; ``|d| < 0.03``: ``d^11/11!``, ``d^10/10!``). A contact step moves alpha by
+    about 1e-5 rad, a free-flight step by about 1e-3: the shorter series take 2 and 4 fewer
+    multiply-adds off each stage's chain of dependent operations.
     """
-    if abs(d) < 0.03:
-        d2 = d * d
+    ad = abs(d)
+    d2 = d * d
+    if ad < 2.6e-4:
+        sd = d * (1.0 - d2 * _INV6)
+        cm1 = -0.5 * d2 * (1.0 - d2 * _INV12)
+    elif ad < 4.3e-3:
+        sd = d * (1.0 - d2 * _INV6 * (1.0 - d2 * _INV20))
+        cm1 = -0.5 * d2 * (1.0 - d2 * _INV12 * (1.0 - d2 * _INV30))
+    elif ad < 0.03:
         sd = d * (1.0 - d2 * _INV6 * (1.0 - d2 * _INV20 * (1.0 - d2 * _INV42 * (1.0 - d2 * _INV72))))
         cm1 = -0.5 * d2 * (1.0 - d2 * _INV12 * (1.0 - d2 * _INV30 * (1.0 - d2 * _INV56)))
-        return s0 + (s0 * cm1 + c0 * sd), c0 + (c0 * cm1 - s0 * sd)
-    return math.sin(x0 + d), math.cos(x0 + d)
+    else:
+        return math.sin(x0 + d), math.cos(x0 + d)
+    return s0 + (s0 * cm1 + c0 * sd), c0 + (c0 * cm1 - s0 * sd)
 
 
 @_jit
@@ -366,21 +383,29 @@ def observe(t, a, ad, mode, p, law, theta_ref, omega, out):
 
 @njit(cache=True, inline="always")
 def _begin(mode, t, y, run, law):
-    """Step start: the sines and cosines of alpha and Theta, reused by the stages (angle addition)."""
-    p, theta_ref, omega = run
-    th0 = theta_ref + omega * t
-    if mode == FREE:
-        return math.sin(y[0]), math.cos(y[0]), th0, 0.0, 1.0
-    return math.sin(y[0]), math.cos(y[0]), th0, math.sin(th0), math.cos(th0)
+    """Step start: the sines and cosines of alpha and Theta, reused by the stages (angle addition).
+
+    They arrive in ``run`` (``trig``: ``sin alpha, cos alpha, sin Theta, cos Theta, Theta`` at the
+    step start, :func:`_trig_at`; Theta's sine and cosine are 0, 1 in FREE, where the stages do not
+    read them): the previous step's last stage computed them (``S[5:10]``) with the library, as this
+    function used to. Computed there, the library calls run beside that step's error estimate
+    instead of after the step-size controller, on the chain of dependent operations from one step
+    to the next. Theta travels with its sine and cosine, so that the stages shift the very angle
+    whose sine and cosine they have."""
+    p, theta_ref, omega, trig = run
+    return trig[0], trig[1], trig[4], trig[2], trig[3]
 
 
 @njit(cache=True, inline="always")
 def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
     """Rate and acceleration at ``y + d``, ``t + ch`` (the core's stage); the last stage (``s = 6``)
-    also writes the step end's monitored quantities ``(g, dpsi, force, dforce, v_r)`` into ``S``,
-    sharing its trigonometry. The stages' sines and cosines come from those at the step start by
-    angle addition (``_sincos_shifted``): alpha and Theta move by small amounts within a step."""
-    p, theta_ref, omega = run
+    also writes the step end's monitored quantities ``(g, dpsi, force, dforce, v_r)`` into
+    ``S[0:5]``, sharing its trigonometry, and into ``S[5:10]`` the library sines and cosines of alpha
+    and (not in FREE) Theta at the step's end, and Theta, from which the next step starts
+    (:func:`_begin`).
+    The stages' sines and cosines come from those at the step start by angle addition
+    (``_sincos_shifted``): alpha and Theta move by small amounts within a step."""
+    p, theta_ref, omega, _ = run
     sa0, ca0, th0, st0, ct0 = cache
     a = y[0] + d[0]
     ad = y[1] + d[1]
@@ -399,39 +424,72 @@ def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
     else:
         st, ct = _sincos_shifted(th0, st0, ct0, omega * ch)
     K[6, 1], S[0], S[1], S[2], S[3], S[4] = _evaluate_trig(mode, a, ad, 0.0, ss, cs, st, ct, p, law, omega, True)
+    # the step end's library sines and cosines (_trig_at) at the state the integrator takes on:
+    # alpha_1 = y + d (dp5.advance; the same number as a), Theta from the absolute time t + h
+    # (t1 = t + h in integrate), never accumulated step by step
+    S[5] = math.sin(a)
+    S[6] = math.cos(a)
+    th1 = theta_ref + omega * (t + ch)
+    S[9] = th1
+    if mode != FREE:
+        S[7] = math.sin(th1)
+        S[8] = math.cos(th1)
 
 
+@njit(cache=True, inline="always")
+def _trig_at(mode, t, a, theta_ref, omega):
+    """``(sin alpha, cos alpha, sin Theta, cos Theta, Theta)`` at ``(t, alpha)``, Theta's sine and
+    cosine as 0, 1 in FREE (the ``trig`` a step starts from: :func:`_begin`)."""
+    th = theta_ref + omega * t
+    if mode == FREE:
+        return math.sin(a), math.cos(a), 0.0, 1.0, th
+    return math.sin(a), math.cos(a), math.sin(th), math.cos(th), th
+
+
+#: Length of the step's monitor array ``S``: ``g, dpsi, force, dforce, v_r`` at the step's end,
+#: then ``sin alpha, cos alpha, sin Theta, cos Theta, Theta`` there (:func:`_stage`).
+N_MONITOR = 10
 _NO_WORK = np.empty(0)
+#: Compilation flags of the step functions (``_dp5_step``, ``_initial_step``, ``_sensitivity_step``):
+#: numpy's error model, as the core asks (:mod:`impactid.simulate.dp5`, "Compiling a rig's step"),
+#: and FMA contraction, the one fast-math flag that cannot change a result beyond round-off: it
+#: fuses a multiplication and the addition that consumes it into one operation rounded once
+#: instead of twice (each such result within an ulp of the separately rounded one). No
+#: reassociation, no reciprocal approximations, no approximate library functions, and NaN and
+#: infinity keep their meaning (the integrator rejects a non-finite trial step). With it a step
+#: takes about 7 % less (docs/simulator.md, "Speed").
+_STEP_FLAGS = {"cache": True, "error_model": "numpy", "fastmath": {"contract": True}}
 
 
 @_jit
-def _run_constants(p, law, theta_ref, omega):
+def _run_constants(p, law, theta_ref, omega, trig):
     """The rig's and the law's parameters as tuples of floats, with the cam's ``theta_ref`` and
-    ``omega``: what the core's stages read (``run`` and ``law`` of ``_begin`` and ``_stage``).
+    ``omega`` and the step start's ``trig`` (:func:`_trig_at`): what the core's stages read
+    (``run`` and ``law`` of ``_begin`` and ``_stage``).
 
     Tuples stay in registers; arrays passed to the stages would be reference-counted at every stage
     (see :mod:`impactid.simulate.dp5`, "Compiling a rig's step"). Indexed with the same layout
     constants as the arrays."""
     run = ((p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13], p[14],
-            p[15], p[16]), theta_ref, omega)
+            p[15], p[16]), theta_ref, omega, trig)
     return run, (law[0], law[1], law[2], law[3], law[4], law[5], law[6], law[7])
 
 
 assert N_RIG == 17 and N_LAW == 8, "_run_constants spells out the layouts' lengths"
 
 
-@njit(cache=True, error_model="numpy")
-def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S):
-    """One step of the core from (t, a, ad) with ``f0 = alpha_ddot(t)``. Fills K (7x2) and, with the
-    monitored quantities ``(g, dpsi, force, dforce, v_r)`` at the step's end, S (5).
+@njit(**_STEP_FLAGS)
+def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S, trig):
+    """One step of the core from (t, a, ad) with ``f0 = alpha_ddot(t)`` and ``trig`` the sines and
+    cosines there (:func:`_trig_at`). Fills K (7x2) and S (N_MONITOR): the monitored quantities
+    ``(g, dpsi, force, dforce, v_r)`` at the step's end, then its ``trig`` (:func:`_stage`).
 
-    Compiled with numpy's error model, as the core asks (:mod:`impactid.simulate.dp5`, "Compiling
-    a rig's step"); the stages read the parameters as tuples (``_run_constants``).
+    Compiled with ``_STEP_FLAGS``; the stages read the parameters as tuples (``_run_constants``).
 
     Returns (a_new, ad_new, err_a, err_ad)."""
     K[0, 0] = ad
     K[0, 1] = f0
-    run, law_t = _run_constants(p, law, theta_ref, omega)
+    run, law_t = _run_constants(p, law, theta_ref, omega, trig)
     y1, err = dp5.step(_stage, _begin, mode, t, (a, ad), h, run, law_t, K, _NO_WORK, _NO_WORK, S)
     return y1[0], y1[1], err[0], err[1]
 
@@ -456,14 +514,16 @@ def _root_dense(kind, mode, t0, h, a0, ad0, Q, p, law, theta_ref, omega, g0, g1)
     return min(max(x, 0.0), 1.0)
 
 
-@njit(cache=True, error_model="numpy")
-def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S):
-    """The core's starting step (Hairer–Nørsett–Wanner, as scipy's ``select_initial_step``).
+@njit(**_STEP_FLAGS)
+def _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S, trig):
+    """The core's starting step (Hairer–Nørsett–Wanner, as scipy's ``select_initial_step``) from
+    ``(t, a, ad)``, ``trig`` the sines and cosines there (:func:`_trig_at`).
 
-    ``K`` (7x2) and ``S`` (5) are the caller's scratch arrays: ``K[0]`` and ``K[1]`` are overwritten."""
+    ``K`` (7x2) and ``S`` (N_MONITOR) are the caller's scratch arrays: ``K[0]`` and ``K[1]`` are
+    overwritten."""
     K[0, 0] = ad
     K[0, 1] = f0
-    run, law_t = _run_constants(p, law, theta_ref, omega)
+    run, law_t = _run_constants(p, law, theta_ref, omega, trig)
     return dp5.initial_step(_stage, _begin, mode, t, (a, ad), run, law_t, K, _NO_WORK, S, rtol, (atol_a, atol_d),
                             h_max)
 
@@ -479,13 +539,14 @@ NO_SENS, NO_SENS_MAX, NO_GRID_SENS = np.zeros((0, 2)), np.zeros(0), np.zeros((0,
 _C = dp5.C
 
 
-@njit(cache=True, error_model="numpy")
-def _sensitivity_step(mode, t, a, ad, h, K, sens0, sens1, KS, work, p, law, theta_ref, omega):
+@njit(**_STEP_FLAGS)
+def _sensitivity_step(mode, t, a, ad, h, K, sens0, sens1, KS, work, p, law, theta_ref, omega, trig):
     """Advance the forward sensitivities over the step just accepted (stages ``K``, 7x2, of the step
     from ``(t, a, ad)`` of length ``h``).
 
     ``sens0`` (N_SENS x 2): ``d(alpha, alpha_dot)/d(ln beta, n)`` at ``t``; ``sens1`` receives them at
-    ``t + h``; ``KS`` (7 x 2 N_SENS) receives their stages (for dense output); ``work`` (2 N_SENS) is scratch.
+    ``t + h``; ``KS`` (7 x 2 N_SENS) receives their stages (for dense output); ``work`` (2 N_SENS) is scratch;
+    ``trig``: the sines and cosines at ``(t, a)`` (:func:`_trig_at`).
 
     The variational equations ``s' = (s_ad, f_a s_a + f_ad s_ad + f_x)`` (:func:`rhs_partials`) are
     integrated with the same Dormand–Prince tableau, at the same stage states and on the same steps
@@ -502,11 +563,10 @@ def _sensitivity_step(mode, t, a, ad, h, K, sens0, sens1, KS, work, p, law, thet
     """
     # the stages written out with literal stage numbers, so that the core's ``tableau_combine`` has
     # the tableau's numbers in the code (as in ``dp5.step``); the parameters as tuples of floats
-    run, law_t = _run_constants(p, law, theta_ref, omega)
+    run, law_t = _run_constants(p, law, theta_ref, omega, trig)
     pt = run[0]
-    th0 = theta_ref + omega * t
     contact = mode == CONTACT
-    trig0 = (math.sin(a), math.cos(a), th0, math.sin(th0) if contact else 0.0, math.cos(th0) if contact else 1.0)
+    trig0 = (trig[0], trig[1], trig[4], trig[2] if contact else 0.0, trig[3] if contact else 1.0)
     y = (a, ad)
     for i in range(work.shape[0]):
         work[i] = 0.0
@@ -657,7 +717,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     status = OK
     K = np.empty((7, 2))
     Q = np.empty((2, 4))
-    S = np.empty(5)
+    S = np.empty(N_MONITOR)
     restitution = law[LAW_KIND] == KIND_RESTITUTION
     want_sens = sens.shape[0] > 0
     n_sens = sens.shape[0]
@@ -694,7 +754,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         n_contacts += 1
     f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
     g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
-    h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S)
+    trig = _trig_at(mode, t, a, theta_ref, omega)  # then carried from each step's last stage
+    h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S, trig)
     step_rejected = False
     onset = mode == CONTACT  # True until the first accepted step of a compliant contact
     span = t_end - t0
@@ -708,7 +769,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         if h <= 16.0 * 2.2e-16 * max(abs(t), 1e-300):
             status = STEP_UNDERFLOW
             break
-        a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S)
+        a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S, trig)
         if not (math.isfinite(a1) and math.isfinite(ad1)):
             # treat like a failed step: shrink hard
             h *= 0.1
@@ -718,21 +779,23 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 status = NONFINITE
                 break
             continue
-        err = dp5.error_norm((a, ad), (a1, ad1), (ea, ed), rtol, (atol_a, atol_d))
-        if err > 1.0:
+        # the squared error norm (dp5.error_norm_squared): error_norm's square and its err <= 1 to an
+        # ulp, factors equal to an ulp, and no square root on the chain from one step to the next
+        err2 = dp5.error_norm_squared((a, ad), (a1, ad1), (ea, ed), rtol, (atol_a, atol_d))
+        if not dp5.accepted_squared(err2):
             if onset:
                 # first step of a compliant contact: the force grows like delta^p ~ t^p, so the
                 # local error of a step from the onset scales like h^(p+1), not h^5; shrinking with
                 # the true exponent lands on an acceptable step at once instead of after ~6 tries
-                h *= dp5.shrink_factor(err, 1.0 / (law[P_EXP] + 1.0), 0.01)
+                h *= dp5.shrink_factor_squared(err2, 1.0 / (law[P_EXP] + 1.0), 0.01)
             else:
-                h *= dp5.shrink_factor(err, 1.0 / dp5.ORDER, 0.2)
+                h *= dp5.shrink_factor_squared(err2, 1.0 / dp5.ORDER, 0.2)
             n_rej += 1
             step_rejected = True
             continue
         onset = False
         # ---- accepted: look for the event that ends the current mode ------------------------
-        factor = dp5.step_factor(err, step_rejected)
+        factor = dp5.step_factor_squared(err2, step_rejected)
         step_rejected = False
         switch = False
         switch_now = False
@@ -783,13 +846,13 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 ad1 = ad
                 h = 0.0
             else:
-                a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_ev, f0, p, law, theta_ref, omega, K, S)
+                a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_ev, f0, p, law, theta_ref, omega, K, S, trig)
                 if term_kind == EV_GAP:
                     g_new, rate = S[0], S[1]  # the gap and its rate (S[0] is the gap in FREE/CONTACT)
                     if g_new != 0.0 and rate != 0.0:
                         h_new = h_ev - g_new / rate
                         if h_new > 0.0 and h_new <= h:
-                            a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_new, f0, p, law, theta_ref, omega, K, S)
+                            a1, ad1, ea, ed = _dp5_step(mode, t, a, ad, h_new, f0, p, law, theta_ref, omega, K, S, trig)
                             h_ev = h_new
                 h = h_ev
                 g1, q1, f1, r1, v1 = S[0], S[1], S[2], S[3], S[4]
@@ -797,7 +860,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         if h > 0.0:
             n_steps += 1
             if want_sens:  # K now holds the stages of the step taken (re-integrated to an event)
-                _sensitivity_step(mode, t, a, ad, h, K, sens, sens_new, KS, sens_work, p, law, theta_ref, omega)
+                _sensitivity_step(mode, t, a, ad, h, K, sens, sens_new, KS, sens_work, p, law, theta_ref, omega,
+                                  trig)
             # dense-output coefficients only when this step needs them (events, grid points)
             if (ad > 0.0 and ad1 <= 0.0) or (q0 < 0.0 and q1 >= 0.0) or (r0 > 0.0 and r1 <= 0.0) or (
                     gi < n_grid and grid[gi] <= t1):
@@ -871,6 +935,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             for q in range(n_sens):
                 sens[q, 0] = sens_new[q, 0]
                 sens[q, 1] = sens_new[q, 1]
+        if h > 0.0:  # the sines and cosines at the new state: the last stage of the step taken computed them
+            trig = (S[5], S[6], S[7], S[8], S[9]) if mode != FREE else (S[5], S[6], 0.0, 1.0, S[9])
         t = t1
         a = a1
         ad = ad1
@@ -939,7 +1005,8 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
         f0 = acceleration(mode, t, a, ad, p, law, theta_ref, omega)
         g0, q0, _, r0, v0 = _snapshot(mode, t, a, ad, f0, p, law, theta_ref, omega)
         h_prev = h
-        h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S)
+        trig = _trig_at(mode, t, a, theta_ref, omega)  # alpha is unchanged; Theta's are needed out of FREE
+        h = _initial_step(mode, t, a, ad, f0, p, law, theta_ref, omega, rtol, atol_a, atol_d, h_max, K, S, trig)
         onset = mode == CONTACT
         if h_prev > 0.0 and mode == FREE:
             h = max(h, min(h_prev, h_max))
