@@ -3,7 +3,7 @@
 The command line's own handlers (:func:`impactid.cli.main`) are in place only once its modules are
 imported. Those are light (the parser is built from data: ``impactid --help`` loads no NumPy, SciPy,
 pandas or numba); the heavy imports happen when a command runs, inside the command's environment,
-which defers a stop that arrives during an import in the same way (:func:`impactid.cli._after_imports`).
+which defers a stop that arrives during an import in the same way (:func:`impactid.cli._unsafe_to_stop`).
 This module imports nothing of impactid's at load time but the signal helpers: it installs SIGINT
 and SIGTERM handlers, imports :mod:`impactid.cli` inside :func:`main` (the one reason for a
 function-level import here: no import may be broken by a signal, and the handlers come first), and

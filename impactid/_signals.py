@@ -28,7 +28,15 @@ from collections.abc import Callable
 from pathlib import Path
 from types import FrameType
 
-__all__ = ["RETRY_S", "arrived_stop", "forget_stops", "in_native_machinery", "stopping_handler"]
+__all__ = [
+    "RETRY_S",
+    "StoppingHandler",
+    "arrived_stop",
+    "forget_stops",
+    "in_import",
+    "in_native_machinery",
+    "stopping_handler",
+]
 
 #: Seconds between two tries of a stop that arrived inside numba or llvmlite.
 RETRY_S = 0.05
@@ -85,45 +93,87 @@ def in_native_machinery(frame: FrameType | None) -> bool:
     return False
 
 
-def stopping_handler(stop: Callable[[int], None], last_words: Callable[[int], str]) -> Callable:
-    """A signal handler that calls ``stop(signum)`` (which raises) outside numba and llvmlite.
+def in_import(frame: FrameType | None) -> bool:
+    """Whether ``frame`` or one of its callers is the import machinery (a module is being initialised)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+class StoppingHandler:
+    """A signal handler that calls ``stop(signum)`` (which raises) only where that is safe.
 
     Parameters
     ----------
     stop : raises the command's stop exception for ``signum`` (KeyboardInterrupt, ...).
     last_words : the one-line message (without ``impactid: error:``) and nothing else, used when a
         second signal ends the process at once.
-    """
-    state = {"waiting": False, "retries": 0}
-    lock = threading.Lock()
+    defer_while : whether the interrupted frame is one where the exception must not be raised
+        (default: inside numba or llvmlite). There the signal is sent again every :data:`RETRY_S`
+        and acts once the frame has returned.
 
-    def retry(signum: int) -> None:
-        with lock:
-            state["retries"] += 1
+    Every signal is recorded on arrival (:func:`arrived_stop`). A second signal from outside while
+    one waits ends the process at once with the one-line message. :meth:`end` stops the resending
+    (the command has ended: nothing is left to stop).
+    """
+
+    def __init__(
+        self,
+        stop: Callable[[int], None],
+        last_words: Callable[[int], str],
+        defer_while: Callable[[FrameType | None], bool] = in_native_machinery,
+    ) -> None:
+        self._stop = stop
+        self._last_words = last_words
+        self._defer_while = defer_while
+        self._waiting = False
+        self._resent = 0
+        self._active = True
+        self._lock = threading.Lock()
+
+    def _resend(self, signum: int) -> None:
+        with self._lock:
+            if not self._active:
+                return
+            self._resent += 1
         try:
             os.kill(os.getpid(), signum)
         except OSError:
             pass
 
-    def handler(signum, frame):
+    def __call__(self, signum: int, frame: FrameType | None) -> None:
         _ARRIVED.add(signum)
-        with lock:
-            resent = state["retries"] > 0
-            if resent:
-                state["retries"] -= 1
-        if not resent and state["waiting"]:  # a second signal from outside: now
+        with self._lock:
+            own = self._resent > 0
+            if own:
+                self._resent -= 1
+        if not own and self._waiting:  # a second signal from outside: now
             try:
-                sys.stderr.write(f"impactid: error: {last_words(signum)}\n")
+                sys.stderr.write(f"impactid: error: {self._last_words(signum)}\n")
                 sys.stderr.flush()
             finally:
                 os._exit(128 + signum)
-        if in_native_machinery(frame):
-            state["waiting"] = True
-            timer = threading.Timer(RETRY_S, retry, (signum,))
+        if self._defer_while(frame):
+            self._waiting = True
+            timer = threading.Timer(RETRY_S, self._resend, (signum,))
             timer.daemon = True
             timer.start()
             return
-        state["waiting"] = False
-        stop(signum)
+        self._waiting = False
+        self._stop(signum)
 
-    return handler
+    def end(self) -> None:
+        """Send no deferred signal again from now on."""
+        with self._lock:
+            self._active = False
+
+
+def stopping_handler(
+    stop: Callable[[int], None],
+    last_words: Callable[[int], str],
+    defer_while: Callable[[FrameType | None], bool] = in_native_machinery,
+) -> StoppingHandler:
+    """A :class:`StoppingHandler` (the signal handler of a command; see there)."""
+    return StoppingHandler(stop, last_words, defer_while)

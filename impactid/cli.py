@@ -34,11 +34,12 @@ import sys
 import threading
 import types
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 
 from impactid._files import TerminationRequested, request_termination, termination_requested
-from impactid._signals import RETRY_S, arrived_stop, forget_stops, stopping_handler
+from impactid._signals import arrived_stop, forget_stops, in_import, in_native_machinery, stopping_handler
 from impactid._version import __version__
+from impactid.campaign_format import FORMAT_HELP
 from impactid.commandline import (
     UsageError,
     check_outputs,
@@ -225,10 +226,8 @@ def _add_estimate_command(sub) -> None:
 
 
 def _campaign_description() -> str:
-    """``impactid campaign --help``'s text: the campaign file's format (:data:`impactid.campaign.FORMAT_HELP`;
-    that module loads pandas and the pipeline, so it is imported when this help is printed)."""
-    from impactid.campaign import FORMAT_HELP
-
+    """``impactid campaign --help``'s text: the campaign file's format and the exit statuses
+    (:data:`impactid.campaign_format.FORMAT_HELP`)."""
     return FORMAT_HELP + ("\nExit status: 0 when every fit ended in an estimate, 1 when some failed (the table and "
                           "the\nfailed: lines say why), 2 when the campaign could not be run.")
 
@@ -344,6 +343,11 @@ def _error(message: str) -> None:
     print(f"impactid: error: {text}", file=sys.stderr, flush=True)
 
 
+def _unsafe_to_stop(frame: types.FrameType | None) -> bool:
+    """Whether a stop's exception must wait: inside numba or llvmlite, or inside an import."""
+    return in_native_machinery(frame) or in_import(frame)
+
+
 @contextlib.contextmanager
 def _command_environment() -> Iterator[None]:
     """Warnings as ``impactid: warning: ...`` lines (each text once), SIGTERM raised as an
@@ -362,9 +366,11 @@ def _command_environment() -> Iterator[None]:
         raise KeyboardInterrupt()
 
     # raised only outside numba's and llvmlite's machinery (impactid._signals: an exception there
-    # crashed the process) and outside a module's initialisation (the command's heavy imports)
-    stop, end_deferral = _after_imports(stop)
-    handler = stopping_handler(stop, _last_words)
+    # crashed the process) and outside a module's initialisation: a command imports its heavy
+    # modules (NumPy, pandas, SciPy, numba, the rig's numerics) when it runs, and an exception raised
+    # in the middle of a library's initialisation can leave its C state half-built (pyarrow's, under
+    # pandas, was seen to kill the process at exit or hang it), so such a stop waits for the import
+    handler = stopping_handler(stop, _last_words, defer_while=_unsafe_to_stop)
 
     def unraisable(info):
         # a stop raised inside a finalizer is swallowed by Python; the flag it set still stops the
@@ -396,69 +402,12 @@ def _command_environment() -> Iterator[None]:
             if stop is not None:
                 raise KeyboardInterrupt()
     finally:
-        end_deferral()
+        handler.end()
         forget_stops()
         sys.unraisablehook = previous_hook
         if in_main:
             signal.signal(signal.SIGTERM, previous_handler)
             signal.signal(signal.SIGINT, previous_interrupt)
-
-
-def _importing(frame: types.FrameType | None) -> bool:
-    """Whether ``frame`` or one of its callers is the import machinery (a module is being initialised)."""
-    while frame is not None:
-        if frame.f_code.co_filename.startswith("<frozen importlib"):
-            return True
-        frame = frame.f_back
-    return False
-
-
-def _after_imports(stop: Callable[[int], None]) -> tuple[Callable[[int], None], Callable[[], None]]:
-    """``stop``, deferred while a module is being imported, and the function that ends the deferral.
-
-    A command imports its heavy modules (NumPy, pandas, SciPy, numba, the rig's numerics) when it
-    runs, inside the command's environment: an exception raised in the middle of a library's
-    initialisation can leave its C state half-built (pyarrow's, under pandas, was seen to kill the
-    process at exit or hang it), so a stop that arrives during an import is sent again every
-    :data:`~impactid._signals.RETRY_S` and acts once the import has ended, as the launcher does for
-    its own imports (:mod:`impactid._launcher`). A second signal from outside while one waits ends
-    the process at once, with the one-line message."""
-    state = {"waiting": False, "resent": 0, "active": True}
-    lock = threading.Lock()
-
-    def resend(signum: int) -> None:
-        with lock:
-            if not state["active"]:  # the command has ended: nothing left to stop
-                return
-            state["resent"] += 1
-        with contextlib.suppress(OSError):
-            os.kill(os.getpid(), signum)
-
-    def deferred(signum: int) -> None:
-        with lock:
-            own = state["resent"] > 0
-            if own:
-                state["resent"] -= 1
-        if not own and state["waiting"]:  # a second signal from outside: now
-            try:
-                sys.stderr.write(f"impactid: error: {_last_words(signum)}\n")
-                sys.stderr.flush()
-            finally:
-                os._exit(128 + signum)
-        if _importing(sys._getframe(1)):
-            state["waiting"] = True
-            timer = threading.Timer(RETRY_S, resend, (signum,))
-            timer.daemon = True
-            timer.start()
-            return
-        state["waiting"] = False
-        stop(signum)
-
-    def end() -> None:
-        with lock:
-            state["active"] = False
-
-    return deferred, end
 
 
 def _last_words(signum: int) -> str:

@@ -86,7 +86,8 @@ def _loaded_by(*argv: str) -> set[str]:
 
 @pytest.mark.parametrize("argv", [["--help"], ["estimate", "--help"], ["synth", "--help"], ["valvetrain", "--help"],
                                   ["valvetrain", "simulate", "--help"], ["events", "--help"], ["bounces", "--help"],
-                                  ["drop", "fit", "--help"], ["info", "--help"]], ids=" ".join)
+                                  ["drop", "fit", "--help"], ["info", "--help"], ["campaign", "--help"]],
+                         ids=" ".join)
 def test_help_loads_no_numerics(argv):
     """``impactid --help`` and ``impactid COMMAND --help`` (a test of the modules loaded, not of seconds:
     benchmarks/bench_startup.py times them) load no numba, pandas, SciPy, matplotlib or NumPy, no

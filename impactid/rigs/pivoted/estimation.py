@@ -274,10 +274,13 @@ def summary(result: Estimate) -> list[str]:
              f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)",
              f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(d.beta_interval[0])}, "
              f"{num(d.beta_interval[1])}]"]
+    withheld = (d.model_check or {}).get("action") == "withheld"
+    if withheld:  # the intervals are missing because the model check rejects the law, not for want of data
+        lines[-1] += "   WITHHELD: the model check rejects the law (see warnings)"
     if d.fixed_n:
         lines.append(f"  n     = {d.n:.4g} (fixed)")
     else:
-        tag = "" if d.separable else "   NOT SEPARABLE from beta (see warnings)"
+        tag = ("" if d.separable or withheld else "   NOT SEPARABLE from beta (see warnings)")
         lines.append(f"  n     = {num(d.n, '.4g')}   interval [{num(d.n_interval[0], '.4g')}, "
                      f"{num(d.n_interval[1], '.4g')}]{tag}")
     lines.append(f"  objective (mean {d.residual}) = {num(d.objective, '.4g')}")

@@ -25,6 +25,7 @@ from impactid.rigs.pivoted.estimates import (
     fit_contact_damping,
     fit_restitution,
 )
+from impactid.rigs.pivoted.estimation import summary
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.residuals import EventSet, loop_area, residual_name
 
@@ -183,6 +184,8 @@ def test_a_contact_law_fitted_to_restitution_law_impacts_is_rejected(s3_syntheti
     result = est.to_result()
     assert "withheld" in result["beta"].note and result.model_check["parts"]["contact_damping"]["verdict"] == "rejected"
     assert result.statistics["separable"] is False
+    lines = summary(est)  # the summary says why the intervals are missing, not "not separable"
+    assert "WITHHELD: the model check rejects the law" in lines[1] and "NOT SEPARABLE" not in "".join(lines)
     r = est.restitution
     assert r.gamma_stderr >= XI_SYSTEMATIC / r.va_mean and result["gamma"].contains(0.8)
     assert math.isnan(r.intercept_stderr) and math.isnan(r.slope_stderr)  # speeds spread 0.004 %
