@@ -6,7 +6,9 @@ Steps, one function each:
    equally good minima told apart by the measured contact durations (:func:`gauss_newton_search`,
    :func:`by_contact_duration`);
 2. the **statistical interval** of ``beta``: the 95 % profile region projected on ``beta``, holding any
-   minima nothing told apart (:func:`profile_interval`);
+   minima nothing told apart (:func:`profile_interval`), and where the residuals barely depend on the law,
+   every other minimum along ``beta`` that fits within the pipeline's error (:func:`competing_minima`: a
+   replay's contacts that come and go with the law make the objective a sawtooth);
 3. the **systematic shifts**: a common-mode residual error of each recording (:func:`systematic_shifts`)
    and each recording's cam-phase error (:func:`cam_phase_shifts`), by linear propagation through the
    Gauss–Newton normal matrix, combined in quadrature (:func:`quadrature`);
@@ -27,6 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -47,9 +50,23 @@ from impactid.rigs.pivoted.damping_diagnostics import (
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
 from impactid.rigs.pivoted.estimate_results import DampingEstimate, Progress
 
-__all__ = ["PHASE_REFIT_Z", "REFIT_PROBE", "by_contact_duration", "cam_phase_refits", "cam_phase_shifts",
-           "clip_to_search_box", "fit_by_least_squares", "gauss_newton_search", "linearised_bootstrap", "n_interval",
-           "profile_interval", "quadrature", "standard_errors", "systematic_shifts"]
+__all__ = ["FINE_STRUCTURE_FLOORS", "MINIMA_SCAN_EXTENSIONS", "MINIMA_SCAN_HALF_WIDTH", "MINIMA_SCAN_STEP",
+           "PHASE_REFIT_Z", "REFIT_PROBE", "CompetingMinima", "by_contact_duration", "cam_phase_refits",
+           "cam_phase_shifts", "clip_to_search_box", "competing_minima", "competing_minima_note", "contact_counts",
+           "fit_by_least_squares", "gauss_newton_search", "linearised_bootstrap", "n_interval", "profile_interval",
+           "quadrature", "standard_errors", "systematic_shifts"]
+
+#: A 10 % change of ``beta`` that moves the per-event residuals by less than this many residual floors (rms)
+#: makes :func:`competing_minima` scan along ``beta``: the law then barely moves the residuals, and a replay's
+#: contact that comes or goes with the law (a graze after a long, nearly plastic contact) changes them by as
+#: much, so other minima can fit within the pipeline's error.
+FINE_STRUCTURE_FLOORS = 10.0
+#: Spacing [decades of c] of :func:`competing_minima`'s scan.
+MINIMA_SCAN_STEP = 0.01
+#: Half-width [decades of c] of :func:`competing_minima`'s scan about the estimate.
+MINIMA_SCAN_HALF_WIDTH = 0.2
+#: Times :func:`competing_minima`'s scan is extended by another half-width on a side its region reaches.
+MINIMA_SCAN_EXTENSIONS = 2
 
 
 def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: list[str], progress: Progress,
@@ -77,6 +94,12 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
     normal = np.linalg.pinv(J.T @ J)
 
     log_iv = profile_interval(fit, obj, n_hat, fix_n, notes)
+    minima = competing_minima(problem, obj, fit, n_hat, systematic)
+    if minima is not None:
+        log_iv = (min(log_iv[0], math.log(float(obj.beta(minima.interval[0], n_hat)))),
+                  max(log_iv[1], math.log(float(obj.beta(minima.interval[1], n_hat)))))
+        counts = contact_counts(problem, obj, np.concatenate([[logc_hat], minima.log10_c]), n_hat)[:, fit.used]
+        notes.append(competing_minima_note(obj, minima, n_hat, beta_hat, counts))
     per_event_hat = np.full(fit.used.size, math.nan)
     per_event_hat[fit.used] = r
     sys_shifts = systematic_shifts(problem, fit, normal, systematic)
@@ -197,6 +220,132 @@ def profile_interval(fit: LeastSquaresFit, obj: DampingObjective, n_hat: float, 
                      + ") that the measured contact durations do not tell apart: the interval of beta holds them all")
     log_beta = np.log(obj.beta(np.concatenate([lc_in - half, lc_in + half]), np.concatenate([n_in, n_in])))
     return (float(log_beta.min()), float(log_beta.max()))
+
+
+@dataclass(frozen=True)
+class CompetingMinima:
+    """Other minima of the sum of squares along ``log10 c`` (``n`` held) that fit within the pipeline's error.
+
+    Attributes
+    ----------
+    log10_c : the competing minima [log10 (N s/m)], other than the search's.
+    rss : their sums of squares.
+    best_rss : the least sum of squares of the scan and the search.
+    tolerance : the excess over ``best_rss`` within which a law counts as fitting (``t^2 s^2 + m floor^2``).
+    interval : ``(lo, hi)`` [log10 (N s/m)], the hull of the scanned laws within the tolerance, rounded
+        outward to the next scan point (the sum of squares between scan points is not known: it may jump).
+    """
+
+    log10_c: np.ndarray
+    rss: np.ndarray
+    best_rss: float
+    tolerance: float
+    interval: tuple[float, float]
+
+
+def competing_minima(problem: DampingProblem, obj: DampingObjective, fit: LeastSquaresFit, n_hat: float,
+                     floor: float) -> CompetingMinima | None:
+    """Other minima along ``log10 c`` (``n`` held at ``n_hat``) that fit as well as the search's, within the
+    pipeline's error: the local profile interval does not see them.
+
+    Where a 10 % change of ``beta`` moves the residuals by less than :data:`FINE_STRUCTURE_FLOORS` floors
+    (rms over the events, from the Jacobian at the estimate; no simulation), a replay's contact that comes
+    and goes with the law (after a long, nearly plastic contact the follower grazes the cam again or not)
+    changes them by as much, and the sum of squares along ``beta`` is a sawtooth with several minima.
+    There ``log10 c`` is scanned every :data:`MINIMA_SCAN_STEP` decades over +-:data:`MINIMA_SCAN_HALF_WIDTH`
+    about the estimate (extended by another half-width, :data:`MINIMA_SCAN_EXTENSIONS` times at most, on a
+    side where laws within the tolerance reach the scan's end; within the search box). Every scanned law
+    whose sum of squares lies within ``t^2 s^2 + m floor^2`` of the best (the fit's 95 % threshold plus the
+    floor's share over the ``m`` events: what the intervals' systematic widening allows for) fits within the
+    error; a local minimum among them more than 0.02 decades from the estimate is a competing minimum.
+
+    Parameters
+    ----------
+    problem : the fit (its search box).
+    obj : its objective (the scan's simulations count in it).
+    fit : the Gauss–Newton fit (estimate, Jacobian, threshold, events used).
+    n_hat : the exponent held.
+    floor : the residual's systematic floor per event (its units: those of the residual).
+
+    Returns
+    -------
+    CompetingMinima or None
+        None where the residuals depend on the law strongly enough (nothing simulated) or the scan finds
+        no other minimum within the tolerance.
+    """
+    jac = np.asarray(fit.jacobian, dtype=float)[:, 0]  # d r / d log10 c
+    m = jac.size
+    moved = math.sqrt(float(np.mean(jac ** 2))) * math.log10(1.1) if m else math.inf
+    if not (floor > 0 and moved < FINE_STRUCTURE_FLOORS * floor):
+        return None
+    logc_hat = float(fit.x[0])
+    lo_box, hi_box = (float(v) for v in problem.log10_c_bounds)
+    tolerance = fit.threshold + m * floor ** 2
+    steps = int(round(MINIMA_SCAN_HALF_WIDTH / MINIMA_SCAN_STEP))
+
+    def rss_at(grid: np.ndarray) -> np.ndarray:
+        r = np.atleast_2d(obj.per_event(grid, np.full(grid.size, n_hat)))[:, fit.used]
+        return np.where(np.all(np.isfinite(r), axis=1), np.sum(np.nan_to_num(r) ** 2, axis=1), np.inf)
+
+    offsets = np.arange(-steps, steps + 1)
+    grid = logc_hat + MINIMA_SCAN_STEP * offsets
+    grid = grid[(grid >= lo_box) & (grid <= hi_box)]
+    rss = rss_at(grid)
+    for _ in range(MINIMA_SCAN_EXTENSIONS):
+        best = min(fit.rss, float(np.min(rss)))
+        within = rss - best <= tolerance
+        more = []
+        if within[0] and grid[0] - MINIMA_SCAN_STEP >= lo_box:
+            more.append(grid[0] - MINIMA_SCAN_STEP * np.arange(steps, 0, -1))
+        if within[-1] and grid[-1] + MINIMA_SCAN_STEP <= hi_box:
+            more.append(grid[-1] + MINIMA_SCAN_STEP * np.arange(1, steps + 1))
+        if not more:
+            break
+        extra = np.concatenate(more)
+        extra = extra[(extra >= lo_box) & (extra <= hi_box)]
+        grid = np.concatenate([grid, extra])
+        rss = np.concatenate([rss, rss_at(extra)])
+        order = np.argsort(grid)
+        grid, rss = grid[order], rss[order]
+    best = min(fit.rss, float(np.min(rss)))
+    within = rss - best <= tolerance
+    left = np.concatenate([[np.inf], rss[:-1]])
+    right = np.concatenate([rss[1:], [np.inf]])
+    local = within & (rss <= left) & (rss <= right) & (np.abs(grid - logc_hat) > 0.02)
+    if not local.any():
+        return None
+    inside = np.flatnonzero(within)
+    lo_i, hi_i = max(int(inside[0]) - 1, 0), min(int(inside[-1]) + 1, grid.size - 1)
+    interval = (min(float(grid[lo_i]), logc_hat), max(float(grid[hi_i]), logc_hat))
+    return CompetingMinima(log10_c=grid[local], rss=rss[local], best_rss=best, tolerance=float(tolerance),
+                           interval=interval)
+
+
+def contact_counts(problem: DampingProblem, obj: DampingObjective, log10_c: np.ndarray, n: float) -> np.ndarray:
+    """The replays' numbers of contacts ``(k, n_events)`` at ``k`` laws ``(log10 c, n)`` (the first contact
+    and any later one before the event's end); the simulations count in ``obj``."""
+    log10_c = np.atleast_1d(np.asarray(log10_c, dtype=float))
+    trials = np.column_stack([obj.beta(log10_c, n), np.full(log10_c.size, float(n))])
+    obj.n_simulations += trials.shape[0] * obj.n_events
+    return np.concatenate([s.simulate(trials).n_contacts for s in problem.sets], axis=1)
+
+
+def competing_minima_note(obj: DampingObjective, minima: CompetingMinima, n_hat: float, beta_hat: float,
+                          counts: np.ndarray) -> str:
+    """The note of :func:`competing_minima`: the other minima, the tolerance and whether the replays' number of
+    contacts differs between them and the estimate (``counts``, ``(1 + minima, events)``, the estimate first)."""
+    others = ", ".join(f"beta {float(obj.beta(c, n_hat)):.4g} (sum of squares {v:.3g})"
+                       for c, v in zip(minima.log10_c, minima.rss))
+    differ = np.any(counts[1:] != counts[0][None, :], axis=0)
+    why = (f"the replays' number of contacts differs between them in {int(differ.sum())} of {differ.size} events "
+           f"(a contact that comes and goes with the law)" if differ.any()
+           else "the replays' number of contacts is the same at all of them")
+    lo, hi = (float(obj.beta(c, n_hat)) for c in minima.interval)
+    return (f"beta is not identified to better than the spread of several minima: the {obj.residual} residuals "
+            f"barely depend on the law here, and other laws fit within the pipeline's error (the best sum of "
+            f"squares {minima.best_rss:.3g} plus {minima.tolerance:.3g}) as well as the estimate {beta_hat:.4g}: "
+            f"{others}; {why}. The interval of beta holds them all ({lo:.4g} to {hi:.4g} before the systematic "
+            f"widening)")
 
 
 def _event_owners(problem: DampingProblem) -> np.ndarray:
