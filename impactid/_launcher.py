@@ -82,15 +82,21 @@ def _stopped(signum: int) -> int:
     return EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``impactid`` command; returns the exit code."""
+def main(argv: Sequence[str] | None = None, *, early: Sequence[int] = ()) -> int:
+    """Entry point of the ``impactid`` command; returns the exit code.
+
+    ``early`` are the stop signals that arrived before this function ran (the console script records
+    them while the package loads: :mod:`impactid_console`); they are acted on as a signal during the
+    imports is.
+    """
     in_main = threading.current_thread() is threading.main_thread()
+    _importing[0] = True  # from the handlers' first moment until the imports end, a signal is recorded
     previous_term = signal.signal(signal.SIGTERM, _terminate) if in_main else None
     previous_int = signal.signal(signal.SIGINT, _interrupt) if in_main else None
+    _arrived[:] = early  # read after the handlers are in place: a signal in between is recorded by them
     previous_hook = sys.unraisablehook
     sys.unraisablehook = _quiet_unraisable
     try:
-        _importing[0] = True
         try:
             from impactid import cli  # a signal meanwhile is acted on right after the import
         except BaseException:
@@ -98,16 +104,14 @@ def main(argv: Sequence[str] | None = None) -> int:
                 return _stopped(_arrived[0])
             raise
         finally:
-            _importing[0] = False
+            _importing[0] = False  # a signal from here on raises (caught below) until `late` takes over
             sys.unraisablehook = previous_hook
-            if in_main:
-                signal.signal(signal.SIGINT, previous_int)
-        if _arrived:
-            return _stopped(_arrived[0])
         if in_main:  # until the command's own environment takes over: never inside numba (impactid._signals)
             late = stopping_handler(_raise_for, lambda signum: _words(signum))
             signal.signal(signal.SIGTERM, late)
             signal.signal(signal.SIGINT, late)
+        if _arrived:
+            return _stopped(_arrived[0])
         # the command's own environment installs its handlers for the command and restores these after it
         return cli.main(argv)
     except KeyboardInterrupt:
@@ -118,12 +122,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         forget_stops()  # the command has ended, and with it what its stops meant
         if in_main:
             signal.signal(signal.SIGTERM, previous_term)
-            signal.signal(signal.SIGINT, previous_int)
-            if argv is None:
-                # the console script owns this process and the command has ended (its outputs are
-                # complete or rolled back): a Ctrl-C while the interpreter shuts down (about a second
-                # with dask or numba loaded) has nothing left to stop and would only kill it silently
-                signal.signal(signal.SIGINT, signal.SIG_IGN)
+            # the console script owns this process when argv is None and the command has ended (its
+            # outputs are complete or rolled back): a Ctrl-C while the interpreter shuts down (about a
+            # second with dask or numba loaded) has nothing left to stop and would only print a
+            # traceback, so it is ignored from here on (set at once: no moment with Python's default)
+            signal.signal(signal.SIGINT, signal.SIG_IGN if argv is None else previous_int)
 
 
 if __name__ == "__main__":  # pragma: no cover

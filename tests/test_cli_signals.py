@@ -115,3 +115,27 @@ def test_a_stop_inside_numba_waits_until_it_returns():
     finally:
         signal.signal(signal.SIGUSR1, previous)
         forget_stops()
+
+
+@pytest.mark.parametrize("sig, code, word", [(signal.SIGINT, 130, "interrupted"), (signal.SIGTERM, 143, "terminated")])
+def test_a_signal_before_the_package_has_loaded_is_acted_on_in_one_line(sig, code, word):
+    """The console script's first module (``impactid_console``) records a stop signal before the package
+    ``impactid`` loads (a Ctrl-C there was a traceback, a SIGTERM a silent exit -15); the launcher acts on it
+    once its own handlers are in place. Sent here right after that module's import, deterministically."""
+    code_text = ("import os, signal, sys\n"
+                 "import impactid_console\n"
+                 f"os.kill(os.getpid(), {int(sig)})\n"
+                 "sys.argv = ['impactid', 'info', '--help']\n"
+                 "sys.exit(impactid_console.main())\n")
+    proc = subprocess.run([sys.executable, "-c", code_text], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == code, (proc.returncode, proc.stderr)
+    assert proc.stderr.strip().splitlines() == [f"impactid: error: {word} " + proc.stderr.split(word, 1)[1].strip()]
+    assert "usage" not in proc.stdout  # the command did not run
+
+
+def test_the_console_script_starts_with_the_recording_module():
+    """The installed ``impactid`` script imports ``impactid_console`` (its handlers come before the package)."""
+    from importlib.metadata import entry_points
+
+    (script,) = [e for e in entry_points(group="console_scripts") if e.name == "impactid"]
+    assert script.value == "impactid_console:main"
