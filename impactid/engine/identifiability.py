@@ -38,7 +38,7 @@ from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty
 from impactid.engine.least_squares import Search, search
 
 __all__ = ["LRT_SIGNIFICANCE", "NEAR_BOUND_STDERR", "PROFILE_STEPS", "PROFILE_THRESHOLD", "compare_models",
-           "identifiability", "profile_interval", "profile_shape"]
+           "identifiability", "profile_interval", "profile_note", "profile_shape"]
 
 #: A parameter within this many standard errors of a bound of its search is "near" it.
 NEAR_BOUND_STDERR = 2.0
@@ -56,6 +56,13 @@ def profile_shape(rise_low: float, rise_high: float, threshold: float = PROFILE_
     """``bounded``, ``one-sided`` or ``flat`` from the largest rises of ``chi^2`` found on each side."""
     low, high = rise_low >= threshold, rise_high >= threshold
     return "bounded" if low and high else ("one-sided" if low or high else "flat")
+
+
+def profile_note(name: str, shape: str) -> str:
+    """The note of a profile that is not bounded (``shape`` one-sided or flat: :func:`profile_shape`)."""
+    where = ("on one side only (a bound of the search or a flat side on the other)" if shape == "one-sided"
+             else "on neither side")
+    return f"the profile of {name} is {shape}: the data bound it {where}"
 
 
 def _side_points(x: float, se: float, lo: float, hi: float, side: int) -> list[float]:
@@ -183,9 +190,7 @@ def identifiability(found: Search, fit: Uncertainty, *, residual: Callable[[np.n
         shape = profile_shape(rises[-1], rises[1])
         profiles[name] = {"shape": shape, "method": "refit" if use_refit else "quadratic", "points": points}
         if shape != "bounded":
-            where = ("on one side only (a bound of the search or a flat side on the other)" if shape == "one-sided"
-                     else "on neither side")
-            notes.append(f"the profile of {name} is {shape}: the data bound it {where}")
+            notes.append(profile_note(name, shape))
     condition = float(fit.covariance.condition)
     determined = bool(fit.covariance.determined and condition <= CONDITION_LIMIT
                       and all(v["shape"] == "bounded" for v in profiles.values())

@@ -51,7 +51,7 @@ from impactid.engine import (
     uncertainty,
 )
 from impactid.engine.checks import widen_interval as widen_by_factor
-from impactid.engine.identifiability import LRT_SIGNIFICANCE
+from impactid.engine.identifiability import LRT_SIGNIFICANCE, profile_note
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
 from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL
 
@@ -294,8 +294,14 @@ def damping_identifiability(problem: DampingProblem, fit, describes_data: bool |
         n_values = prof["n"].to_numpy(float)
         low = float(np.nanmax(np.where(n_values < x[1], rise, -np.inf), initial=-np.inf))
         high = float(np.nanmax(np.where(n_values > x[1], rise, -np.inf), initial=-np.inf))
+        quadratic_shape = block["profiles"]["n"]["shape"]
         block["profiles"]["n"] = {"shape": profile_shape(low, high), "method": "refit (the valley: log10 c "
                                   "re-optimised at each n)", "points": np.column_stack([n_values, rise]).tolist()}
+        # the notes speak of the refit profile, not of the quadratic one it replaces
+        notes = [v for v in block["notes"] if v != profile_note("n", quadratic_shape)]
+        if block["profiles"]["n"]["shape"] != "bounded":
+            notes.append(profile_note("n", block["profiles"]["n"]["shape"]))
+        block["notes"] = list(dict.fromkeys(notes))
         block["profile_method"] = ("mixed: n's profile is the valley (refit), log10 c's quadratic (Gauss-Newton "
                                    "J^T J)")
         if block["profiles"]["n"]["shape"] != "bounded":
@@ -316,7 +322,14 @@ def damping_identifiability(problem: DampingProblem, fit, describes_data: bool |
         p = float(stats.chi2.sf(z2, 1)) if math.isfinite(z2) else math.nan
         comparison["wald"] = {"statistic": z2, "dof": 1, "p_value": p, "rejects_simple": bool(p < LRT_SIGNIFICANCE),
                               "n_interval": list(n_interval)}
-        comparison["preferred"] = "n fitted" if p < LRT_SIGNIFICANCE else (held if math.isfinite(p) else "undecided")
+        if block["profiles"]["n"]["shape"] != "bounded":  # n not determined: its interval is cut by a bound
+            comparison["wald"].update(rejects_simple=False, note="not applicable: the profile of n is not bounded "
+                                      "(its interval is cut by the search's bound), so the data do not reject the "
+                                      "held law")
+            comparison["preferred"] = held
+        else:
+            comparison["preferred"] = ("n fitted" if p < LRT_SIGNIFICANCE
+                                       else held if math.isfinite(p) else "undecided")
         comparison["rule"] = (f"{held} unless the Wald test on the reported 95 % interval of n (statistics and the "
                               f"recordings' systematic errors) rejects it at p < {LRT_SIGNIFICANCE:g}; the "
                               "likelihood-ratio statistic of the sums of squares is reported beside it")

@@ -103,6 +103,16 @@ def test_single_recording_joint_fit_warns_that_beta_n_are_not_separable(s2_event
     assert est.separable is False
     assert est.n_interval[0] <= N <= est.n_interval[1]
     assert est.n_interval[1] - est.n_interval[0] > 0.25
+    # the identifiability block speaks of n's refit profile (its notes too), and an n the data do not determine
+    # is no reason to prefer fitting it over the held 1.5
+    block = est.identifiability
+    shape = block["profiles"]["n"]["shape"]
+    assert shape != "bounded" and not block["determined"]
+    assert [note for note in block["notes"] if note.startswith("the profile of n is")] == [
+        f"the profile of n is {shape}: the data bound it "
+        + ("on one side only (a bound of the search or a flat side on the other)" if shape == "one-sided"
+           else "on neither side")]
+    assert block["model_comparison"]["preferred"] == "n = 1.5"
 
 
 @pytest.mark.slow
