@@ -77,6 +77,12 @@ motion, slow noisy impacts, a follower riding the cam and irregular motion. They
 :data:`SETTLE_GENERAL_S` of settling, by impactid's generator or by the independent reference model started
 on the motion impactid's simulator settles to (:func:`general_recording`); every option above works on them.
 
+``benchmarks/validate_envelope.py`` runs these cases too (its part ``general``, :func:`run_general_case`), and the
+misspecified cases (:data:`MISSPECIFIED_CASES`, part ``misspecified``, :func:`run_misspecified_case`):
+restitution-law recordings fitted with Hunt–Crossley, and recordings estimated with a rig whose one constant is
+off by 20-50 %. Its dask workers run :func:`run_task` (pickled by reference: they import this module as
+``benchmarks.envelope_case``).
+
 Examples
 --------
 ``python benchmarks/envelope_case.py hc21 --events --decompose --seeds 5`` shows a noisy case's
@@ -93,7 +99,7 @@ import math
 import sys
 import time
 import warnings
-from dataclasses import replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -315,6 +321,245 @@ def run_class(klass: str, **options) -> list[dict]:
           f"{sum(r['covered'] for r in est)} covered), {len(rows) - len(est)} refusals, "
           f"{sum(r.get('confident_wrong', False) for r in est)} confident wrong answers", flush=True)
     return rows
+
+
+# ---- the validation's tasks beyond the period-1 envelope (benchmarks/validate_envelope.py) -------------------
+#
+# The validation ships these functions to its dask workers by reference (``benchmarks.envelope_case.run_task``):
+# the workers import this repository's ``benchmarks`` (a namespace package) and ``tests`` packages.
+
+#: The parts of the validation: the drawn period-1 cases, the general-motion cases, the misspecified models.
+PARTS = ("period-1", "general", "misspecified")
+
+#: The kinds of the misspecified class, and what sets each apart (noise-free, 24-bit ADC, 1 s at 204.8 kHz).
+MISSPECIFIED_KINDS = {
+    "restitution-law": "recorded with the restitution law xi = 1 - gamma v_a (S3, rigid impacts) and fitted with "
+                       "Hunt-Crossley: n fixed at 1.5 on the first point, and jointly over two period-1 points of "
+                       "the same law whose approach speeds differ by at least 30 %",
+    "rig-constant": "recorded with the true rig, estimated (n fixed at the truth) with a rig whose one constant is "
+                    "off by 20-50 %: the follower's moment of inertia I_b, the return spring's stiffness k_s, both "
+                    "Young's moduli (the Hertz stiffness k_H scales with them) or the pin radius r_d (the Hertz "
+                    "radius, and the contact geometry with it)",
+}
+
+#: Rig constants a ``rig-constant`` case may scale: the field(s) of
+#: :class:`~impactid.rigs.pivoted.parameters.PivotedFollowerRig` each name scales.
+RIG_CONSTANTS = {"I_b": ("I_b",), "k_s": ("k_s",), "Y": ("Y_c", "Y_b"), "r_d": ("r_d",)}
+
+
+@dataclass(frozen=True)
+class MisspecifiedCase:
+    """A recording made with one model and estimated with another (all SI; ``beta`` in N s m^-(n+1)).
+
+    ``kind`` ``"restitution-law"``: recorded with the restitution law ``gamma`` [s/m] at ``(e_over_rc,
+    cam_speed_hz)`` and at ``pair``; ``"rig-constant"``: recorded with Hunt-Crossley ``beta, n`` and the true
+    rig, estimated with the rig whose ``constant`` (:data:`RIG_CONSTANTS`) is multiplied by ``scale``.
+    """
+
+    id: str
+    kind: str
+    e_over_rc: float
+    cam_speed_hz: float
+    beta: float = math.nan
+    n: float = math.nan
+    gamma: float = math.nan
+    pair: tuple[float, float] | None = None
+    constant: str = ""
+    scale: float = 1.0
+    generator: str = "impactid"
+    seed: int = 0
+    klass: str = "misspecified"
+
+    def envelope_case(self) -> E.Case:
+        """The :class:`tests.envelope.Case` that records it (noise-free, 24-bit ADC)."""
+        if self.kind == "restitution-law":
+            return E.Case(id=self.id, klass="S3", e_over_rc=self.e_over_rc, cam_speed_hz=self.cam_speed_hz,
+                          gamma=self.gamma, pair=self.pair, generator=self.generator, seed=self.seed, adc_bits=24)
+        return E.Case(id=self.id, klass="noise-free", e_over_rc=self.e_over_rc, cam_speed_hz=self.cam_speed_hz,
+                      beta=self.beta, n=self.n, generator=self.generator, seed=self.seed, adc_bits=24)
+
+
+#: The misspecified cases. The restitution-law points are the envelope's S3 points (``s360``-``s374`` of
+#: ``docs/validation_envelope_cases.json``) paired at one law, both period-1 under impactid's regime
+#: classification (approach speeds 1.06/0.48, 0.85/0.42, 0.79/0.29 and 0.34/0.59 m/s); the rig-constant points
+#: are the envelope's noise-free points (hc20, hc28, hc00, hc36, hc04, hc40, hc48, hc12), whose fits with the
+#: right rig are within 1 %. Four of the twelve recordings are made by the independent reference model.
+MISSPECIFIED_CASES = (
+    MisspecifiedCase("ms00", "restitution-law", 0.2725, 13.5, gamma=0.4711, pair=(0.1746, 15.0),
+                     generator="reference", seed=4000),
+    MisspecifiedCase("ms01", "restitution-law", 0.2249, 13.5, gamma=0.7477, pair=(0.1575, 15.5), seed=4001),
+    MisspecifiedCase("ms02", "restitution-law", 0.227, 13.5, gamma=0.9557, pair=(0.1119, 16.5), seed=4002),
+    MisspecifiedCase("ms03", "restitution-law", 0.1276, 15.5, gamma=0.3287, pair=(0.1979, 14.5), seed=4003),
+    MisspecifiedCase("mr00", "rig-constant", 0.1365, 15.5, beta=43060686898.4858, n=1.7539169938498236,
+                     constant="I_b", scale=1.3, seed=4100),
+    MisspecifiedCase("mr01", "rig-constant", 0.1662, 15.0, beta=18349100875.630653, n=1.6839391935862023,
+                     constant="I_b", scale=0.75, generator="reference", seed=4101),
+    MisspecifiedCase("mr02", "rig-constant", 0.1668, 10.5, beta=8546131365.012307, n=1.5839478994290928,
+                     constant="Y", scale=1.5, seed=4102),
+    MisspecifiedCase("mr03", "rig-constant", 0.2425, 14.0, beta=33393950704.600323, n=1.3058806129201166,
+                     constant="Y", scale=0.6, generator="reference", seed=4103),
+    MisspecifiedCase("mr04", "rig-constant", 0.2798, 9.5, beta=11629164769.20861, n=1.3624085408675461,
+                     constant="k_s", scale=1.25, seed=4104),
+    MisspecifiedCase("mr05", "rig-constant", 0.1591, 13.0, beta=28113143388.379524, n=1.7890245371717102,
+                     constant="k_s", scale=0.7, seed=4105),
+    MisspecifiedCase("mr06", "rig-constant", 0.1171, 11.5, beta=7342516465.511615, n=1.7297204042811312,
+                     constant="r_d", scale=1.2, generator="reference", seed=4106),
+    MisspecifiedCase("mr07", "rig-constant", 0.2802, 16.0, beta=75936005283.239, n=1.3366915635632672,
+                     constant="Y", scale=1.2, seed=4107),
+)
+
+#: Verdicts of the model check that are a warning (:data:`impactid.engine.checks.VERDICTS` but ``consistent``
+#: and ``not checked``).
+WARNING_VERDICTS = ("systematic misfit", "structured", "lack of fit", "rejected")
+#: An estimate this far off (relative) with an interval that excludes the truth is a confident wrong answer.
+CONFIDENT_WRONG = 0.05
+
+
+def confident_wrong(value: float, interval: tuple[float, float], truth: float) -> bool:
+    """Whether an estimate is more than :data:`CONFIDENT_WRONG` (relative) off ``truth`` while its interval
+    excludes it (a withheld, NaN, interval excludes nothing)."""
+    lo, hi = interval
+    off = abs(value / truth - 1.0) > CONFIDENT_WRONG if truth else False
+    return bool(off and (lo > truth or hi < truth))
+
+
+def damping_values(result, beta: float, n: float | None = None) -> dict:
+    """The scores of a Hunt-Crossley fit against the law ``beta, n`` (``n`` None: n was fixed).
+
+    Returns the estimate, its interval, the error, coverage, the model check's verdict and action, whether it
+    warns (a verdict of :data:`WARNING_VERDICTS`), whether a note names the model check, the separability
+    (joint fits) and whether the answer is confident and wrong (:func:`confident_wrong`, on ``beta`` and, for a
+    joint fit, ``n``).
+    """
+    d = result.damping
+    check = dict(d.model_check or {})
+    verdict = str(check.get("verdict", "not checked"))
+    notes = tuple(result.warnings) + tuple(d.warnings)
+    values = {"beta": d.beta, "beta_lo": d.beta_interval[0], "beta_hi": d.beta_interval[1],
+              "beta_error": d.beta / beta - 1.0,
+              "beta_covered": bool(d.beta_interval[0] <= beta <= d.beta_interval[1]),
+              "verdict": verdict, "action": str(check.get("action", "none")),
+              "warned": verdict in WARNING_VERDICTS, "model_check_note": any("model check" in w for w in notes),
+              "failed_simulations": d.n_failed_simulations}
+    wrong = confident_wrong(d.beta, d.beta_interval, beta)
+    if n is not None:
+        values.update(n=d.n, n_lo=d.n_interval[0], n_hi=d.n_interval[1], n_error=d.n - n,
+                      n_covered=bool(d.n_interval[0] <= n <= d.n_interval[1]), separable=d.separable)
+        wrong = wrong or confident_wrong(d.n, d.n_interval, n)
+    values["confident_wrong"] = bool(wrong)
+    return values
+
+
+def _truth_motion(truth: dict, case: E.Case) -> dict:
+    """The true motion of a general-motion recording: impacts per revolution, median xi, v_a, contact time."""
+    imp = truth["impacts"]
+    if not len(imp["t_start"]):
+        return {"impacts_per_revolution": 0.0}
+    return {"impacts_per_revolution": round(len(imp["t_start"]) / (case.duration * case.cam_speed_hz), 3),
+            "xi": float(np.nanmedian(imp["xi"])), "v_a": float(np.nanmedian(-np.asarray(imp["gap_rate_start"]))),
+            "contact_ms": float(1e3 * np.nanmedian(np.asarray(imp["t_end"]) - np.asarray(imp["t_start"])))}
+
+
+def run_general_case(case_id: str) -> dict:
+    """The n-fixed fit (at the true ``n``) of the general-motion case ``case_id`` (:data:`GENERAL_CASES`), as
+    :func:`run_class` runs it, as a row of the validation (the schema of :func:`tests.envelope.run_case`: the
+    case, ``generation``, the true motion and ``outcomes``, one ``n-fixed`` outcome scored by
+    :func:`damping_values`)."""
+    case = general_case(case_id)
+    row = {k: v for k, v in asdict(case).items() if k != "pair"}
+    try:
+        rec, truth = general_recording(case)
+    except Exception as exc:  # noqa: BLE001 - a generator that cannot record the case is not impactid's error
+        row.update(generation=f"{type(exc).__name__}: {exc}", outcomes=[])
+        return row
+    row["generation"] = "ok"
+    row.update(_truth_motion(truth, case))
+    out, result = E._fit("n-fixed", [rec], fix_n=case.n)
+    if result is not None:
+        out.values = damping_values(result, case.beta)
+    row["outcomes"] = [asdict(out)]
+    return row
+
+
+def misspecified_rig(rig, constant: str, scale: float):
+    """``rig`` with the constant ``constant`` (:data:`RIG_CONSTANTS`) multiplied by ``scale``."""
+    return replace(rig, **{name: getattr(rig, name) * scale for name in RIG_CONSTANTS[constant]})
+
+
+def run_misspecified_case(case: MisspecifiedCase, joint: bool = True) -> dict:
+    """The fits of a misspecified case, as a row of the validation (see :func:`run_general_case`).
+
+    Restitution-law cases: the Hunt-Crossley fit with ``n`` fixed at 1.5 (scored against the law's
+    Hunt-Crossley equivalent ``beta = 1.5 gamma k_H``, the reference the restitution fit reports), the
+    restitution fit of the same call (against ``gamma``) and, with ``joint``, the joint fit over both points
+    (scored against ``(1.5 gamma k_H, 1.5)``). Rig-constant cases: the fit with ``n`` fixed at the truth, on the
+    recording whose rig is replaced by :func:`misspecified_rig`. Every damping outcome carries the model check's
+    verdict, whether it warns and (joint) whether it is reported separable.
+    """
+    from impactid import SUNDAR2016
+
+    env = case.envelope_case()
+    row = {k: v for k, v in asdict(case).items() if k != "pair"}
+    row["pair_e_over_rc"], row["pair_cam_speed_hz"] = case.pair if case.pair else (math.nan, math.nan)
+    try:
+        rec, _ = E.make_recording(env)
+        partner = E.make_recording(env, case.pair)[0] if (joint and case.pair) else None
+    except Exception as exc:  # noqa: BLE001 - the generator refusing a case is not impactid's error
+        row.update(generation=f"{type(exc).__name__}: {exc}", outcomes=[])
+        return row
+    row["generation"] = "ok"
+    outcomes = []
+    if case.kind == "restitution-law":
+        beta_eq = 1.5 * case.gamma * SUNDAR2016.k_H
+        row["beta"], row["n"] = beta_eq, 1.5  # the Hunt-Crossley equivalent of the law: the reference scored
+        out, result = E._fit("n-fixed", [rec], fix_n=1.5)
+        if result is not None:
+            out.values = damping_values(result, beta_eq)
+            r = result.restitution
+            outcomes.append(E.Outcome("restitution", "estimate" if r is not None else "refusal",
+                                      reason="" if r is not None else "no impact with a determined xi",
+                                      values={} if r is None else {
+                                          "gamma": r.gamma, "gamma_stderr": r.gamma_stderr,
+                                          "gamma_error": r.gamma / case.gamma - 1.0,
+                                          "gamma_covered": bool(abs(r.gamma - case.gamma) <= 1.96 * r.gamma_stderr)}))
+        outcomes.insert(0, out)
+        if partner is not None:
+            out, result = E._fit("joint", [rec, partner])
+            if result is not None:
+                out.values = damping_values(result, beta_eq, 1.5)
+            outcomes.append(out)
+    else:
+        wrong = rec.with_rig(misspecified_rig(rec.require_rig(), case.constant, case.scale))
+        out, result = E._fit("n-fixed", [wrong], fix_n=case.n)
+        if result is not None:
+            out.values = damping_values(result, case.beta)
+        outcomes.append(out)
+    row["outcomes"] = [asdict(o) for o in outcomes]
+    return row
+
+
+def task_cases(part: str) -> list:
+    """The cases of a part of the validation besides ``period-1`` (whose cases are drawn and cached by
+    ``benchmarks/validate_envelope.py``): the general-motion :class:`tests.envelope.Case` objects or the
+    :class:`MisspecifiedCase` objects."""
+    if part == "general":
+        return [general_case(c) for c in GENERAL_CASES]
+    if part == "misspecified":
+        return list(MISSPECIFIED_CASES)
+    raise ValueError(f"no cases of part {part!r} here")
+
+
+def run_task(task: tuple[str, object, bool]) -> dict:
+    """One case of the validation: ``(part, case, joint)`` with ``part`` of :data:`PARTS`; the row of
+    :func:`tests.envelope.run_case`, :func:`run_general_case` or :func:`run_misspecified_case`."""
+    part, case, joint = task
+    if part == "period-1":
+        return E.run_case(case, joint=joint)
+    if part == "general":
+        return run_general_case(case.id)
+    if part == "misspecified":
+        return run_misspecified_case(case, joint=joint)
+    raise ValueError(f"unknown part {part!r} (one of {', '.join(PARTS)})")
 
 
 def with_sensors(clean, sensors: SensorModel):

@@ -254,7 +254,8 @@ def run_case(case: Case, joint: bool = True) -> dict:
             out.values = {"beta": d.beta, "beta_lo": d.beta_interval[0], "beta_hi": d.beta_interval[1],
                           "beta_error": d.beta / case.beta - 1.0,
                           "beta_covered": bool(d.beta_interval[0] <= case.beta <= d.beta_interval[1]),
-                          "failed_simulations": d.n_failed_simulations}
+                          "failed_simulations": d.n_failed_simulations,
+                          "verdict": str((d.model_check or {}).get("verdict", "not checked"))}
             r = result.restitution
             outcomes.append(Outcome("restitution", "estimate" if r is not None else "refusal",
                                     reason="" if r is not None else "no impact with a determined xi",
@@ -269,7 +270,8 @@ def run_case(case: Case, joint: bool = True) -> dict:
                               "beta_error": d.beta / case.beta - 1.0, "n_error": d.n - case.n,
                               "beta_covered": bool(d.beta_interval[0] <= case.beta <= d.beta_interval[1]),
                               "n_covered": bool(d.n_interval[0] <= case.n <= d.n_interval[1]),
-                              "failed_simulations": d.n_failed_simulations}
+                              "failed_simulations": d.n_failed_simulations,
+                              "verdict": str((d.model_check or {}).get("verdict", "not checked"))}
                 if not d.separable:
                     out.reason = "not separable: " + next((w for w in d.warnings if "not separable" in w), "")
             outcomes.append(out)
