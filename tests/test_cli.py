@@ -99,9 +99,14 @@ def test_synth_s3_and_rig_f(tmp_path, capsys):
                  "--out", str(tmp_path / "f.h5")]) == 0
     truth = read_truth(tmp_path / "f.h5")
     assert truth["cam_ppr"] == 5000 and truth["follower_ppr"] == 10_000
-    assert main(["synth", "--rig", "flat-follower", "--rpm", "140", "--out", str(tmp_path / "g.h5")]) == 2
+    assert main(["synth", "--rig", "flat-follower", "--rpm", "140", "--duration", "1", "--restitution", "0.6",
+                 "--out", str(tmp_path / "g.h5")]) == 0            # above detachment: impacting
+    truth = read_truth(tmp_path / "g.h5")
+    assert truth["restitution"] == pytest.approx(0.6) and len(truth["impact_times"]) > 0
+    assert main(["synth", "--rig", "flat-follower", "--rpm", "110", "--restitution", "0.6",
+                 "--out", str(tmp_path / "h.h5")]) == 2            # below detachment: no impacts to give a law
     assert "detachment" in capsys.readouterr().err
-    assert not (tmp_path / "g.h5").exists()
+    assert not (tmp_path / "h.h5").exists()
 
 
 def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):

@@ -1,21 +1,36 @@
-"""The command the bouncing-ball rig contributes, ``impactid bounces`` (``RigModel.commands`` names
-this module): its arguments as data, its run in :mod:`impactid.rigs.ball.cli`.
+"""The commands the bouncing-ball rig contributes (``RigModel.commands`` names this module):
+``impactid bounces`` (its arguments as data, its run in :mod:`impactid.rigs.ball.cli`) and its
+implementation of the shared ``impactid synth`` (``--rig bouncing-ball``, or a ball's preset name:
+``--rig pingpong``), which writes a synthetic drop that ``impactid bounces`` reads
+(:func:`impactid.rigs.ball.synth.synth_drop` and :func:`~impactid.rigs.ball.synth.write_drop`).
 
 Light: building the command line (``impactid --help``, ``impactid bounces --help``) imports this
-module and :mod:`~impactid.rigs.ball.parameters` only; the analysis (numpy, SciPy, the readers) is
-imported when the command runs. The choices of ``--law`` are written out here: they are the names
-of :data:`impactid.rigs.ball.laws.LAWS` (``tests/test_package.py`` checks that they agree).
+module and :mod:`~impactid.rigs.ball.parameters` only; the analysis (numpy, SciPy, the readers) and
+the synthesis are imported when a command runs. The choices of ``--law`` are written out here: they
+are the names of :data:`impactid.rigs.ball.laws.LAWS` (``tests/test_package.py`` checks that they agree).
 """
 
 from __future__ import annotations
 
 import argparse
+import math
+from pathlib import Path
 
-from impactid.commandline import nonnegative, positive
+from impactid.commandline import SEED, SYNTH_OUT, UsageError, check_outputs, nonnegative, pair, positive
 from impactid.rigs.ball.parameters import ball_preset
 from impactid.rigs.base import Argument, CommandSpec
 
-__all__ = ["COMMANDS", "LAWS", "command"]
+__all__ = ["COMMANDS", "LAWS", "command", "synth_command"]
+
+#: The rig's model name (``MODEL.name``).
+MODEL_NAME = "bouncing-ball"
+
+#: The suffixes ``impactid synth --rig bouncing-ball --out`` writes (the keys of
+#: :data:`impactid.rigs.ball.synth.DROP_FORMATS`, which loads numpy).
+SYNTH_SUFFIXES = (".csv", ".xlsx", ".wav")
+
+#: Largest trigger jitter ``--jitter`` takes [s] (a tenth of the shortest flight a drop records).
+MAX_JITTER_S = 0.01
 
 #: The laws ``--law`` names (the names of :data:`impactid.rigs.ball.laws.LAWS`, which loads numpy).
 LAWS = ("constant", "linear", "viscoelastic")
@@ -70,6 +85,102 @@ def run(args, model) -> int:
     return run_bounces(args)
 
 
+def _jitter(text: str) -> float:
+    value = nonnegative(text)
+    if value > MAX_JITTER_S:
+        raise argparse.ArgumentTypeError(f"must lie in [0, {MAX_JITTER_S:g}] s, got {text!r}")
+    return value
+
+
+def _synth_arguments() -> tuple[Argument, ...]:
+    """The bouncing ball's arguments of ``impactid synth`` (``--height`` is shared with drop-impact's,
+    ``--seed`` and ``--out`` with every rig's; the first rig's declaration of a shared flag wins, and the
+    ball's comes before the drop rig's)."""
+    return (
+        Argument(("--ball",), dict(type=_ball_name, default=None, metavar="NAME",
+                                   help="bouncing-ball: preset ball, pingpong (table-tennis, the default), golf or "
+                                        "tennis (or name it with --rig)")),
+        Argument(("--height",), {"type": nonnegative, "default": None, "metavar": "M",
+                                 "help": "drop height [m]: bouncing-ball: release height of the ball's bottom above "
+                                         "the floor (default 0.3); drop-impact: fall of the contact point to the "
+                                         "contact surface (default: the rig file's [operating] drop_height_m)"}),
+        Argument(("--bounce-law",), {"type": pair, "default": None, "metavar": "E0,GAMMA",
+                                     "help": "bouncing-ball: restitution e = E0 - GAMMA v, v the impact speed [m/s] "
+                                             "(default 0.96,0.02)"}),
+        Argument(("--jitter",), {"type": _jitter, "default": 0.0, "metavar": "S",
+                                 "help": "bouncing-ball: standard deviation of the trigger times [s] (default 0; "
+                                         "a phone's acoustic stopwatch: about 2e-4)"}),
+        Argument(("--faults",), {"action": "store_true",
+                                 "help": "bouncing-ball: add a stopwatch's faults (a release click, a missed bounce, "
+                                         "an echo, a spurious trigger, two junk events)"}),
+        SEED, SYNTH_OUT,
+    )
+
+
+def _refuse_foreign_options(args, spec: CommandSpec) -> None:
+    """Refuse an option another rig's version of ``impactid synth`` declares (argparse accepts the union
+    of the rigs' options; the ball would silently ignore it): a value that differs from its default
+    (``args.option_defaults``, set by the command line)."""
+    defaults = getattr(args, "option_defaults", {})
+    own = {"command", "func", "rig", "resolved_rig", "option_defaults"}
+    own.update(argument.flags[0].lstrip("-").replace("-", "_") for argument in spec.arguments)
+    for dest, value in sorted(vars(args).items()):
+        if dest not in own and dest in defaults and value != defaults[dest]:
+            hint = " (the trigger timing noise is --jitter)" if dest == "noise" else ""
+            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'synth' for the {MODEL_NAME!r} "
+                             f"rig (it belongs to another rig's synth){hint}")
+
+
+def _synth_ball(args):
+    """The ball of ``impactid synth``: ``--ball``, else the preset ``--rig`` named (table tennis for the
+    model's name); a ``--ball`` that contradicts a preset named by ``--rig`` is refused."""
+    named = args.resolved_rig.rig
+    if args.ball is None:
+        return named
+    ball = ball_preset(args.ball)
+    if args.rig is not None and args.rig.casefold() != MODEL_NAME and ball.name != named.name:
+        raise UsageError(f"argument --ball: {args.ball!r} contradicts --rig {args.rig} (the {named.name} ball)")
+    return ball
+
+
+def run_synth(args, model) -> int:
+    """``impactid synth --rig bouncing-ball``: a synthetic drop (the times of its bounces) as CSV, phyphox
+    Excel export or WAV audio, for ``impactid bounces``."""
+    from impactid.rigs.ball.synth import DEFAULT_BOUNCE_LAW, DEFAULT_HEIGHT, STOPWATCH_FAULTS, synth_drop, write_drop
+
+    _refuse_foreign_options(args, SYNTH)
+    ball = _synth_ball(args)
+    height = DEFAULT_HEIGHT if args.height is None else args.height
+    if not 0.02 <= height <= 20.0:
+        raise UsageError(f"argument --height: a ball's release height must lie in [0.02, 20] m, got {height:g}")
+    law, params = DEFAULT_BOUNCE_LAW
+    if args.bounce_law is not None:
+        e0, gamma = args.bounce_law
+        params = {"e0": e0, "gamma": gamma}
+        if not (0.0 < e0 <= 1.0 and gamma >= 0.0 and e0 - gamma * math.sqrt(2.0 * 9.81 * height) > 0.3):
+            raise UsageError(f"argument --bounce-law: e = {e0:g} - {gamma:g} v needs 0 < E0 <= 1, GAMMA >= 0 and e "
+                             f"above 0.3 at the first impact (a drop with a few bounces at least)")
+    suffix = Path(args.out).suffix.lower()
+    if suffix not in SYNTH_SUFFIXES:
+        raise UsageError(f"argument --out: a drop is written as {', '.join(SYNTH_SUFFIXES)} (by the file's suffix), "
+                         f"got {args.out!r}")
+    check_outputs(args, [])
+    faults = STOPWATCH_FAULTS if args.faults else {}
+    drop = synth_drop(law, params, seed=args.seed, ball=ball, height=height, jitter=args.jitter, **faults)
+    write_drop(args.out, drop, seed=args.seed)
+    e = drop.restitution
+    print(f"{args.out}: {len(drop.times)} events of a {ball.name} ball dropped from {height:g} m, "
+          f"{drop.true_times.size} impacts (e {e.max():.3f} to {e.min():.3f})")
+    return 0
+
+
+def synth_command() -> CommandSpec:
+    """The bouncing ball's ``impactid synth`` (``--rig bouncing-ball`` or a ball preset's name)."""
+    return CommandSpec(
+        group="", name="synth", help="write a synthetic drop of a ball: its bounce times (CSV, phyphox .xlsx, WAV)",
+        arguments=_synth_arguments(), run=run_synth, rig_argument="resolve")
+
+
 def command() -> CommandSpec:
     """``impactid bounces``: the command the bouncing-ball rig contributes to the command line."""
     return CommandSpec(
@@ -81,5 +192,8 @@ def command() -> CommandSpec:
         arguments=_arguments(), run=run)
 
 
+#: The bouncing ball's ``impactid synth``.
+SYNTH = synth_command()
+
 #: The commands the bouncing-ball rig contributes (``RigModel.commands`` names this module).
-COMMANDS = (command(),)
+COMMANDS = (command(), SYNTH)

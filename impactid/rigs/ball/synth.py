@@ -37,11 +37,30 @@ from impactid.rigs.ball.flight import FlightConstants, flight_constants, flight_
 from impactid.rigs.ball.laws import get_law
 from impactid.rigs.ball.parameters import Ball
 
-__all__ = ["SynthDrop", "inject_faults", "java_scientific", "simulate_drop", "synth_audio", "synth_drop",
-           "write_event_csv", "write_phyphox_csv", "write_phyphox_xlsx", "write_wav"]
+__all__ = ["DEFAULT_BOUNCE_LAW", "DEFAULT_HEIGHT", "DROP_FORMATS", "STOPWATCH_FAULTS", "SynthDrop", "inject_faults",
+           "java_scientific", "simulate_drop", "synth_audio", "synth_drop", "write_drop", "write_event_csv",
+           "write_phyphox_csv", "write_phyphox_xlsx", "write_wav"]
 
 #: Labels of events in a synthetic drop.
 EVENT_LABELS = ("impact", "release", "echo", "spurious", "displaced", "junk")
+
+#: The restitution law of ``impactid synth --rig bouncing-ball`` unless ``--bounce-law`` is given:
+#: ``e = e0 - gamma v`` [-, s/m], a stand-in for a table-tennis ball on a hard floor (e about 0.9
+#: at the 2.4 m/s of a 0.3 m drop).
+DEFAULT_BOUNCE_LAW = ("linear", {"e0": 0.96, "gamma": 0.02})
+
+#: Release height of ``impactid synth --rig bouncing-ball`` unless ``--height`` is given [m].
+DEFAULT_HEIGHT = 0.3
+
+#: The faults of a phone's acoustic stopwatch that ``impactid synth --rig bouncing-ball --faults``
+#: adds (arguments of :func:`inject_faults`): the release click, one missed bounce, one echo, one
+#: spurious trigger and two junk events after the last bounce.
+STOPWATCH_FAULTS = {"release": True, "missed": 1, "echoes": 1, "spurious": 1, "junk_end": 2}
+
+#: What :func:`write_drop` writes, by the output file's suffix.
+DROP_FORMATS = {".csv": "a plain CSV of event times [s]",
+                ".xlsx": "a phyphox 'Acoustic stopwatch' Excel export",
+                ".wav": "16-bit 48 kHz audio of the impact clicks (with room echoes and background noise)"}
 
 
 @dataclass(frozen=True)
@@ -309,6 +328,38 @@ def write_event_csv(path: str | os.PathLike[str], times: Sequence[float], *, hea
     """Write a plain CSV of event times [s], one per line, with an optional header."""
     lines = ([header] if header else []) + [repr(float(t)) for t in times]
     return atomic_write(path, "\n".join(lines) + "\n")
+
+
+def write_drop(path: str | os.PathLike[str], drop: SynthDrop, *, seed: int = 0) -> Path:
+    """Write a synthetic drop as the file its suffix names (:data:`DROP_FORMATS`), atomically.
+
+    Parameters
+    ----------
+    path : ``.csv`` (the observed event times [s], one per line, under a ``time (s)`` header),
+        ``.xlsx`` (the observed event times as a phyphox "Acoustic stopwatch" export) or ``.wav``
+        (the true impacts as clicks, amplitude proportional to the impact speed, 48 kHz 16-bit:
+        :func:`synth_audio`; the trigger faults of the drop are not rendered, the reader's onset
+        detector has its own).
+    drop : from :func:`synth_drop`.
+    seed : seed of the audio's phases and background noise (``.wav`` only).
+
+    Raises
+    ------
+    ValueError : an unknown suffix.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix == ".csv":
+        return write_event_csv(path, drop.times)
+    if suffix == ".xlsx":
+        return write_phyphox_xlsx(path, drop.times)
+    if suffix == ".wav":
+        rate = 48000.0
+        count = min(drop.true_times.size, drop.impact_speeds.size)
+        audio = synth_audio(drop.true_times[:count], drop.impact_speeds[:count], sample_rate=rate,
+                            rng=np.random.default_rng(seed))
+        return write_wav(path, audio, rate)
+    raise ValueError(f"{os.fspath(path)}: unknown suffix {suffix or '(none)'!r}; a drop is written as "
+                     f"{', '.join(DROP_FORMATS)}")
 
 
 # ---- audio ---------------------------------------------------------------------------------------

@@ -2,6 +2,13 @@
 implementations of ``impactid detachment`` and ``impactid synth`` (shared with rig P; ``--rig
 flat-follower``, ``--rig ALZATE2007`` or a flat-follower rig file runs them).
 
+``impactid synth --rig flat-follower`` writes encoder recordings at any cam speed: below the
+detachment speed (122.45 rpm for Alzate et al.'s rig) the follower rides the cam
+(:func:`~impactid.rigs.flat.synth.synth_flat_encoders`, exact); at or above it the rig's impact
+simulator runs with a restitution law (:func:`~impactid.rigs.flat.synth_impacts.synth_flat_impacting`,
+``--restitution R`` or ``--restitution-law A,B``; default the stand-in law
+:data:`~impactid.rigs.flat.simulate.DEFAULT_RESTITUTION`): the runs ``impactid restitution`` reads.
+
 Thin: parse arguments, call the public API, print results. Cam speeds in rpm or Hz as in the paper;
 output paths are checked before any computation and written as transactions
 (:mod:`impactid.commandline`).
@@ -215,25 +222,74 @@ def run_cam_fit(args, model) -> int:
     return 0
 
 
+def _refuse_foreign_options(args, spec: CommandSpec) -> None:
+    """Refuse an option another rig's version of ``impactid synth`` declares (argparse accepts the union
+    of the rigs' options; rig F would silently ignore it): a value that differs from its default
+    (``args.option_defaults``, set by the command line)."""
+    defaults = getattr(args, "option_defaults", {})
+    own = {"command", "func", "rig", "resolved_rig", "option_defaults"}
+    for argument in spec.arguments:
+        options = argument.options() if callable(argument.options) else argument.options
+        own.add(options.get("dest") or argument.flags[0].lstrip("-").replace("-", "_"))
+    for dest, value in sorted(vars(args).items()):
+        if dest not in own and dest in defaults and value != defaults[dest]:
+            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'synth' for the {MODEL_NAME!r} "
+                             "rig (it belongs to another rig's synth)")
+
+
 def run_synth(args, model) -> int:
-    from impactid.rigs.flat.synth import synth_flat_encoders
+    """``impactid synth --rig flat-follower``: permanent contact below detachment, impacting at or above it."""
     from impactid.synth import SensorModel
 
+    _refuse_foreign_options(args, _SYNTH)
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
     noise = noise_channels(args.noise_channel)
     speed = cam_speed(args, operating)
     rate = args.sample_rate or 20_000.0
     samples = args.duration * rate
     check_synth_size(samples)
+    detachment = rig.detachment_speed_hz()
+    impacting = speed >= detachment
+    law_given = "--restitution" if args.restitution is not None else (
+        "--restitution-law" if args.restitution_law is not None else None)
+    if law_given and not impacting:
+        raise UsageError(f"argument {law_given}: {speed * 60:.5g} rpm is below the detachment speed "
+                         f"{detachment * 60:.5g} rpm: the follower rides the cam and never impacts")
     check_outputs(args, command_inputs(args, []))
     sensors = SensorModel(noise=noise or 0.0, seed=args.seed)
-    synthetic = synth_flat_encoders(rig, speed, args.duration, sample_rate_hz=rate, cam_ppr=args.cam_ppr or 5000,
-                                    follower_ppr=args.follower_ppr, cam_zero_offset=args.cam_zero_offset,
-                                    sensors=sensors)
+    encoders = dict(sample_rate_hz=rate, cam_ppr=args.cam_ppr or 5000, follower_ppr=args.follower_ppr,
+                    cam_zero_offset=args.cam_zero_offset, sensors=sensors)
+    if impacting:
+        from impactid.rigs.flat.synth_impacts import synth_flat_impacting
+
+        synthetic = synth_flat_impacting(rig, speed, args.duration, restitution=_restitution_law(args), **encoders)
+    else:
+        from impactid.rigs.flat.synth import synth_flat_encoders
+
+        synthetic = synth_flat_encoders(rig, speed, args.duration, **encoders)
     return write_synthetic(synthetic, args.out)
 
 
 OUT_JSON = Argument(("--out",), {"metavar": "law.json", "help": "write the results as JSON (atomically)"})
+
+#: The restitution law of rig F's impacts (``bifurcation``; ``synth`` at or above detachment).
+RESTITUTION_LAW = (
+    Argument(("--restitution",), {"type": fraction, "default": None,
+                                  "help": "constant coefficient of restitution (rig F impacts)"},
+             exclusive="restitution"),
+    Argument(("--restitution-law",), {"type": pair, "default": None, "metavar": "A,B",
+                                      "help": "rig F: r = A + B * rpm (default: our stand-in law r = 1.17 - 0.004 "
+                                              "rpm, see docs/rig_f.md)"},
+             exclusive="restitution"),
+)
+
+_SYNTH = CommandSpec("", "synth", "write a synthetic encoder recording of rig F (impacting at or above detachment)", (
+    *speed_arguments(rpm=True), SYNTH_DURATION, SAMPLE_RATE, NOISE_CHANNEL, CAM_PPR,
+    Argument(("--follower-ppr",), {"type": integer_in(1, 10_000_000), "default": 10_000,
+                                   "help": "follower encoder pulses/rev (rig F)"}),
+    Argument(("--cam-zero-offset",), {"type": number, "default": None,
+                                      "help": "cam encoder zero [rad] (rig F; default random)"}),
+    *RESTITUTION_LAW, SEED, SYNTH_OUT), run_synth, rig_argument="resolve")
 
 COMMANDS = (
     CommandSpec("", "bifurcation", "rig F bifurcation diagram over cam speed, CSV and PNG (Alzate et al. 2007, "
@@ -252,11 +308,7 @@ COMMANDS = (
                                       "help": "revolutions simulated per speed (default 100)"}),
         Argument(("--kept",), {"type": integer_in(1, 100_000), "default": None,
                                "help": "last revolutions plotted and classified (default half)"}),
-        Argument(("--restitution",), {"type": fraction, "default": None,
-                                      "help": "constant coefficient of restitution"}, exclusive="restitution"),
-        Argument(("--restitution-law",), {"type": pair, "default": None, "metavar": "A,B",
-                                          "help": "r = A + B * rpm (default: our stand-in law, see the docs)"},
-                 exclusive="restitution"),
+        *RESTITUTION_LAW,
         Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
         JSON, *scheduler_arguments()), run_bifurcation),
     CommandSpec("", "restitution", "rig F: coefficient of restitution per cam speed from impacting encoder "
@@ -295,11 +347,5 @@ COMMANDS = (
         Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})), run_cam_fit),
     CommandSpec("", "detachment", "cam speed at which the follower leaves the cam (inverse kinematics)", (JSON,),
                 run_detachment, rig_argument="resolve"),
-    CommandSpec("", "synth", "write a synthetic encoder recording of rig F", (
-        *speed_arguments(rpm=True), SYNTH_DURATION, SAMPLE_RATE, NOISE_CHANNEL, CAM_PPR,
-        Argument(("--follower-ppr",), {"type": integer_in(1, 10_000_000), "default": 10_000,
-                                       "help": "follower encoder pulses/rev (rig F)"}),
-        Argument(("--cam-zero-offset",), {"type": number, "default": None,
-                                          "help": "cam encoder zero [rad] (rig F; default random)"}),
-        SEED, SYNTH_OUT), run_synth, rig_argument="resolve"),
+    _SYNTH,
 )
