@@ -18,7 +18,7 @@ import math
 import os
 import re
 import warnings
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from types import MappingProxyType
@@ -38,8 +38,8 @@ __all__ = ["CAM_SPEED_TOLERANCE", "CHANNEL_QUANTITY", "CHANNEL_UNITS", "CLIP_RUN
            "FORMAT_VERSION", "MAX_CAM_SPEED_HZ", "MAX_SAMPLE_RATE_HZ", "MEMORY_FACTORS", "MEMORY_LIMIT_VARIABLE",
            "MIN_CAM_SPEED_HZ", "MIN_SAMPLES_PER_REVOLUTION", "MIN_SAMPLE_RATE_HZ", "OFFSET_ATTRIBUTES",
            "SCALE_ATTRIBUTES", "SHORT_REVOLUTIONS", "TIME_RESOLUTION", "Footprint", "Recording", "RecordingError",
-           "RecordingWarning", "available_memory", "channel_spec", "check_cam_speed", "check_memory",
-           "check_time_base", "read_csv", "read_hdf5", "read_recording", "read_truth", "recording_footprint",
+           "RecordingWarning", "available_memory", "channel_spec", "check_cam_speed", "check_memory", "check_time_base",
+           "read_csv", "read_hdf5", "read_recording", "read_truth", "recording_footprint", "select_channels",
            "write_csv", "write_hdf5"]
 
 FORMAT_NAME = "recording"
@@ -621,6 +621,21 @@ def _calibrate(where: str, name: str, attrs, data: np.ndarray) -> tuple[np.ndarr
             f"channel {name!r} calibrated: raw x {scale_v!r} + {offset_v!r}")
 
 
+def select_channels(where: str, available: Sequence[str], wanted: Sequence[str] | None) -> list[int]:
+    """Positions in ``available`` of the channels a reader keeps: all (``wanted`` None), else those named
+    in ``wanted`` that the file has (a job's optional channels may be missing; the job's own
+    :meth:`Recording.require` names a missing one it needs). A file that has none of them is an error
+    naming both lists (a recording needs a channel)."""
+    if wanted is None:
+        return list(range(len(available)))
+    wanted_set = set(wanted)
+    kept = [k for k, name in enumerate(available) if name in wanted_set]
+    if not kept:
+        raise RecordingError(f"{where}: none of the channels {', '.join(wanted)} is in the recording (it has "
+                             f"{', '.join(available)})")
+    return kept
+
+
 # ---------------------------------------------------------------------------------------------
 # HDF5
 # ---------------------------------------------------------------------------------------------
@@ -754,7 +769,7 @@ def _read_dataset(where: str, name: str, item) -> np.ndarray:
                              f"{exc})") from None
 
 
-def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
+def read_hdf5(path: str | os.PathLike[str], rig: Any = None, *, channels: Sequence[str] | None = None) -> Recording:
     """Read an HDF5 recording (docs/formats.md, format version 1).
 
     Parameters
@@ -762,6 +777,9 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     path : the ``.h5`` file.
     rig : optional rig that supplies or overrides the file's ``/rig``: a rig dataclass or the path
         of a TOML rig file (whose ``[operating]`` values also override ``/operating``).
+    channels : the channels to read (:func:`select_channels`; None: all). Every channel's metadata is
+        checked; only these channels' samples are read (a job that needs the accelerometer alone reads
+        a quarter of a rig P recording).
 
     The ``/truth`` group is never read (see :func:`read_truth`). The time base and the size are
     checked from the metadata, before any sample is read (:func:`check_time_base`,
@@ -769,6 +787,7 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
     """
     path = Path(path)
     where = str(path)
+    wanted = None if channels is None else tuple(channels)
     import h5py
 
     try:
@@ -808,6 +827,7 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None) -> Recording:
                     raise RecordingError(f"{where}: channel {name!r} is not numeric (dtype {item.dtype})")
             if not items:
                 raise RecordingError(f"{where}: /signals has no channels")
+            items = [items[k] for k in select_channels(where, [name for name, _ in items], wanted)]
             longest = max(items, key=lambda entry: entry[1].shape[0])
             _refuse_if_too_large([(where, Footprint(int(longest[1].shape[0]), len(items), longest[0]))], "read")
             check_time_base(where, rate, start, int(longest[1].shape[0]), rate_name="/signals sample_rate_hz",
@@ -995,13 +1015,15 @@ def _exact_floats(pandas_version: str) -> dict[str, str]:
     return {} if major_minor >= (3, 1) else {"float_precision": "round_trip"}
 
 
-def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
+def read_csv(path: str | os.PathLike[str], rig: Any = None, *, channels: Sequence[str] | None = None) -> Recording:
     """Read a CSV recording (a ``time_s`` column and channel columns, SI units) plus its rig.
 
     Parameters
     ----------
     rig : a rig dataclass or a TOML rig file (``[rig]``, ``[operating]``). If omitted, a TOML file
         next to the CSV with the same stem (``run1.csv`` -> ``run1.toml``) is used.
+    channels : the channel columns to keep (:func:`select_channels`; None: all). The text is parsed
+        whole; the other columns are dropped before their conversion and checks.
 
     The file is UTF-8 text; a byte-order mark is skipped, and a trailing comma on every line (an
     empty last column without a name) is ignored (docs/formats.md).
@@ -1010,6 +1032,7 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
 
     path = Path(path)
     where = str(path)
+    wanted = None if channels is None else tuple(channels)
     _check_path(path)
     footprint = recording_footprint(path)
     if footprint is not None:
@@ -1048,6 +1071,10 @@ def read_csv(path: str | os.PathLike[str], rig: Any = None) -> Recording:
         raise RecordingError(f"{where}: malformed CSV: duplicate column names")
     if len(frame) < 2:
         raise RecordingError(f"{where}: malformed CSV: fewer than two samples")
+    if wanted is not None:
+        names = [c for c in frame.columns if c != "time_s"]
+        if names:
+            frame = frame[["time_s"] + [names[k] for k in select_channels(where, names, wanted)]]
     columns: dict[str, np.ndarray] = {}
     for name in frame.columns:
         column = frame[name]
@@ -1196,13 +1223,15 @@ def write_csv(recording: Recording, path: str | os.PathLike[str], rig_path: str 
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 
 
-def read_recording(path: str | os.PathLike[str], rig: Any = None, *, check: bool = True) -> Recording:
+def read_recording(path: str | os.PathLike[str], rig: Any = None, *, check: bool = True,
+                   channels: Sequence[str] | None = None) -> Recording:
     """Read a recording, choosing the reader by file type (HDF5 signature or ``.csv`` suffix).
 
     Parameters
     ----------
     rig : optional rig dataclass or TOML rig file that supplies or overrides the file's rig.
     check : run :meth:`Recording.check` (warnings for clipped or very short recordings).
+    channels : the channels a job needs (:func:`select_channels`; None: all): only those are read.
     """
     path = Path(path)
     _check_path(path)
@@ -1214,9 +1243,9 @@ def read_recording(path: str | os.PathLike[str], rig: Any = None, *, check: bool
     except OSError as exc:
         raise RecordingError(f"{path}: cannot read file ({exc.strerror})") from None
     if head == _HDF5_SIGNATURE or path.suffix.lower() in (".h5", ".hdf5", ".hdf"):
-        recording = read_hdf5(path, rig=rig)
+        recording = read_hdf5(path, rig=rig, channels=channels)
     elif path.suffix.lower() in (".csv", ".txt"):
-        recording = read_csv(path, rig=rig)
+        recording = read_csv(path, rig=rig, channels=channels)
     else:
         raise RecordingError(f"{path}: unknown recording type (expected HDF5 .h5 or .csv)")
     if check:

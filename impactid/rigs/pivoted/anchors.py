@@ -37,10 +37,17 @@ from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, return_time_anch
 from impactid.rigs.pivoted.runs import pack_rig
 from impactid.signal import quantisation_step
 
-__all__ = ["ANCHORS", "HERTZ_PHASE_DISAGREEMENT", "HERTZ_PHASE_GAIN", "HERTZ_RATIO_SYSTEMATIC", "PHASE_NOTE_SPREAD",
-           "PHASE_PROFILE_FACTOR", "PHASE_PROFILE_MIN", "Anchor", "AnchoredOnsets", "CamGeometryAnchor",
-           "CamPhaseAnchor", "ContactWindow", "EventWindows", "ReturnTimeAnchor", "hertz_ratio", "phase_from_hertz",
-           "phase_profile_stderr", "theta_from_gap"]
+__all__ = ["ANCHORS", "GUESS_EVENTS", "HERTZ_PHASE_DISAGREEMENT", "HERTZ_PHASE_GAIN", "HERTZ_RATIO_SYSTEMATIC",
+           "PHASE_NOTE_SPREAD", "PHASE_PROFILE_FACTOR", "PHASE_PROFILE_MIN", "Anchor", "AnchoredOnsets",
+           "CamGeometryAnchor", "CamPhaseAnchor", "ContactWindow", "EventWindows", "ReturnTimeAnchor", "hertz_ratio",
+           "phase_from_hertz", "phase_profile_stderr", "theta_from_gap"]
+
+#: How far [rad] beyond its bracket a closed-form root of the gap may lie by rounding (:func:`theta_from_gap`).
+ROOT_SLACK = 1e-12
+
+#: Events whose return-time anchor starts from the static equilibrium; the others start from the median of
+#: their start angles (:class:`ReturnTimeAnchor`: half the Newton iterations, the same roots to 1e-16 rad).
+GUESS_EVENTS = 8
 
 #: Per event, its contact's times [s from the sub-sample onset], angles [rad] and angular
 #: accelerations [rad/s^2], or None where the window is too short or the constant undetermined.
@@ -185,10 +192,29 @@ class ReturnTimeAnchor:
         start_rate = np.array([rates[i][starts[i]] for i in range(n)])
         displacement = np.array([angles[i][ends[i]] - angles[i][starts[i]] for i in range(n)])
         duration = (ends - starts) / windows.sample_rate_hz
-        guess = np.full(n, windows.rig.static_equilibrium(0.0))
+        packed = pack_rig(windows.rig)
+        static = windows.rig.static_equilibrium(0.0)
+        # Newton from the static equilibrium for a few events (4 iterations each on rig P), then from the
+        # median of their start angles for all (the flights of a recording are alike: 2 iterations); an
+        # event that does not converge from there is solved again from the static equilibrium
+        first = min(n, GUESS_EVENTS)
         out = np.empty((n, 3))  # start angle, Newton slope, iterations
-        return_time_anchors(start_rate, duration, displacement, guess, pack_rig(windows.rig), self.steps,
-                            self.tolerance, out)
+        return_time_anchors(start_rate[:first], duration[:first], displacement[:first], np.full(first, static),
+                            packed, self.steps, self.tolerance, out[:first])
+        solved = out[:first, 0][(out[:first, 2] >= 0) & np.isfinite(out[:first, 0])]
+        if n > first and solved.size:
+            return_time_anchors(start_rate[first:], duration[first:], displacement[first:],
+                                np.full(n - first, float(np.median(solved))), packed, self.steps, self.tolerance,
+                                out[first:])
+            again = first + np.flatnonzero(out[first:, 2] < 0)
+            if again.size:
+                redo = np.empty((again.size, 3))
+                return_time_anchors(start_rate[again], duration[again], displacement[again],
+                                    np.full(again.size, static), packed, self.steps, self.tolerance, redo)
+                out[again] = redo
+        elif n > first:
+            return_time_anchors(start_rate[first:], duration[first:], displacement[first:], np.full(n - first, static),
+                                packed, self.steps, self.tolerance, out[first:])
         constants = np.array([out[i, 0] - angles[i][starts[i]] for i in range(n)])
         return AnchoredOnsets(constants=constants, iterations=out[:, 2],
                               return_time_onset=windows.angle_onset + constants)
@@ -381,34 +407,42 @@ def phase_from_hertz(windows: EventWindows, phase: float, stderr: float) -> tupl
     rig, omega = windows.rig, windows.omega
     mu_h = float(getattr(rig, "mu", 0.0)) * float(rig.h_p)
     dt = windows.dt
-    spans = []
-    for i, angle in enumerate(windows.angles):
-        hi = min(int(windows.contact_end[i]) + 1, angle.size)
-        spans.append(None if (hi < 3 or windows.impulsive[i]) else hi)
+    # every event's contact samples side by side (padded; ``inside`` marks the samples), so that the ratios
+    # of all events are one array expression per phase tried (the search tries about twenty)
+    spans = np.array([min(int(windows.contact_end[i]) + 1, angle.size) for i, angle in enumerate(windows.angles)],
+                     dtype=np.int64).reshape(-1)
+    spans = np.where((spans < 3) | np.asarray(windows.impulsive, dtype=bool), 0, spans)
+    width = int(spans.max()) if spans.size else 0
+    inside = np.arange(width)[None, :] < spans[:, None]
+    angles, rates, accelerations = (np.zeros((spans.size, width)) for _ in range(3))
+    for i, hi in enumerate(spans):
+        angles[i, :hi] = windows.angles[i][:hi]
+        rates[i, :hi] = windows.rates[i][:hi]
+        accelerations[i, :hi] = windows.accelerations[i][:hi]
+    times = (np.arange(width)[None, :] + np.asarray(windows.onset_offset, dtype=float)[:, None]) * dt
+    rows = np.arange(spans.size)
 
     def log_ratios(q: float) -> np.ndarray:
+        """Per event, the log of the force the accelerometer implies at the deepest indentation over the Hertz
+        force there, with the cam phase ``q`` [rad] (NaN without indentation, force or contact samples)."""
+        if width == 0:
+            return np.full(spans.size, np.nan)
         theta0 = q + omega * windows.t_onset
         constants = np.asarray(rig.contact_angle(theta0)) - windows.angle_onset
-        out = np.full(len(windows), np.nan)
-        for i, hi in enumerate(spans):
-            if hi is None:
-                continue
-            t = (np.arange(hi) + windows.onset_offset[i]) * dt
-            alpha = windows.angles[i][:hi] + constants[i]
-            theta = theta0[i] + omega * t
-            gap = rig.gap(alpha, theta)
-            j = int(np.argmin(gap))
-            delta = -float(gap[j])
-            if not delta > 0.0:
-                continue
-            a_j, th_j = float(alpha[j]), float(theta[j])
-            torque = rig.m_b * rig.g * rig.l_g * math.cos(a_j) - float(
-                spring_force(a_j, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b)) * rig.d_x
-            sliding = float(rig.sliding_velocity(a_j, float(windows.rates[i][j]), th_j, omega))
-            arm = float(rig.lever_arm(a_j, th_j)) - mu_h * math.copysign(1.0, sliding)
-            force = (rig.I_b * float(windows.accelerations[i][j]) - torque) / arm
-            if force > 0.0:
-                out[i] = math.log(force / (rig.k_H * delta ** 1.5))
+        alpha = angles + constants[:, None]
+        theta = theta0[:, None] + omega * times
+        gap = np.where(inside, rig.gap(alpha, theta), np.inf)
+        j = np.argmin(gap, axis=1)
+        delta = -gap[rows, j]
+        a_j, th_j = alpha[rows, j], theta[rows, j]
+        torque = rig.m_b * rig.g * rig.l_g * np.cos(a_j) - spring_force(
+            a_j, rig.k_s, rig.L_s_u, rig.d_y, rig.d_x, rig.w_b) * rig.d_x
+        sliding = rig.sliding_velocity(a_j, rates[rows, j], th_j, omega)
+        arm = rig.lever_arm(a_j, th_j) - mu_h * np.copysign(1.0, sliding)
+        force = (rig.I_b * accelerations[rows, j] - torque) / arm
+        ok = (spans > 0) & (delta > 0.0) & (force > 0.0)
+        out = np.full(spans.size, np.nan)
+        out[ok] = np.log(force[ok] / (rig.k_H * delta[ok] ** 1.5))
         return out
 
     def mean_log(q: float) -> float:
@@ -540,12 +574,26 @@ def theta_from_gap(rig: RigParameters, alpha0: np.ndarray, rate0: np.ndarray, om
     contacts : per event, its contact window (:meth:`EventWindows.contact_windows`) or None.
     """
     grid = np.linspace(0.0, 2.0 * math.pi, 721)
+    alpha0, rate0 = np.asarray(alpha0, dtype=float), np.asarray(rate0, dtype=float)
     out = np.full(alpha0.size, np.nan)
+    # the brackets of every event at once (a sign change of the gap between grid points), and the roots in
+    # closed form: psi = sin(a) PE_x + cos(a) PE_y - (h_p + r_c) - e sin(a + Theta) (S-5), so
+    # sin(a + Theta) = s with s = (sin(a) PE_x + cos(a) PE_y - h_p - r_c) / e: a + Theta = asin(s) or pi - asin(s)
+    g = rig.gap(alpha0[:, None], grid[None, :])
+    changes = np.sign(g[:, :-1]) != np.sign(g[:, 1:])
+    level = (np.sin(alpha0) * rig.PE_x + np.cos(alpha0) * rig.PE_y - rig.contact_radius) / rig.e
+    with np.errstate(invalid="ignore"):
+        phi = np.arctan2(level, np.sqrt((1.0 - level) * (1.0 + level)))
+    candidates = np.mod(np.stack([phi - alpha0, math.pi - phi - alpha0], axis=1), 2.0 * math.pi)
     for i, (a, ad) in enumerate(zip(alpha0, rate0)):
-        g = rig.gap(a, grid)
         roots = []
-        for j in np.flatnonzero(np.sign(g[:-1]) != np.sign(g[1:])):
-            roots.append(optimize.brentq(lambda th, a=a: float(rig.gap(a, th)), grid[j], grid[j + 1], xtol=1e-15))
+        for j in np.flatnonzero(changes[i]):
+            lo, hi = grid[j], grid[j + 1]
+            inside = candidates[i][(candidates[i] >= lo - ROOT_SLACK) & (candidates[i] <= hi + ROOT_SLACK)]
+            if inside.size == 1:
+                roots.append(float(min(max(inside[0], lo), hi)))
+            else:  # none or both in one bracket (a grazing double root, or rounding at a bracket's end)
+                roots.append(optimize.brentq(lambda th, a=a: float(rig.gap(a, th)), lo, hi, xtol=1e-15))
         closing = [th for th in roots if rig.gap_rate(a, ad, th, omega) < 0.0]
         if len(closing) > 1 and contacts is not None and contacts[i] is not None:
             t, alpha, acceleration = contacts[i]

@@ -144,7 +144,7 @@ def prepare(recording, options: Mapping[str, Any], source: str) -> PreparedImpac
     tab = recon.table.reset_index()
     impacts = pd.DataFrame({"source": es.source, "event": tab["event"], "approach_speed": tab["approach_speed"],
                             "xi": tab["xi"], "separation_speed": tab["separation_speed"]})
-    sampling = RecordingSampling.of(recording) if _calibrated(options) else None
+    sampling = RecordingSampling.of(recording, recon.events.noise_sigma) if _calibrated(options) else None
     return PreparedImpacts(source=es.source, reconstruction=recon, event_set=es, impacts=impacts, sampling=sampling,
                            warnings=tuple(recon.warnings))
 

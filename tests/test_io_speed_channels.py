@@ -1,0 +1,43 @@
+"""Reading only the channels a job needs (issue 27): the readers' ``channels`` selection."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from impactid.io import RecordingError, read_csv, read_hdf5, read_recording, write_csv, write_hdf5
+from tests.test_io import small_recording
+
+
+@pytest.mark.parametrize("kind", ["h5", "csv"])
+def test_only_the_channels_asked_for_are_read_and_they_are_unchanged(tmp_path, kind):
+    """The channels asked for (those the file has) come back sample for sample; the others are not read."""
+    rec = small_recording()
+    if kind == "h5":
+        path = tmp_path / "r.h5"
+        write_hdf5(rec, path)
+    else:
+        path, _ = write_csv(rec, tmp_path / "r.csv")
+    whole = read_recording(path, check=False)
+    part = read_recording(path, channels=("accel_tangential", "cam_angle", "not_in_the_file"), check=False)
+    assert list(part.channels) == ["accel_tangential", "cam_angle"]
+    for name in part.channels:
+        assert np.array_equal(part[name], whole[name])
+        assert part.channel_range(name) == whole.channel_range(name)
+    assert (part.sample_rate_hz, part.start_time_s, part.rig, dict(part.operating)) == (
+        whole.sample_rate_hz, whole.start_time_s, whole.rig, dict(whole.operating))
+    reader = read_hdf5 if kind == "h5" else read_csv
+    assert list(reader(path, channels=["force_x"]).channels) == ["force_x"]
+
+
+@pytest.mark.parametrize("kind", ["h5", "csv"])
+def test_none_of_the_channels_in_the_file_is_an_error_naming_both(tmp_path, kind):
+    rec = small_recording()
+    if kind == "h5":
+        path = tmp_path / "r.h5"
+        write_hdf5(rec, path)
+    else:
+        path, _ = write_csv(rec, tmp_path / "r.csv")
+    with pytest.raises(RecordingError, match=r"none of the channels follower_angle is in the recording \(it has "
+                                             r"accel_tangential"):
+        read_recording(path, channels=("follower_angle",))
