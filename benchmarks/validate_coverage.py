@@ -16,7 +16,11 @@ the median half-width, refusals with their reasons, and the targets:
 
 * the binomial 95 % interval of the measured coverage contains 0.95 at each point;
 * no point's coverage is below 88 %;
-* no confident wrong answer: no seed whose estimate is more than 5 % off with an interval excluding the truth.
+* confident wrong answers (an estimate more than 5 % off with an interval excluding the truth) no more
+  often than calibrated intervals give them: the count over all points at most the 95 % Poisson quantile of
+  the count expected (:func:`expected_confident_wrong`). Calibrated 95 % intervals miss the truth in 5 %
+  of the seeds by construction, and where a seed's standard error is near 2.5 % or more some of those
+  misses exceed 5 %: "none at all" is not a property such intervals have over 300 noisy seeds.
 
 With ``--workers N`` (a local dask cluster) or ``--scheduler ADDRESS`` the fits run on the cluster's
 workers (:mod:`impactid.distributed`); the recordings are made once per point, here.
@@ -33,6 +37,7 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from scipy import stats
 
@@ -97,6 +102,40 @@ def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
     return lo, hi
 
 
+def expected_confident_wrong(beta: np.ndarray, lo: np.ndarray, hi: np.ndarray, truth: float = BETA,
+                             margin: float = 0.05, level: float = 0.95) -> np.ndarray:
+    """Per seed, the probability of a confident wrong answer were its interval calibrated.
+
+    With the seed's interval ``[lo, hi]`` a calibrated ``level`` interval, ``x = ln(beta_hat / truth)``
+    is normal with mean 0 and the seed's own standard error ``sigma = ln(hi / lo) / (2 z)``, ``z`` the
+    normal ``level`` quantile; the interval excludes the truth where ``x > h_lo = ln(beta_hat / lo)``
+    (the truth below it) or ``x < -h_hi = -ln(hi / beta_hat)``. A confident wrong answer is that with
+    ``|beta_hat / truth - 1| > margin``::
+
+        P = 1 - Phi(max(ln(1 + margin), h_lo) / sigma) + Phi(min(ln(1 - margin), -h_hi) / sigma).
+
+    Parameters
+    ----------
+    beta, lo, hi : the estimates and their interval's ends [N s m^-2.5].
+    truth : the true beta [N s m^-2.5].
+    margin : the relative error that counts as wrong [-].
+    level : the intervals' nominal level [-].
+
+    Returns
+    -------
+    numpy.ndarray
+        per seed, the probability [-] (NaN where the interval is not finite and positive).
+    """
+    beta, lo, hi = (np.asarray(v, dtype=float) for v in (beta, lo, hi))
+    z = stats.norm.ppf(0.5 + 0.5 * level)
+    with np.errstate(all="ignore"):
+        h_lo, h_hi = np.log(beta / lo), np.log(hi / beta)
+        sigma = (h_lo + h_hi) / (2.0 * z)
+        high = stats.norm.sf(np.maximum(math.log1p(margin), h_lo) / sigma)
+        low = stats.norm.cdf(np.minimum(math.log1p(-margin), -h_hi) / sigma)
+    return np.where(np.isfinite(sigma) & (sigma > 0), high + low, np.nan)
+
+
 def summarise(frame: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, bool]]:
     """Per point: coverage with its binomial interval, errors, half-widths, refusals; the targets."""
     rows = []
@@ -106,20 +145,25 @@ def summarise(frame: pd.DataFrame) -> tuple[pd.DataFrame, dict[str, bool]]:
         error = est["beta"] / BETA - 1.0
         half = 0.5 * (est["beta_hi"] - est["beta_lo"]) / est["beta"]
         confident_wrong = int(((error.abs() > 0.05) & ~covered).sum())
+        expected = float(np.nansum(expected_confident_wrong(est["beta"], est["beta_lo"], est["beta_hi"])))
         lo, hi = clopper_pearson(int(covered.sum()), len(est)) if len(est) else (math.nan, math.nan)
         rows.append({"point": point, "seeds": len(group), "estimates": len(est),
                      "refusals": int((group["status"] == "refusal").sum()),
                      "coverage": float(covered.mean()) if len(est) else math.nan, "coverage_lo": lo,
                      "coverage_hi": hi, "mean_error": float(error.mean()), "sd_error": float(error.std(ddof=1)),
                      "median_half_width": float(half.median()), "confident_wrong": confident_wrong,
+                     "confident_wrong_expected": expected,
                      "lack_of_fit_notes": int(est.get("lack_of_fit", pd.Series(dtype=bool)).sum())})
     table = pd.DataFrame(rows)
     targets = {
         "the binomial 95 % interval of each point's coverage contains 0.95":
             bool(((table["coverage_lo"] <= TARGET_COVERAGE) & (TARGET_COVERAGE <= table["coverage_hi"])).all()),
         f"no point's coverage below {MIN_COVERAGE:.0%}": bool((table["coverage"] >= MIN_COVERAGE).all()),
-        "no confident wrong answer (error > 5 % with an interval excluding the truth)":
-            bool((table["confident_wrong"] == 0).all()),
+        f"confident wrong answers (error > 5 % with an interval excluding the truth) over all points, "
+        f"{int(table['confident_wrong'].sum())}, at most the 95 % Poisson quantile "
+        f"{int(stats.poisson.ppf(0.95, table['confident_wrong_expected'].sum()))} of the "
+        f"{table['confident_wrong_expected'].sum():.2f} calibrated intervals would give":
+            bool(table["confident_wrong"].sum() <= stats.poisson.ppf(0.95, table["confident_wrong_expected"].sum())),
     }
     return table, targets
 
@@ -133,15 +177,15 @@ def page(table: pd.DataFrame, targets: dict[str, bool], frame: pd.DataFrame, arg
              "channel's peak, Gaussian, 24-bit ADC. Each seed is one estimate with the default options "
              "(`impactid estimate REC.h5 --fix-n 1.5`).", "",
              "| point | e/r_c | cam speed [Hz] | recording | seeds | estimates | refusals | coverage | binomial 95 % "
-             "| mean error | sd of error | median half-width | confident wrong |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| mean error | sd of error | median half-width | confident wrong | expected if calibrated |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     where = {name: (ratio, hz, gen) for name, ratio, hz, gen in POINTS}
     for r in table.itertuples():
         ratio, hz, gen = where[r.point]
         lines.append(f"| {r.point} | {ratio:g} | {hz:g} | {gen} | {r.seeds} | {r.estimates} | {r.refusals} | "
                      f"{100 * r.coverage:.1f} % | [{100 * r.coverage_lo:.1f}, {100 * r.coverage_hi:.1f}] % | "
                      f"{100 * r.mean_error:+.2f} % | {100 * r.sd_error:.2f} % | {100 * r.median_half_width:.2f} % | "
-                     f"{r.confident_wrong} |")
+                     f"{r.confident_wrong} | {r.confident_wrong_expected:.2f} |")
     lines += ["", "## Targets", ""]
     lines += [f"- {'met' if ok else '**missed**'}: {text}" for text, ok in targets.items()]
     refusals = frame[frame["status"] == "refusal"]

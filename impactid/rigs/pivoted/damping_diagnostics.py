@@ -8,9 +8,9 @@
 * :func:`per_event_table`: the per-event residuals at the estimate;
 * :func:`widen_interval`: an interval widened by an independent error, in quadrature;
 * :func:`damping_model_check`: the engine's model check of the per-event residuals, with rig P's own
-  check of the measured contact durations (:func:`contact_duration_check`), and
-  :func:`apply_model_check`, which widens or withholds the intervals and never lets a model the
-  check rejects be called separable;
+  checks of the measured contact durations (:func:`contact_duration_check`) and contact pulses
+  (:func:`~impactid.rigs.pivoted.pulse_check.pulse_check`), and :func:`apply_model_check`, which
+  widens or withholds the intervals and never lets a model the check rejects be called separable;
 * :func:`damping_identifiability`: the engine's identifiability block of the least-squares fit, with
   the profile along the valley as ``n``'s refit profile and ``n`` fitted against ``n`` held at 1.5.
 
@@ -27,7 +27,14 @@ fitted against ``n`` held) states what the data say about them. Rig P's own chec
 measured first-contact durations with the fitted law's (one S1 run per event at the estimate,
 counted in the check, not in the fit's simulations): a law whose contacts last more than
 :data:`CONTACT_DURATION_MISMATCH` longer or shorter (median over the events) than measured, or a
-recording without any contact pulse (instantaneous impacts: a restitution law), is rejected.
+recording without any contact pulse (instantaneous impacts: a restitution law), is rejected. The
+contact-pulse check (:mod:`impactid.rigs.pivoted.pulse_check`, one more S1 run per event, with the
+contact force on the measured samples) compares the replayed peak force, impulse and width with the
+measured ones: a wrong rig constant (contact stiffness, effective inertia, spring) that ``beta``
+absorbs while ``alpha_m`` is matched leaves them off beyond their precision. That is a ``systematic
+misfit`` whose intervals are withheld, not widened: the error is a bias of ``beta`` that no
+inflation of the residual scatter covers (a Young's modulus 20 % off moves ``beta`` by 26 % with an
+interval of +-0.2 %).
 """
 
 from __future__ import annotations
@@ -53,6 +60,7 @@ from impactid.engine import (
 from impactid.engine.checks import widen_interval as widen_by_factor
 from impactid.engine.identifiability import LRT_SIGNIFICANCE, profile_note
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
+from impactid.rigs.pivoted.pulse_check import pulse_check, withhold_for_rig
 from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL
 
 __all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "N_COMPARED", "SEPARABILITY_WIDTH", "apply_model_check",
@@ -203,7 +211,7 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
 
 
 def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_params: int, beta: float,
-                        n: float, assumed_sd: float | None = None) -> tuple[ModelCheck, dict[str, Any]]:
+                        n: float, assumed_sd: float | None = None) -> tuple[ModelCheck, dict[str, dict[str, Any]]]:
     """The model check of a contact-damping fit (module doc).
 
     Parameters
@@ -216,8 +224,10 @@ def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_par
 
     Returns
     -------
-    (ModelCheck, contact_duration_check block); the check is :meth:`~impactid.engine.ModelCheck.rejected`
-    when the contact durations reject the law.
+    (ModelCheck, rig P's own checks: ``{"contact_duration": contact_duration_check block,
+    "contact_pulse": pulse_check block}``); the check is :meth:`~impactid.engine.ModelCheck.rejected`
+    when the contact durations reject the law, and a ``systematic misfit`` with its intervals withheld
+    (:func:`~impactid.rigs.pivoted.pulse_check.withhold_for_rig`) when the contact pulses find one.
     """
     owner = np.concatenate([[k] * len(es) for k, es in enumerate(problem.sets)]).astype(int)
     speed = np.concatenate([es.approach_speed for es in problem.sets])
@@ -229,17 +239,21 @@ def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_par
     durations = contact_duration_check(problem, beta, n)
     if durations["verdict"] == "rejected":
         check = check.rejected(durations["reason"])
-    return check, durations
+    pulse = pulse_check(problem, beta, n)
+    check = withhold_for_rig(check, pulse)
+    return check, {"contact_duration": durations, "contact_pulse": pulse}
 
 
-def apply_model_check(check: ModelCheck, durations: dict[str, Any], beta: float, n: float,
+def apply_model_check(check: ModelCheck, rig_checks: dict[str, dict[str, Any]], beta: float, n: float,
                       beta_interval: tuple[float, float], n_interval: tuple[float, float], separable: bool | None,
                       notes: list[str]) -> tuple[tuple[float, float], tuple[float, float], bool | None, dict]:
     """The intervals and the separability verdict after the model check, and the ``model_check`` block.
 
     A check that widens moves each side of ``beta``'s interval away from the estimate by its
     inflation in the logarithm (``beta`` spans decades), and ``n``'s linearly; one that withholds
-    (a law the contact durations reject) makes both intervals NaN. A model the check does not find
+    (a law the contact durations reject, or contact pulses that point to a wrong rig constant) makes
+    both intervals NaN. ``rig_checks`` (rig P's own check blocks, :func:`damping_model_check`) enter
+    the ``model_check`` block under their names. A model the check does not find
     consistent is never separable (``separable`` False; None stays None with ``n`` fixed).
     """
     notes.extend(check.notes)
@@ -255,7 +269,7 @@ def apply_model_check(check: ModelCheck, durations: dict[str, Any], beta: float,
         separable = False
         notes.append("beta and n are not reported as separable: the model check finds that the law does not "
                      "describe the data")
-    return beta_interval, n_interval, separable, combine_checks([check], extra={"contact_duration": durations})
+    return beta_interval, n_interval, separable, combine_checks([check], extra=rig_checks)
 
 
 # ---- identifiability --------------------------------------------------------------------------------------

@@ -335,7 +335,7 @@ def _with_parts(block: Mapping[str, Any], parts: Mapping[str, Mapping[str, Any]]
 def merged_model_check(damping: Mapping[str, Any], restitution: Mapping[str, Any]) -> dict[str, Any]:
     """The ``model_check`` block of rig P's whole estimate: the contact damping's and the restitution
     law's checks together (the worst verdict, the strongest action, every check), each part's own
-    verdict under ``parts`` and the contact-duration check of the damping."""
+    verdict under ``parts`` and the contact-duration and contact-pulse checks of the damping."""
     from impactid.engine.checks import VERDICTS
 
     blocks = {name: dict(b) for name, b in (("contact_damping", damping), ("restitution", restitution)) if b}
@@ -350,6 +350,7 @@ def merged_model_check(damping: Mapping[str, Any], restitution: Mapping[str, Any
            "rule": next(iter(blocks.values())).get("rule", ""),
            "parts": {name: {"verdict": b.get("verdict"), "action": b.get("action"), "inflation": b.get("inflation")}
                      for name, b in blocks.items()}}
-    if "contact_duration" in blocks.get("contact_damping", {}):
-        out["contact_duration"] = blocks["contact_damping"]["contact_duration"]
+    for name in ("contact_duration", "contact_pulse"):
+        if name in blocks.get("contact_damping", {}):
+            out[name] = blocks["contact_damping"][name]
     return out
