@@ -52,7 +52,10 @@ def _cold_groups() -> list[tuple[str, tuple[str, ...]]]:
     if spec is None or spec.origin is None:
         return []
     package = Path(spec.origin).parent
-    cache_dir = os.environ.get("NUMBA_CACHE_DIR")
+    # where the kernels are cached: NUMBA_CACHE_DIR, else IMPACTID_CACHE_DIR/numba (impactid._cachedir; a
+    # read-only installation's user folder is set as NUMBA_CACHE_DIR when impactid is imported)
+    cache_dir = os.environ.get("NUMBA_CACHE_DIR") or (
+        os.environ.get("IMPACTID_CACHE_DIR") and str(Path(os.environ["IMPACTID_CACHE_DIR"]) / "numba"))
     cold = []
     for marker, tests in WARMUP_GROUPS:
         if cache_dir:  # numba then reads and writes only there
@@ -90,7 +93,7 @@ def pytest_sessionstart(session):
         f"before the workers start (first run of a fresh installation: a few minutes; later runs load them "
         f"from numba's cache; IMPACTID_NO_WARMUP=1 skips this)")
     root = Path(__file__).resolve().parent
-    env = {**os.environ, "IMPACTID_NO_WARMUP": "1"}
+    env = {**os.environ, "IMPACTID_NO_WARMUP": "1", "IMPACTID_COMPILE_NOTICE": "0"}
     command = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:xdist", "-o", "addopts=",
                "--no-header"]
     # one process per family, as many at a time as there are workers; a line when each is done and

@@ -19,37 +19,31 @@ import importlib
 import importlib.util
 import os
 import sys
-import tempfile
 import types
 from pathlib import Path
 from typing import Any
 
+from impactid import _cachedir
 from impactid._version import __version__
 
 
 def _numba_cache_fallback() -> None:
-    """Give numba a writable cache folder when neither of its own is writable.
+    """Choose the folder numba caches impactid's compiled kernels in, before numba is imported.
 
-    numba caches compiled kernels beside the package (``__pycache__``) or, when the installation is
-    read-only, in the user's cache folder; when that is not writable either (no home folder, a
-    service account), every ``cache=True`` kernel fails at import with "no locator available". Then
-    ``NUMBA_CACHE_DIR`` is set to a per-user folder in the temporary directory (a cache that does
-    not outlive the machine, but a working command). An explicit ``NUMBA_CACHE_DIR`` is kept.
+    numba caches compiled kernels beside the package (``__pycache__``); when the installation is
+    read-only they go to impactid's folder in the user's cache (``~/.cache/impactid/numba`` on
+    Linux), and when that is not writable either (no home folder, a service account) to a per-user
+    folder in the temporary directory (a cache that does not outlive the machine, but a working
+    command: without one numba refuses every ``cache=True`` kernel, "no locator available").
+    ``IMPACTID_CACHE_DIR`` moves the cache (to ``$IMPACTID_CACHE_DIR/numba``); an explicit
+    ``NUMBA_CACHE_DIR`` is kept. The choice is :func:`impactid._cachedir.choose_kernel_cache`
+    (standard library only: ``import impactid`` stays light).
     """
     if os.environ.get("NUMBA_CACHE_DIR") or "numba" in sys.modules:
         return
-    if os.access(Path(__file__).parent, os.W_OK):
-        return
-    try:
-        user = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    except RuntimeError:  # no home folder at all
-        user = None
-    if user is not None:
-        existing = next((p for p in (user / "numba", user, *user.parents) if p.exists()), None)
-        if existing is not None and os.access(existing, os.W_OK):
-            return
-    uid = os.getuid() if hasattr(os, "getuid") else "user"
-    os.environ["NUMBA_CACHE_DIR"] = str(Path(tempfile.gettempdir()) / f"impactid-numba-cache-{uid}")
+    choice = _cachedir.choose_kernel_cache(Path(__file__).parent)
+    if choice.folder is not None:
+        os.environ["NUMBA_CACHE_DIR"] = str(choice.folder)
 
 
 _numba_cache_fallback()

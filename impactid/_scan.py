@@ -10,7 +10,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit, prange
 
+from impactid import compilation
+
 __all__ = ["channel_scan", "count_equal", "extreme_stats"]
+
+compilation.install()  # the first-use notice (impactid.compilation)
 
 _CHUNKS = 16
 

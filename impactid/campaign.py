@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import importlib.util
 import json
 import math
 import os
@@ -71,7 +72,7 @@ from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, PLUGINS, estimable_mod
 __all__ = ["FORMAT_HELP", "OPERATING_RIG_PARAMETERS", "CampaignError", "CampaignResult", "CampaignSpec", "FitJob",
            "FitOutcome", "PrepareJob", "PrepareOutcome", "RecordingSpec", "RigHeader", "fit_task", "load_campaign",
            "plan", "prepare_task", "read_fits", "read_recording_spec", "read_rig_header", "rig_groups",
-           "run_campaign", "summary_table"]
+           "parquet_available", "run_campaign", "summary_table"]
 
 #: Recording files a campaign folder is scanned for.
 RECORDING_SUFFIXES = (".h5", ".hdf5", ".csv")
@@ -752,7 +753,7 @@ class CampaignResult:
     prepared : recordings prepared now (read, segmented, reconstructed); ``cached``: loaded from the cache.
     cached : prepared products loaded from the cache.
     seconds : wall time [s].
-    files : the summary files written (``campaign.parquet``, ``campaign.csv``).
+    files : the summary files written (``campaign.parquet`` where pyarrow is installed, ``campaign.csv``).
     where : where the tasks ran (``"serial"``, or the cluster).
     """
 
@@ -1003,12 +1004,22 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
                 _run_serial(jobs, todo, on_prepare, on_fit)
     table = _frame([rows[job.key] for job, _ in fits if job.key in rows])
     with StagedFiles(protect=spec.inputs()) as staged:
-        parquet = staged.write_with(out / f"{TABLE_NAME}.parquet", lambda tmp: table.to_parquet(tmp, index=False))
-        csv = staged.write_with(out / f"{TABLE_NAME}.csv", lambda tmp: table.to_csv(tmp, index=False))
+        # the CSV always; the Parquet copy where pyarrow is installed (the 'campaign' extra): a campaign
+        # runs serially without the extra, as after `pip install impactid`
+        written = []
+        if parquet_available():
+            written.append(staged.write_with(out / f"{TABLE_NAME}.parquet",
+                                             lambda tmp: table.to_parquet(tmp, index=False)))
+        written.append(staged.write_with(out / f"{TABLE_NAME}.csv", lambda tmp: table.to_csv(tmp, index=False)))
     failed = int((table["status"] != "ok").sum()) if len(table) else 0
     return CampaignResult(out=out, table=table, ran=counts["ran"], skipped=skipped, failed=failed,
                           prepared=counts["prepared"], cached=counts["cached"], seconds=time.perf_counter() - t0,
-                          files=(parquet, csv), where=where)
+                          files=tuple(written), where=where)
+
+
+def parquet_available() -> bool:
+    """Whether pyarrow (the 'campaign' extra) is installed: the summary's Parquet copy needs it."""
+    return importlib.util.find_spec("pyarrow") is not None
 
 
 def _describe(client: Any) -> str:

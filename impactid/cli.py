@@ -41,6 +41,7 @@ from impactid._signals import arrived_stop, forget_stops, in_import, in_native_m
 from impactid._version import __version__
 from impactid.campaign_format import FORMAT_HELP
 from impactid.commandline import (
+    FIGURE_FORMAT,
     UsageError,
     check_outputs,
     command_inputs,
@@ -120,9 +121,8 @@ def cmd_info(args) -> int:
 def cmd_campaign(args) -> int:
     from impactid._files import check_output
     from impactid.campaign import load_campaign, run_campaign
-    from impactid.distributed import cluster_from_args, require
+    from impactid.distributed import cluster_from_args, missing
 
-    require("pyarrow", what="impactid campaign")
     spec = load_campaign(args.source)
     out = args.out or spec.out
     if out is None:
@@ -132,6 +132,11 @@ def cmd_campaign(args) -> int:
     if args.serial:
         if args.scheduler is not None or args.workers:
             raise UsageError("argument --serial: not allowed with --scheduler or --workers N")
+        args.workers = 0
+    elif args.scheduler is None and args.workers is None and missing("distributed"):
+        # the default local cluster needs dask (the 'campaign' extra): without it, serially, and say so
+        warnings.warn("dask is not installed: the campaign runs serially in this process (pip install "
+                      "'impactid[campaign]' for a cluster)", stacklevel=1)
         args.workers = 0
     cluster = cluster_from_args(args, local_default=True, what="impactid campaign")
     progress = args.progress if args.progress is not None else sys.stderr.isatty()
@@ -151,12 +156,13 @@ def cmd_campaign(args) -> int:
               f"({result.seconds:.1f} s, {result.where})")
         for kind, name, reason in result.failures():
             print(f"  failed: {kind} fit {name}: {reason}")
-        print(f"  table written to {result.files[0]} and {result.files[1]}")
+        print(f"  table written to {' and '.join(str(f) for f in result.files)}")
     return 0 if result.ok else 1
 
 
 #: Arguments of ``impactid estimate`` that are no rig's estimate option.
-_ESTIMATE_ARGUMENTS = frozenset({"recordings", "example", "rig", "out", "plots", "json", "progress", "command", "func",
+_ESTIMATE_ARGUMENTS = frozenset({"recordings", "example", "rig", "out", "plots", "figure_format", "json", "progress",
+                                 "command", "func",
                                  "option_defaults"})
 
 
@@ -219,6 +225,7 @@ def _add_estimate_command(sub) -> None:
     p.add_argument("--out", metavar="RESULT.json", help="write the result as JSON (atomically)")
     p.add_argument("--plots", metavar="DIR", help="write figures (rig P: hysteresis, restitution, landscape, "
                                                   "residuals)")
+    FIGURE_FORMAT.add_to(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
@@ -247,6 +254,29 @@ def _add_campaign_command(sub) -> None:
     p.set_defaults(func=cmd_campaign)
 
 
+def cmd_warmup(args) -> int:
+    """``impactid warmup``: compile (or load from numba's cache) the kernels the commands run
+    (:mod:`impactid.warmup`), for every rig or ``--rig``'s, saying what and how long."""
+    # the rigs' numerics (numba, the kernels) load when the command runs, not when the parser is built
+    from impactid.warmup import all_models, warm_up
+
+    models = [args.rig] if args.rig else all_models()
+    warm_up(models, log=lambda text: print(f"impactid warmup: {text}", flush=True))
+    return 0
+
+
+def _add_warmup_command(sub) -> None:
+    p = sub.add_parser("warmup", help="compile the simulators' kernels now (for container images and CI), so that "
+                                      "the first command starts from numba's cache",
+                       description="Compile (or load from numba's cache) every compiled kernel the commands use, "
+                                   "for every rig or the one --rig names, and say what and how long. Run it as "
+                                   "the user and on the CPU type that will run the commands (numba's cache is "
+                                   "keyed on both); the cache is beside the package, or in $IMPACTID_CACHE_DIR/numba, "
+                                   "or in the user's cache folder when the installation is read-only.")
+    p.add_argument("--rig", choices=list(PLUGINS), default=None, help="only this rig (default: every rig)")
+    p.set_defaults(func=cmd_warmup)
+
+
 # ---- parser -----------------------------------------------------------------------------------
 
 
@@ -262,6 +292,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_info)
     _add_estimate_command(sub)
     _add_campaign_command(sub)
+    _add_warmup_command(sub)
     _add_rig_commands(sub)
     return parser
 

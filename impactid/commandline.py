@@ -24,9 +24,10 @@ from impactid.errors import ImpactidError
 from impactid.rigs.base import Argument
 from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, RIG_MODELS, rig_by_name, rig_model
 
-__all__ = ["CAM_PPR", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "SAMPLE_RATE", "SEED",
-           "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs", "check_synth_size",
-           "command_inputs", "deliver", "end_progress_line", "exponent", "fraction", "integer_in",
+__all__ = ["CAM_PPR", "FIGURE_FORMAT", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "PLOTS",
+           "SAMPLE_RATE", "SEED", "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs",
+           "check_synth_size",
+           "command_inputs", "deliver", "end_progress_line", "exponent", "figure_format", "fraction", "integer_in",
            "is_rig_file", "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive",
            "print_json", "progress_bar", "recording_arguments", "recording_paths", "recording_rig",
            "rig_help", "say_written", "speed_arguments", "stage_progress", "write_synthetic"]
@@ -265,17 +266,32 @@ def deliver(args, data: dict, inputs: Sequence,
     second transaction; ``--json`` prints the JSON on stdout.
 
     ``figures`` is ``(names, write)``: the file names the figures will have (listed in the JSON as
-    ``plots``) and ``write(staged)``, which writes them into ``args.plots``."""
+    ``plots``) and ``write(staged)``, which writes them into ``args.plots``. ``--figure-format``
+    (:data:`FIGURE_FORMAT`) replaces the names' suffix and holds, while ``write`` runs, as the format
+    :func:`impactid.plotting.save_figure` writes in (:func:`impactid.plotting.figure_format`)."""
+    fmt = figure_format(args)
     if args.plots and figures:
-        data["plots"] = [str(Path(args.plots) / name) for name in figures[0]]
+        data["plots"] = [str(Path(args.plots) / _named(name, fmt)) for name in figures[0]]
     if args.out:
         with StagedFiles(protect=inputs) as staged:
             staged.write_text(args.out, json_text(data))
     if args.plots and figures:
-        with StagedFiles(protect=inputs) as staged:
+        from impactid.plotting import figure_format as saving_as  # matplotlib only when figures are drawn
+
+        with StagedFiles(protect=inputs) as staged, saving_as(fmt):
             figures[1](staged)
     if args.json:
         print_json(data)
+
+
+def figure_format(args) -> str | None:
+    """``--figure-format`` (``png``, ``svg`` or ``pdf``) of a command, or None when it has none."""
+    return getattr(args, "figure_format", None)
+
+
+def _named(name: str, fmt: str | None) -> str:
+    """A figure's file name with the suffix of ``fmt`` (unchanged when None)."""
+    return str(Path(name).with_suffix("." + fmt)) if fmt else name
 
 
 def say_written(args) -> None:
@@ -404,6 +420,13 @@ def end_progress_line() -> None:
 # ---- arguments several rigs' commands declare alike ----------------------------------------------
 
 JSON = Argument(("--json",), {"action": "store_true", "help": "print JSON"})
+#: ``--plots DIR``: the folder of a command's figures (declare :data:`FIGURE_FORMAT` with it).
+PLOTS = Argument(("--plots",), {"metavar": "DIR", "default": None, "help": "write the figures into DIR"})
+#: ``--figure-format``: the file format of the ``--plots`` figures (:func:`figure_format`; the values
+#: are :data:`impactid.plotting.FORMATS`, spelled out here so that building the parser loads no plotting).
+FIGURE_FORMAT = Argument(("--figure-format",), {"choices": ("png", "svg", "pdf"), "default": "png",
+                                                "help": "file format of the --plots figures: png (200 dpi, the "
+                                                        "default), svg or pdf (vector)"})
 
 
 def recording_arguments(several: bool = False) -> tuple[Argument, ...]:

@@ -1,6 +1,6 @@
 """The file writers every rig's reports use: tables and figures written to disk atomically, or staged
-in a transaction of files committed together. Each rig draws its own figures (its ``figures`` module);
-matplotlib is imported by them, lazily."""
+in a transaction of files committed together. Each rig draws its own figures (its ``figures`` module)
+in the package's style (:mod:`impactid.plotting`); matplotlib is imported by them, lazily."""
 
 from __future__ import annotations
 
@@ -11,10 +11,9 @@ from pathlib import Path
 import pandas as pd
 
 from impactid._files import StagedFiles, atomic_write
+from impactid.plotting import REGIME_COLOURS, save_figure
 
 __all__ = ["REGIME_COLOURS", "save_figure_atomic", "staged_transaction", "write_csv_atomic"]
-
-REGIME_COLOURS = {"contact": "#4c72b0", "period-1": "#55a868", "period-k": "#dd8452", "irregular": "#c44e52"}
 
 
 @contextlib.contextmanager
@@ -34,23 +33,12 @@ def write_csv_atomic(frame: pd.DataFrame, path: str | os.PathLike[str], staged: 
     return atomic_write(path, lambda tmp: frame.to_csv(tmp, index=False))
 
 
-def save_figure_atomic(fig, path: str | os.PathLike[str], staged: StagedFiles | None = None, **kwargs) -> Path:
-    """Save a matplotlib figure, atomically (or staged in ``staged``, committed with it)."""
-    fmt = Path(path).suffix.lstrip(".") or "png"
+def save_figure_atomic(fig, path: str | os.PathLike[str], staged: StagedFiles | None = None, fmt: str | None = None,
+                       **kwargs) -> Path:
+    """Save a matplotlib figure, atomically (or staged in ``staged``, committed with it).
 
-    def write(tmp: Path) -> None:
-        fig.savefig(tmp, format=fmt, **kwargs)
-
-    if staged is not None:
-        return staged.write_with(path, write)
-    return atomic_write(path, write)
-
-
-# ---------------------------------------------------------------------------------------------
-# contact-point kinematics: analytic derivatives against a differentiated spline (Lee 2005)
-# ---------------------------------------------------------------------------------------------
-
-
-# ---------------------------------------------------------------------------------------------
-# cam-profile fit figures (impactid cam-fit --plots)
-# ---------------------------------------------------------------------------------------------
+    PNG at 200 dpi, or SVG or PDF (:func:`impactid.plotting.save_figure`: the format is ``fmt``, else
+    the one :func:`impactid.plotting.figure_format` set, else the suffix of ``path``, which is
+    replaced by the format's). Returns the path written.
+    """
+    return save_figure(fig, path, staged, fmt, **kwargs)

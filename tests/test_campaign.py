@@ -255,6 +255,22 @@ def test_outputs_are_atomic_and_follow_the_umask(tmp_path, recordings, monkeypat
 # ---- the command ----------------------------------------------------------------------------------------
 
 
+def test_command_runs_serially_without_the_campaign_extra(tmp_path, recordings, capsys, monkeypatch):
+    """After `pip install impactid` (no dask, no pyarrow) a campaign runs serially, says so in one warning,
+    and writes its summary as CSV (no Parquet copy); the same command with the extra runs on a cluster."""
+    import impactid.campaign
+    import impactid.distributed
+
+    monkeypatch.setattr(impactid.distributed, "missing", lambda *modules: list(modules))
+    monkeypatch.setattr(impactid.campaign, "parquet_available", lambda: False)
+    path = _campaign(tmp_path, recordings, names=("a",), group=())
+    assert main(["campaign", str(path), "--no-progress", "--out", str(tmp_path / "out")]) == 0
+    captured = capsys.readouterr()
+    assert "impactid: warning: dask is not installed: the campaign runs serially" in captured.err
+    assert "serial" in captured.out and "campaign.csv" in captured.out and "parquet" not in captured.out
+    assert (tmp_path / "out" / "campaign.csv").exists() and not (tmp_path / "out" / "campaign.parquet").exists()
+
+
 def test_command_serial_reports_and_exits_1_with_a_failed_fit(tmp_path, recordings, capsys):
     path = _campaign(tmp_path, recordings, names=("a", "bad"), group=())
     assert main(["campaign", str(path), "--serial", "--no-progress"]) == 1

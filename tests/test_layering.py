@@ -29,7 +29,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "impactid"
 
 #: The application's rooms (everything else outside ``rigs/<rig>/`` is the core).
 APPLICATION = frozenset({"impactid", "impactid.pipeline", "impactid.campaign", "impactid.cli",
-                         "impactid._launcher"})
+                         "impactid._launcher", "impactid.warmup"})
 
 
 def module_name(path: Path) -> str:

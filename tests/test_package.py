@@ -51,12 +51,12 @@ def test_numba_gets_a_writable_cache_when_its_own_are_not(monkeypatch, tmp_path)
     monkeypatch.setattr(impactid.os, "access", lambda path, mode: False)
     impactid._numba_cache_fallback()
     assert "impactid-numba-cache" in impactid.os.environ["NUMBA_CACHE_DIR"]
-    # a writable user cache: nothing changes
+    # a read-only installation and a writable user cache: impactid's own folder there
     (tmp_path / "cache").mkdir()
     monkeypatch.delenv("NUMBA_CACHE_DIR")
     monkeypatch.setattr(impactid.os, "access", lambda path, mode: "cache" in str(path))
     impactid._numba_cache_fallback()
-    assert "NUMBA_CACHE_DIR" not in impactid.os.environ
+    assert impactid.os.environ["NUMBA_CACHE_DIR"] == str(tmp_path / "cache" / "impactid" / "numba")
 
 
 # ---- start-up: the command line is built from light modules ----------------------------------------

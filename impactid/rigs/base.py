@@ -181,6 +181,11 @@ class RigModel:
         :meth:`function`.
     calibrate : ``"module:name"``, the import path of the rig's calibration of its own pipeline (the
         bias the measurement adds, estimated on synthetic recordings of the same rig), or None.
+    warmup : ``"module:name"``, the import path of a function of no argument that runs small versions of
+        the rig's simulations with the argument types its commands use, so that its compiled kernels
+        compile (or load from numba's cache) the signatures the commands run (``impactid warmup``,
+        which then also runs the rig's estimate on its example recordings where it has both); None
+        where the rig has no compiled kernel.
     commands : what the rig adds to the command line: the :class:`CommandSpec` records, or the import
         path of the module that holds them as ``COMMANDS`` (read by :meth:`command_specs`).
     estimation : import path of the rig's estimation module, whose ``ESTIMATOR`` (an
@@ -215,6 +220,7 @@ class RigModel:
     estimate_arguments: str | None = None
     replay: str | None = None
     calibrate: str | None = None
+    warmup: str | None = None
 
     def command_specs(self) -> tuple[CommandSpec, ...]:
         """The rig's commands: :attr:`commands`, imported from its module on first use when it is an

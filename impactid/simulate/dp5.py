@@ -29,10 +29,18 @@ Method
   (a switching function on the dense output, say), to about 1e-16 of a step.
 
 The functions that take a rig's functions as arguments (:func:`step`, :func:`initial_step`,
-:func:`brent`) are inlined into the rig's kernel (``inline="always"``): besides letting the
-compiler fuse the rig's formulas into the step, this keeps the kernels cachable (a compiled
-function passed to a separately compiled one is lowered as a dynamic address, which numba cannot
-write to its cache).
+:func:`brent`) are inlined into the rig's kernel (``inline="always"``): this keeps the kernels
+cachable (a compiled function passed to a separately compiled one is lowered as a dynamic address,
+which numba cannot write to its cache).
+
+The rig's ``begin`` and ``stage`` are *not* inlined by numba: a rig compiles them with
+``forceinline=True`` (LLVM's ``alwaysinline``) and the flags of the function that calls
+:func:`step` (its error model and fast-math flags), so that each is typed and lowered once and LLVM
+inlines the compiled body at every stage. numba's own inlining (``inline="always"``) re-types the
+whole stage at each of its seven call sites, in a function that grows with each: that cost rig P's
+step 25 s of compilation against 3 s now, for the same machine code. The stage number ``s`` reaches
+``stage`` as a run-time ``int64`` (:data:`STAGE`), not as a literal, so that ``stage`` has one
+compiled signature instead of one per stage (LLVM still folds the constant once it has inlined it).
 
 State layouts
 -------------
@@ -57,8 +65,8 @@ The rig's functions
 
 Compiling a rig's step
 ----------------------
-The stages are inlined into the rig's function that calls :func:`step` (or :func:`initial_step`),
-and numba reference-counts every array an inlined function receives, at every call. When the
+The stages are inlined (by LLVM) into the rig's function that calls :func:`step` (or
+:func:`initial_step`), and numba reference-counts every array a function receives, at every call. When the
 increments and decrements cannot be paired up and removed, each stage pays a few atomic
 operations: about a third of the time of a cheap (free-flight) step. Two things keep them out:
 
@@ -88,13 +96,19 @@ from numba.core.errors import NumbaIRAssumptionWarning
 from numba.extending import overload
 from scipy.integrate._ivp.rk import RK45 as _RK45
 
+from impactid import compilation
+
 __all__ = ["BAD_INPUT", "EVENTS_FULL", "LAW_RANGE", "MAX_STEPS", "NONFINITE", "OK", "SAMPLES_FULL",
-           "STATUS_MESSAGES", "STEP_UNDERFLOW", "accepted_squared", "advance", "brent", "combine", "dense",
+           "STAGE", "STATUS_MESSAGES", "STEP_UNDERFLOW", "accepted_squared", "advance", "brent", "combine", "dense",
            "dense_coefficients", "error_norm", "error_norm_squared", "initial_step", "shrink_factor",
            "shrink_factor_squared", "step", "step_factor", "step_factor_squared", "tableau_combine"]
 
 # numba's pedantic SSA check warns about variables of inlined overloads; harmless (numba issue 7236)
 warnings.filterwarnings("ignore", category=NumbaIRAssumptionWarning)
+
+# one line and a progress indication on stderr while a kernel compiles on first use (every rig's kernel
+# module imports this one)
+compilation.install()
 
 # ---- the tableau (Dormand–Prince 5(4), from SciPy) -----------------------------------------
 C = np.ascontiguousarray(_RK45.C, dtype=np.float64)
@@ -118,6 +132,11 @@ STATUS_MESSAGES = {
 }
 
 _jit = njit(cache=True, inline="always")
+
+#: The stage numbers ``stage`` receives, as run-time ``int64`` values: a global Python integer is a
+#: literal to numba, and a literal argument compiles the callee once per value (seven versions of a
+#: rig's stage); numpy integers are typed ``int64``, so the stage compiles once.
+STAGE = tuple(np.int64(s) for s in range(8))
 
 
 # ============================================================================================
@@ -312,18 +331,18 @@ def step(stage, begin, mode, t, y, h, p, law, K, work, ynew, monitor):
     # the stages written out with literal stage numbers, so that ``tableau_combine`` is specialised
     # to each row of the tableau (constants in the code, zeros skipped)
     d = tableau_combine(y, K, 1, h, work)
-    stage(mode, cache, t, y, d, C[1] * h, p, law, K, 1, monitor)
+    stage(mode, cache, t, y, d, C[1] * h, p, law, K, STAGE[1], monitor)
     d = tableau_combine(y, K, 2, h, work)
-    stage(mode, cache, t, y, d, C[2] * h, p, law, K, 2, monitor)
+    stage(mode, cache, t, y, d, C[2] * h, p, law, K, STAGE[2], monitor)
     d = tableau_combine(y, K, 3, h, work)
-    stage(mode, cache, t, y, d, C[3] * h, p, law, K, 3, monitor)
+    stage(mode, cache, t, y, d, C[3] * h, p, law, K, STAGE[3], monitor)
     d = tableau_combine(y, K, 4, h, work)
-    stage(mode, cache, t, y, d, C[4] * h, p, law, K, 4, monitor)
+    stage(mode, cache, t, y, d, C[4] * h, p, law, K, STAGE[4], monitor)
     d = tableau_combine(y, K, 5, h, work)
-    stage(mode, cache, t, y, d, C[5] * h, p, law, K, 5, monitor)
+    stage(mode, cache, t, y, d, C[5] * h, p, law, K, STAGE[5], monitor)
     d = tableau_combine(y, K, 6, h, work)
     y1 = advance(y, d, ynew)
-    stage(mode, cache, t, y, d, h, p, law, K, 6, monitor)
+    stage(mode, cache, t, y, d, h, p, law, K, STAGE[6], monitor)
     err = tableau_combine(y, K, 7, h, work)
     return y1, err
 
@@ -392,7 +411,7 @@ def initial_step(stage, begin, mode, t, y, p, law, K, work, monitor, rtol, atol,
     h0 = 1e-6 if (d0 < 1e-5 or d1 < 1e-5) else 0.01 * d0 / d1
     h0 = min(h0, h_max)
     cache = begin(mode, t, y, p, law)
-    stage(mode, cache, t, y, combine(y, K, _ONE, 1, h0, work), h0, p, law, K, 1, monitor)
+    stage(mode, cache, t, y, combine(y, K, _ONE, 1, h0, work), h0, p, law, K, STAGE[1], monitor)
     d2 = error_norm(y, y, combine(y, K, _DIFF, 2, 1.0, work), rtol, atol) / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)

@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 
 from impactid._files import StagedFiles, check_output
-from impactid.commandline import UsageError
+from impactid.commandline import UsageError, figure_format
 from impactid.commandline import json_text as _json_text
 from impactid.commandline import print_json as _print_json
 from impactid.rigs.ball.analysis import analyse_bounces
@@ -88,13 +88,13 @@ def run(args) -> int:
                              criterion=args.criterion, chained=not args.no_chained)
     data = _document(result, args, ball)
     if args.plots:
-        data["plots"] = [str(Path(args.plots) / n) for n in figure_names(result, recordings)]
+        data["plots"] = [str(Path(args.plots) / n) for n in figure_names(result, recordings, figure_format(args))]
     if args.out:
         with StagedFiles(protect=inputs) as staged:
             staged.write_text(args.out, _json_text(data))
     if args.plots:
         with StagedFiles(protect=inputs) as staged:
-            write_figures(result, args.plots, staged, recordings)
+            write_figures(result, args.plots, staged, recordings, fmt=figure_format(args))
     if args.json:
         _print_json(data)
         return 0

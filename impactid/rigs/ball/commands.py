@@ -16,7 +16,16 @@ import argparse
 import math
 from pathlib import Path
 
-from impactid.commandline import SEED, SYNTH_OUT, UsageError, check_outputs, nonnegative, pair, positive
+from impactid.commandline import (
+    FIGURE_FORMAT,
+    SEED,
+    SYNTH_OUT,
+    UsageError,
+    check_outputs,
+    nonnegative,
+    pair,
+    positive,
+)
 from impactid.rigs.ball.parameters import ball_preset
 from impactid.rigs.base import Argument, CommandSpec
 
@@ -74,6 +83,7 @@ def _arguments() -> tuple[Argument, ...]:
         Argument(("--no-chained",), dict(action="store_true", help="skip the chained trajectory fits (faster)")),
         Argument(("--out",), dict(metavar="RESULT.json", help="write the result as JSON (atomically)")),
         Argument(("--plots",), dict(metavar="DIR", help="write figures (restitution, intervals, audio onsets)")),
+        FIGURE_FORMAT,
         Argument(("--json",), dict(action="store_true", help="print the result as JSON")),
     )
 

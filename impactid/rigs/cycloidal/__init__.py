@@ -96,6 +96,7 @@ def _model() -> RigModel:
         simulate=_simulate,
         measure=None,
         commands=COMMANDS,
+        warmup="impactid.rigs.cycloidal.simulate:warm_up",
     )
 
 

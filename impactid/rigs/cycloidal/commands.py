@@ -22,7 +22,7 @@ import math
 import warnings
 from pathlib import Path
 
-from impactid.commandline import MAX_SYNTH_SAMPLES, UsageError, refuse_foreign_options
+from impactid.commandline import FIGURE_FORMAT, MAX_SYNTH_SAMPLES, UsageError, refuse_foreign_options
 from impactid.commandline import integer_in as _count
 from impactid.commandline import nonnegative as _nonnegative
 from impactid.commandline import number as _number
@@ -211,8 +211,12 @@ def run_simulate(args, model) -> int:
         data["failed_speeds"] = failed
     if getattr(args, "out", None):
         data["per_step"] = {k: v.tolist() for k, v in result.to_pandas().items()}
-    figures = (lambda staged: write_cycle_figures(result, args.plots, staged, extra)) if getattr(args, "plots",
-                                                                                               None) else None
+    figures = None
+    if getattr(args, "plots", None):
+        from impactid.commandline import figure_format
+
+        def figures(staged):
+            return write_cycle_figures(result, args.plots, staged, extra, fmt=figure_format(args))
     printed = {k: v for k, v in data.items() if k != "per_step"}
     _write(args, data, inputs, figures, printed)
     for f in failed:
@@ -256,14 +260,17 @@ def run_jump_speed(args, model) -> int:
         import numpy as np
 
         def figures(staged):
+            from impactid.commandline import figure_format
+            from impactid.plotting import save_figure, style
+
             lo, hi = rpm_range
             speeds = np.linspace(lo, hi, 26)
             W = [level_a_min_load(rig, r)[0] for r in speeds]
             fig = jump_figure(speeds, W, result.rpm, level)
             if level != "A":
-                fig.axes[0].set_title(f"Level-A smallest load; jump speed of level {level} marked")
-            path = Path(args.plots) / "jump_speed.png"
-            return [staged.write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))]
+                with style():
+                    fig.axes[0].set_title(f"Smallest load of model level A; jump speed of level {level} marked")
+            return [save_figure(fig, Path(args.plots) / "jump_speed.png", staged, figure_format(args))]
 
     json_flag = getattr(args, "json", False)
     _write(args, data, inputs, figures)
@@ -303,12 +310,15 @@ def run_fit_surge(args, model) -> int:
     data = {**fit.to_dict(), "recordings_read": [str(p) for p in recordings]}
     figures = None
     if getattr(args, "plots", None):
-        data["plots"] = [str(Path(args.plots) / "surge_fit.png")]
+        from impactid.commandline import figure_format
+        from impactid.plotting import figure_name
+
+        data["plots"] = [figure_name(Path(args.plots) / "surge_fit.png", figure_format(args))]
 
         def figures(staged):
-            fig = fit.plot()
-            path = Path(args.plots) / "surge_fit.png"
-            return [staged.write_with(path, lambda tmp: fig.savefig(tmp, format="png", dpi=110))]
+            from impactid.plotting import save_figure
+
+            return [save_figure(fit.plot(), Path(args.plots) / "surge_fit.png", staged, figure_format(args))]
 
     json_flag = getattr(args, "json", False)
     _write(args, data, inputs, figures)
@@ -375,7 +385,7 @@ _RPM = Argument(("--rpm",), {"type": float, "default": None, "help": "camshaft s
 _JSON = Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})
 _OUT_JSON = Argument(("--out",), {"metavar": "RESULT.json", "default": None,
                                   "help": "write the result as JSON (atomically)"})
-_PLOTS = Argument(("--plots",), {"metavar": "DIR", "default": None, "help": "write figures (PNG) into DIR"})
+_PLOTS = Argument(("--plots",), {"metavar": "DIR", "default": None, "help": "write figures into DIR"})
 #: shared with the finger follower's synth, declared exactly alike (each rig checks its own limits)
 REVOLUTIONS = Argument(("--revolutions",), {"type": _positive, "default": None,
                                             "help": "revolutions recorded (cycloidal: default 4, need not be whole; "
@@ -396,7 +406,7 @@ COMMANDS = (
                                      "help": "cycloidal: film floor [m] (default none)"}),
         Argument(("--speeds",), {"type": _speed_list, "default": None, "metavar": "RPM,RPM",
                                  "help": "cycloidal: further speeds drawn in the figures"}),
-        _OUT_JSON, _PLOTS, _JSON), run_simulate),
+        _OUT_JSON, _PLOTS, FIGURE_FORMAT, _JSON), run_simulate),
     CommandSpec("valvetrain", "jump-speed", "lowest camshaft speed at which the follower loses the cam", (
         _RIG_FILE, _PRESET, _LEVEL,
         Argument(("--rpm-range",), {"type": _range, "default": None, "metavar": "LOW,HIGH",
@@ -405,7 +415,7 @@ COMMANDS = (
                                     "help": "cycloidal: scan step [rpm] (default 50)"}),
         Argument(("--xtol",), {"type": _positive, "default": None,
                                "help": "cycloidal: tolerance [rpm] (default 0.01 level A, 0.5 level B)"}),
-        _OUT_JSON, _PLOTS, _JSON), run_jump_speed),
+        _OUT_JSON, _PLOTS, FIGURE_FORMAT, _JSON), run_jump_speed),
     CommandSpec("valvetrain", "fit-surge", "fit surge frequency and damping, preload and moving mass to recordings", (
         Argument(("recordings",), {"metavar": "REC", "nargs": "*", "help": "HDF5 or CSV recordings"}),
         _RIG_FILE,
@@ -415,7 +425,7 @@ COMMANDS = (
         Argument(("--free-k0",), {"action": "store_true", "help": "also fit the spring rate k0"}),
         Argument(("--confidence",), {"type": _fraction, "default": None,
                                      "help": "coverage of the intervals (default 0.95)"}),
-        _OUT_JSON, _PLOTS, _JSON), run_fit_surge),
+        _OUT_JSON, _PLOTS, FIGURE_FORMAT, _JSON), run_fit_surge),
     CommandSpec("valvetrain", "synth", "write a synthetic recording with known parameters", (
         _RIG_FILE, _PRESET, _RPM, _LEVEL,
         REVOLUTIONS,

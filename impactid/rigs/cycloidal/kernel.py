@@ -70,6 +70,10 @@ __all__ = ["BAD_INPUT", "CONTACT_GAIN", "CONTACT_LOSS", "EVENTS_FULL", "EVENT_NA
            "STEP_UNDERFLOW", "RunEnd", "integrate_a", "integrate_b", "loads_b", "rhs_a", "rhs_b"]
 
 _jit = njit(cache=True, inline="always")
+#: The core's stage functions: compiled once and inlined by LLVM (``forceinline``), with the flags of
+#: the function that calls ``dp5.step`` (numba's ``inline="always"`` re-typed them at every stage:
+#: :mod:`impactid.simulate.dp5`, "Compiling a rig's step").
+_STAGE_FLAGS = {"cache": True, "forceinline": True}
 _surge = _jit(_surge_py)
 
 # ---- parameter vector layout (built by simulate.pack) --------------------------------------
@@ -105,12 +109,12 @@ def _accel_a(t, y5, v5, y6, v6, p):
     return a5, a6
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _begin_a(mode, t, y, p, law):
     return (0.0,)
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _stage_a(mode, cache, t, y, d, ch, p, law, K, s, monitor):
     y5 = y[0] + d[0]
     v5 = y[1] + d[1]
@@ -259,12 +263,12 @@ def _accel_b(mode, t, y3, v3, y5, v5, y6, v6, p):
     return a3, a5, a6
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _begin_b(mode, t, y, p, law):
     return (0.0,)
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _stage_b(mode, cache, t, y, d, ch, p, law, K, s, monitor):
     y3 = y[0] + d[0]
     v3 = y[1] + d[1]

@@ -42,11 +42,11 @@ from impactid.rigs.cycloidal.contact import (
     hertz_load,
     hertz_max_pressure,
 )
-from impactid.rigs.cycloidal.parameters import CycloidalEHLRig
+from impactid.rigs.cycloidal.parameters import KUSHWAHA2000, CycloidalEHLRig
 
 __all__ = ["LEVELS", "CycleResult", "JumpSpeedResult", "LevelBCycle", "Tolerances", "cycle", "jump_speed",
            "level_a_min_load", "level_a_periodic_state", "level_a_run", "level_b_run", "level_b_static_state",
-           "level_b_steady_cycle", "omega_of", "pack", "sweep"]
+           "level_b_steady_cycle", "omega_of", "pack", "sweep", "warm_up"]
 
 TWO_PI = 2.0 * math.pi
 #: Load models of :func:`cycle`: level A (the paper's adherent model), level B (valve released),
@@ -824,3 +824,9 @@ def jump_speed(rig: CycloidalEHLRig, level: str = "A", rpm_range: tuple[float, f
         return JumpSpeedResult("B", math.nan, (hi, math.nan), math.nan, criterion, evaluations,
                                (f"no contact loss up to {hi:g} rpm", *notes))
     raise ValueError(f"unknown level {level!r}; valid: rigid, A, B")
+
+
+def warm_up() -> None:
+    """The cycloidal valve train's level-B simulator, briefly (``impactid warmup``)."""
+    x, mode = level_b_static_state(KUSHWAHA2000)
+    level_b_run(KUSHWAHA2000, 3000.0, x, 0.0, 60.0 / 3000.0 * 0.05, mode)

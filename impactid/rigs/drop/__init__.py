@@ -125,6 +125,7 @@ def _model() -> RigModel:
         estimation=ESTIMATION,
         estimate_arguments=ESTIMATE_ARGUMENTS,
         replay="impactid.rigs.drop.simulate:replay_impacts",
+        warmup="impactid.rigs.drop.simulate:warm_up",
     )
 
 

@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 
 from impactid.commandline import (
+    FIGURE_FORMAT,
     NOISE_CHANNEL,
     SAMPLE_RATE,
     SEED,
@@ -260,12 +261,12 @@ COMMANDS = (
                                    "help": "simulated time [s] (default: until the impactor rests on the contact)"}),
         Argument(("--show",), {"type": integer_in(0, 1_000_000), "default": 10, "help": "impacts to print"}),
         Argument(("--out",), {"metavar": "RESULT.json", "help": "write the result as JSON (atomically)"}),
-        _PLOTS, _JSON), run_simulate),
+        _PLOTS, FIGURE_FORMAT, _JSON), run_simulate),
     CommandSpec("drop", "fit", "fit the Hunt-Crossley contact (k, beta, n) to drop recordings", (
         Argument(("recordings",), {"metavar": "REC", "nargs": "+",
                                    "help": "HDF5 or CSV drop recordings (several: joint fit)"}),
         _RIG_FILE,
         *fit_arguments(),
         Argument(("--out",), {"metavar": "RESULT.json", "help": "write the result as JSON (atomically)"}),
-        _PLOTS, _JSON), run_fit),
+        _PLOTS, FIGURE_FORMAT, _JSON), run_fit),
 )

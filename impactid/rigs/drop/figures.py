@@ -1,5 +1,6 @@
-"""Figures of the single-impact test rig, as matplotlib figures (never pyplot); :func:`save` writes one
-atomically (or staged with other outputs). Units at the edge: ms, mm."""
+"""Figures of the single-impact test rig, as matplotlib figures (never pyplot) in the package's style
+(:mod:`impactid.plotting`); :func:`save` writes one atomically (or staged with other outputs). Units
+at the edge: ms, mm."""
 
 from __future__ import annotations
 
@@ -8,16 +9,29 @@ from pathlib import Path
 
 import numpy as np
 
+from impactid.plotting import MEASURED, SIMULATED, UNITLESS, axis_label, number, styled
+
 __all__ = ["drop_figure", "fit_figure", "save"]
 
-_LABELS = {"impactor_acceleration": "impactor acceleration [m/s^2]", "contact_force": "contact force [N]"}
+#: The channels in words: (quantity, symbol, unit) of the axis labels.
+_CHANNELS = {"impactor_acceleration": ("impactor acceleration", "a", "m/s$^2$"),
+             "contact_force": ("contact force", "F", "N")}
+
+
+def _channel_words(channel: str) -> str:
+    return _CHANNELS.get(channel, (channel.replace("_", " "),))[0]
+
+
+def _channel_label(channel: str) -> str:
+    quantity, symbol, unit = _CHANNELS.get(channel, (channel.replace("_", " "), None, "recorded unit"))
+    return axis_label(quantity, unit, symbol)
 
 
 def _figure(nrows: int, ncols: int, **kwargs):
     """A :class:`matplotlib.figure.Figure` and its axes (a 2-D array), without pyplot."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=kwargs.pop("figsize", (4.0 * ncols, 2.8 * nrows)), constrained_layout=True)
+    fig = Figure(figsize=kwargs.pop("figsize", (4.0 * ncols, 2.8 * nrows)), layout="constrained")
     axes = fig.subplots(nrows, ncols, squeeze=False, **kwargs)
     return fig, axes
 
@@ -37,6 +51,7 @@ def _chosen(curves: list, count: int) -> list:
     return chosen
 
 
+@styled
 def fit_figure(fit, *, impacts: int = 4):
     """Measured (dots) and fitted (line) contact signals of up to ``impacts`` impacts of a
     :class:`~impactid.rigs.drop.identify.DropFit`, one column per impact, one row per channel, and the
@@ -54,28 +69,28 @@ def fit_figure(fit, *, impacts: int = 4):
             if data is None:
                 ax.set_axis_off()
                 continue
-            ax.plot(t, data["measured"], ".", ms=3, color="0.3", label="measured")
-            ax.plot(t, data["model"], "-", lw=1.2, color="C3", label="simulated (fitted contact)")
-            ax.set_ylabel(_LABELS.get(channel, channel) if col == 0 else "")
-            ax.grid(True, alpha=0.3)
+            ax.plot(t, data["measured"], ".", ms=3, color=MEASURED, label="measured")
+            ax.plot(t, data["model"], "-", lw=1.2, color=SIMULATED, label="simulation at the fitted law")
+            ax.set_ylabel(_channel_label(channel))
             if row == 0:
                 ax.set_title(f"{Path(str(curve['recording'])).name}, impact {curve['impact']}", fontsize=9)
             if row == 0 and col == 0:
                 ax.legend(fontsize=7)
             res = (np.asarray(data["measured"]) - np.asarray(data["model"])) / data["noise_sd"]
-            axes[-1, col].plot(t, res, ".-", ms=2, lw=0.6, label=channel.replace("_", " "))
+            axes[-1, col].plot(t, res, ".-", ms=2, lw=0.6, label=_channel_words(channel))
         axes[-1, col].axhline(0.0, color="k", lw=0.5)
-        axes[-1, col].set_xlabel("time from the fitted onset [ms]")
-        axes[-1, col].grid(True, alpha=0.3)
+        axes[-1, col].set_xlabel(axis_label("time from the fitted onset", "ms", "t"))
+        axes[-1, col].set_ylabel(f"residual / noise standard deviation {UNITLESS}")
         if col == 0:
-            axes[-1, col].set_ylabel("residual / noise standard deviation [-]")
             axes[-1, col].legend(fontsize=7)
     k, beta, n = fit.value("k"), fit.value("beta"), fit.value("n")
-    fig.suptitle(f"Drop impacts: measured and simulated with k = {k:.4g} N/m^{fit.value('p'):g}, "
-                 f"beta = {beta:.4g} N s/m^(n+1), n = {n:.4g}", fontsize=10)
+    fig.suptitle(f"Drop impacts: measured and simulated at the fitted law, $k$ = {number(k)} "
+                 f"N/m$^{{{fit.value('p'):g}}}$, " rf"$\beta$ = {number(beta)} N s m$^{{-{n + 1:.3g}}}$, $n$ = {n:.4g}",
+                 fontsize=10)
     return fig
 
 
+@styled
 def drop_figure(run, *, impacts: int = 6):
     """A simulated drop (:class:`~impactid.rigs.drop.simulate.DropRun`): the contact force of its first
     ``impacts`` impacts against the time from each onset, and the peak force and restitution against
@@ -89,25 +104,26 @@ def drop_figure(run, *, impacts: int = 6):
         t = np.linspace(0.0, 1.05 * row.contact_duration_s, 400)
         again = simulate_drop(run.rig, run.law, 0.0, release_speed=row.approach_speed_m_s, duration=float(t[-1]),
                               t_eval=t)
-        ax.plot(1e3 * t, again.force, label=f"impact {i}: {row.approach_speed_m_s:.3g} m/s")
-    ax.set_xlabel("time from the onset [ms]")
-    ax.set_ylabel("contact force [N]")
-    ax.legend(fontsize=7)
-    ax.grid(True, alpha=0.3)
+        ax.plot(1e3 * t, again.force, label=f"impact {i}: $v_a$ = {row.approach_speed_m_s:.3g} m/s")
+    ax.set_xlabel(axis_label("time from the onset", "ms", "t"))
+    ax.set_ylabel(axis_label("contact force", "N", "F"))
+    ax.legend(fontsize=7, title="simulated impacts")
     ax = axes[0, 1]
-    ax.plot(table.approach_speed_m_s, table.restitution, "o-", ms=3, color="C0")
-    ax.set_xlabel("approach speed [m/s]")
-    ax.set_ylabel("coefficient of restitution [-]", color="C0")
-    ax.grid(True, alpha=0.3)
+    ax.plot(table.approach_speed_m_s, table.restitution, "o-", ms=3, color="C0", label="coefficient of restitution")
+    ax.set_xlabel(axis_label("approach speed", "m/s", "v_a"))
+    ax.set_ylabel(axis_label("coefficient of restitution", None, "e"), color="C0")
     twin = ax.twinx()
-    twin.plot(table.approach_speed_m_s, table.peak_force_n, "s--", ms=3, color="C1")
-    twin.set_ylabel("peak contact force [N]", color="C1")
+    twin.grid(False)
+    twin.spines["right"].set_visible(True)
+    twin.plot(table.approach_speed_m_s, table.peak_force_n, "s--", ms=3, color="C1", label="peak contact force")
+    twin.set_ylabel(axis_label("peak contact force", "N"), color="C1")
     fig.suptitle(f"Drop of {run.rig.mass:g} kg from {run.height:g} m: {len(table)} bounces", fontsize=10)
     return fig
 
 
-def save(fig, path: str | os.PathLike[str], staged=None) -> Path:
-    """Write a figure (PNG) atomically, or staged in ``staged``."""
+def save(fig, path: str | os.PathLike[str], staged=None, fmt: str | None = None) -> Path:
+    """Write a figure atomically, or staged in ``staged``: PNG at 200 dpi, or SVG or PDF (``fmt``, else
+    :func:`impactid.plotting.figure_format`'s; the suffix of ``path`` follows). Returns the path."""
     from impactid.reports import save_figure_atomic
 
-    return save_figure_atomic(fig, path, staged, dpi=110)
+    return save_figure_atomic(fig, path, staged, fmt)

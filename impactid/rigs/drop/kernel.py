@@ -81,6 +81,12 @@ __all__ = ["BAD_INPUT", "CONTACT", "END_FORCE", "END_OPEN", "END_REST", "END_SUR
            "force_rate", "initial_mode", "integrate", "replay"]
 
 _jit = njit(cache=True, inline="always")
+#: The core's stage functions: compiled once and inlined by LLVM (``forceinline``), with the flags of
+#: the function that calls ``dp5.step`` (numba's ``inline="always"`` re-typed them at every stage:
+#: :mod:`impactid.simulate.dp5`, "Compiling a rig's step").
+_STAGE_FLAGS = {"cache": True, "error_model": "numpy", "forceinline": True}
+#: Stage numbers as run-time ``int64`` (a literal would compile ``_sensitivity_stage`` once per stage).
+_S = dp5.STAGE
 
 # ---- parameter vector layout (built by simulate.pack) --------------------------------------
 P_MASS, P_GRAV, P_K, P_P, P_BETA, P_N = range(6)
@@ -264,12 +270,12 @@ def force_partials(x, v, par):
 # ============================================================================================
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _begin(mode, t, y, pt, law):
     return (0.0,)
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _stage(mode, cache, t, y, d, ch, pt, law, K, s, monitor):
     """Rate and acceleration at ``y + d`` in contact (the continued force)."""
     x = y[0] + d[0]
@@ -334,7 +340,7 @@ def _root_dense(kind, h, x0, v0, Q, pt, xa, xb, fa, fb):
 # ============================================================================================
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _sensitivity_stage(s, x, v, d, dS, sens0, KS, pt):
     """Row ``s`` of the sensitivities' stages at the stage state ``(x, v) + d``, for the sensitivities
     ``sens0 + dS`` (``dS`` flat, 2 per parameter)."""
@@ -357,22 +363,22 @@ def _sensitivity_step(x, v, h, K, sens0, sens1, KS, work, par):
     y = (x, v)
     for i in range(work.shape[0]):
         work[i] = 0.0
-    _sensitivity_stage(0, x, v, (0.0, 0.0), work, sens0, KS, pt)
-    _sensitivity_stage(1, x, v, dp5.tableau_combine(y, K, 1, h, _NO_WORK), dp5.tableau_combine(work, KS, 1, h, work),
-                       sens0, KS, pt)
-    _sensitivity_stage(2, x, v, dp5.tableau_combine(y, K, 2, h, _NO_WORK), dp5.tableau_combine(work, KS, 2, h, work),
-                       sens0, KS, pt)
-    _sensitivity_stage(3, x, v, dp5.tableau_combine(y, K, 3, h, _NO_WORK), dp5.tableau_combine(work, KS, 3, h, work),
-                       sens0, KS, pt)
-    _sensitivity_stage(4, x, v, dp5.tableau_combine(y, K, 4, h, _NO_WORK), dp5.tableau_combine(work, KS, 4, h, work),
-                       sens0, KS, pt)
-    _sensitivity_stage(5, x, v, dp5.tableau_combine(y, K, 5, h, _NO_WORK), dp5.tableau_combine(work, KS, 5, h, work),
-                       sens0, KS, pt)
+    _sensitivity_stage(_S[0], x, v, (0.0, 0.0), work, sens0, KS, pt)
+    _sensitivity_stage(_S[1], x, v, dp5.tableau_combine(y, K, 1, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 1, h, work), sens0, KS, pt)
+    _sensitivity_stage(_S[2], x, v, dp5.tableau_combine(y, K, 2, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 2, h, work), sens0, KS, pt)
+    _sensitivity_stage(_S[3], x, v, dp5.tableau_combine(y, K, 3, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 3, h, work), sens0, KS, pt)
+    _sensitivity_stage(_S[4], x, v, dp5.tableau_combine(y, K, 4, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 4, h, work), sens0, KS, pt)
+    _sensitivity_stage(_S[5], x, v, dp5.tableau_combine(y, K, 5, h, _NO_WORK),
+                       dp5.tableau_combine(work, KS, 5, h, work), sens0, KS, pt)
     dS = dp5.tableau_combine(work, KS, 6, h, work)
     for q in range(sens0.shape[0]):
         sens1[q, 0] = sens0[q, 0] + dS[2 * q]
         sens1[q, 1] = sens0[q, 1] + dS[2 * q + 1]
-    _sensitivity_stage(6, x, v, dp5.tableau_combine(y, K, 6, h, _NO_WORK), dS, sens0, KS, pt)
+    _sensitivity_stage(_S[6], x, v, dp5.tableau_combine(y, K, 6, h, _NO_WORK), dS, sens0, KS, pt)
 
 
 @njit(cache=True, inline="always")

@@ -21,10 +21,10 @@ import pandas as pd
 
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.drop import kernel
-from impactid.rigs.drop.parameters import DropLaw, DropRig
+from impactid.rigs.drop.parameters import PA6_PAD_LAW, STEEL_ON_PA6, DropLaw, DropRig
 
 __all__ = ["DEFAULT_TOLERANCES", "IMPACT_COLUMNS", "MAX_DURATION_S", "DropRun", "Replay", "Tolerances",
-           "impact_table", "pack", "replay_impacts", "simulate_drop"]
+           "impact_table", "pack", "replay_impacts", "simulate_drop", "warm_up"]
 
 #: Longest run [s] of :func:`simulate_drop` without a duration (it stops at rest first).
 MAX_DURATION_S = 600.0
@@ -318,3 +318,11 @@ def replay_impacts(rig: DropRig, law: DropLaw, speeds: Sequence[float] | np.ndar
         dF = np.zeros((n, kernel.N_SENS))
         dF[after] = out_sens[:, :, 2]
     return Replay(offsets=offsets, tau=tau, force=force, force_rate=rate, x=x, v=v, force_derivatives=dF)
+
+
+def warm_up() -> None:
+    """The drop rig's simulator (with and without sensitivities) and its impact replay, briefly
+    (``impactid warmup``)."""
+    simulate_drop(STEEL_ON_PA6, PA6_PAD_LAW, 0.05, sensitivities=True)
+    simulate_drop(STEEL_ON_PA6, PA6_PAD_LAW, 0.05)
+    replay_impacts(STEEL_ON_PA6, PA6_PAD_LAW, [1.0], [np.linspace(0.0, 1e-4, 5)])

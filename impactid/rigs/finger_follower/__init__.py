@@ -151,6 +151,7 @@ def _model() -> RigModel:
         simulate=simulate,
         measure=_measure,
         commands=COMMANDS,
+        warmup="impactid.rigs.finger_follower.simulate:warm_up",
     )
 
 

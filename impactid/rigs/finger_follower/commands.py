@@ -26,7 +26,7 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from impactid.commandline import integer_in, positive, refuse_foreign_options
+from impactid.commandline import FIGURE_FORMAT, integer_in, positive, refuse_foreign_options
 from impactid.errors import RigParameterError, SimulationError, SimulationInputError
 from impactid.rigs.base import Argument, CommandSpec
 
@@ -138,16 +138,21 @@ def _json_text(data: dict) -> str:
 def _deliver(args, data: dict, inputs, figures=()) -> None:
     """``--out`` JSON and ``--plots`` figures in one transaction; ``--json`` to stdout."""
     from impactid._files import StagedFiles
-    from impactid.rigs.finger_follower import figures as F
+    from impactid.commandline import figure_format
 
+    fmt = figure_format(args)
     if args.plots and figures:
-        data["plots"] = [str(Path(args.plots) / name) for name, _ in figures]
+        from impactid.plotting import figure_name
+
+        data["plots"] = [figure_name(Path(args.plots) / name, fmt) for name, _ in figures]
     with StagedFiles(protect=inputs) as staged:
         if args.out:
             staged.write_text(args.out, _json_text(data))
-        if args.plots:
+        if args.plots and figures:
+            from impactid.rigs.finger_follower import figures as F
+
             for name, make in figures:
-                F.save(make(), Path(args.plots) / name, staged)
+                F.save(make(), Path(args.plots) / name, staged, fmt)
     if args.json:
         sys.stdout.write(_json_text(data))
 
@@ -491,11 +496,11 @@ _MCOS = Argument(("--moment-cos",), {"action": "store_true", "help": "finger-fol
 
 COMMANDS = (
     CommandSpec("valvetrain", "simulate", "simulate a valve train in its periodic steady state",
-                (RPM, JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET, _CLIP, _MCOS), run_simulate),
+                (RPM, JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT, PRESET, _CLIP, _MCOS), run_simulate),
     CommandSpec("valvetrain", "modes", "linearised natural frequencies with the cam held (seated, open)",
-                (RPM, JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET), run_modes),
+                (RPM, JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT, PRESET), run_modes),
     CommandSpec("valvetrain", "jump-speed", "jump and bounce speeds by a speed sweep and bisection",
-                (JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET,
+                (JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT, PRESET,
                  Argument(("--rpm-from",), {"type": float, "default": None,
                                             "help": "finger-follower: sweep start [rpm] (default 1000)"}),
                  Argument(("--rpm-to",), {"type": float, "default": None,
@@ -506,7 +511,7 @@ COMMANDS = (
                                                   "help": "finger-follower: bisection resolution [rpm] (default 1)"})),
                 run_jump_speed),
     CommandSpec("valvetrain", "leakdown", "maximum tappet leak-down against camshaft speed",
-                (JSON, OUT, PLOTS, RIG_FILE, LIFT, PRESET,
+                (JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT, PRESET,
                  Argument(("--rpms",), {"default": None,
                                         "help": f"camshaft speeds [rpm], comma-separated (default "
                                                 f"{DEFAULT_LEAKDOWN_RPMS})"})),
@@ -521,17 +526,17 @@ COMMANDS = (
                 run_synth),
     CommandSpec("valvetrain", "fit-tappet", "fit the hydraulic tappet's drag (alpha, beta) to tappet motion",
                 (Argument(("recordings",), {"nargs": "+", "help": "recordings (HDF5, or CSV with a TOML rig file)"}),
-                 JSON, OUT, PLOTS, RIG_FILE, LIFT,
+                 JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT,
                  Argument(("--joint",), {"action": "store_true",
                                          "help": "one (alpha, beta) for all recordings (default: one per speed)"})),
                 run_fit_tappet),
     CommandSpec("valvetrain", "fit-lift", "fit the cam lift law to low-speed valve displacement",
                 (Argument(("recording",), {"help": "recording at low speed (HDF5, or CSV with a TOML rig file)"}),
-                 JSON, OUT, PLOTS, RIG_FILE),
+                 JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE),
                 run_fit_lift),
     CommandSpec("valvetrain", "fit-damping", "fit the contact and valve-spring damping ratios to the valve's ringing",
                 (Argument(("recording",), {"help": "recording at a speed where the valve rings at closure (HDF5, or "
                                                    "CSV with a TOML rig file)"}),
-                 JSON, OUT, PLOTS, RIG_FILE, LIFT),
+                 JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT),
                 run_fit_damping),
 )

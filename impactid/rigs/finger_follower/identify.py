@@ -768,6 +768,11 @@ class DampingFit(FitResult):
     kind: ClassVar[str] = "finger_follower_damping"
     title: ClassVar[str] = "contact and spring damping from the ringing after valve closure"
 
+    def plot(self, **kwargs):
+        from impactid.rigs.finger_follower.figures import plot_damping_fit
+
+        return plot_damping_fit(self, **kwargs)
+
 
 def _closing_angle(theta: np.ndarray, lift: np.ndarray) -> float:
     """Cam angle [rad] where the averaged valve lift last falls through a tenth of its maximum."""

@@ -84,6 +84,10 @@ __all__ = ["BAD_INPUT", "EVENTS_FULL", "MAX_STEPS", "NONFINITE", "N_ECOL", "N_PA
            "mode_from_signs", "observe", "switch_values"]
 
 _jit = njit(cache=True, inline="always")
+#: The core's stage functions: compiled once and inlined by LLVM (``forceinline``), with the flags of
+#: the function that calls ``dp5.step`` (numba's ``inline="always"`` re-typed them at every stage:
+#: :mod:`impactid.simulate.dp5`, "Compiling a rig's step").
+_STAGE_FLAGS = {"cache": True, "forceinline": True}
 _surge = _jit(_spring.surge_accelerations)
 TWO_PI = 2.0 * math.pi
 
@@ -214,12 +218,12 @@ def _rhs(mode, theta, Yt, Yf, th, Ys1, Ys2, Yv, vt, vf, w, vs1, vs2, vv, p, run,
         mon[22] = F_drag
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _begin(mode, t, y, p, run):
     return (0.0,)
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _stage(mode, cache, t, y, d, ch, p, run, K, s, mon):
     """The core's stage: the derivative at ``y + d``, ``t + ch``; the last stage also fills ``mon``."""
     omega, theta0 = run[3], run[4]

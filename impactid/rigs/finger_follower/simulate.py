@@ -34,11 +34,12 @@ import pandas as pd
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.finger_follower import kernel as KN
 from impactid.rigs.finger_follower.cam import TABLE_STEP_DEG, Kinematics, build_kinematics
+from impactid.rigs.finger_follower.parameters import KIM1990
 from impactid.rigs.valvespring import CamSpeedRange
 
 __all__ = ["DEFAULT_TOLERANCES", "STATE_NAMES", "CriticalSpeeds", "Modes", "Run", "SteadyState", "Tolerances",
            "ValveTrain", "critical_speeds", "leakdown_curve", "natural_frequencies", "pack", "prepare",
-           "rigid_jump_rpm", "simulate", "speed_range", "static_equilibrium", "steady_state", "summarize"]
+           "rigid_jump_rpm", "simulate", "speed_range", "static_equilibrium", "steady_state", "summarize", "warm_up"]
 
 TWO_PI = 2.0 * math.pi
 DEG = math.pi / 180.0
@@ -989,3 +990,8 @@ def critical_speeds(model, *, rpm_from: float = 1000.0, rpm_to: float = 6000.0, 
     table = pd.DataFrame(rows).sort_values("rpm", kind="stable").reset_index(drop=True)
     return CriticalSpeeds(jump_speed_rpm=result["jump"], bounce_speed_rpm=result["bounce"],
                           resolution_rpm=float(resolution_rpm), sweep=table, notes=tuple(notes))
+
+
+def warm_up() -> None:
+    """The finger-follower simulator, a fifth of a revolution (``impactid warmup``)."""
+    simulate(prepare(KIM1990), 1200.0, revolutions=0.2)

@@ -87,6 +87,7 @@ def _model() -> RigModel:
         simulate=_simulate,
         measure=_measure,
         commands=COMMANDS,
+        warmup="impactid.rigs.flat.simulate:warm_up",
     )
 
 

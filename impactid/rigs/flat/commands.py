@@ -25,6 +25,7 @@ from dataclasses import replace
 
 from impactid.commandline import (
     CAM_PPR,
+    FIGURE_FORMAT,
     JSON,
     MAX_SWEEP_POINTS,
     NOISE_CHANNEL,
@@ -38,6 +39,7 @@ from impactid.commandline import (
     check_synth_size,
     command_inputs,
     deliver,
+    figure_format,
     fraction,
     integer_in,
     json_text,
@@ -119,7 +121,7 @@ def run_bifurcation(args, model) -> int:
         result = bifurcation(rig, speeds, law, revolutions=args.revolutions, kept=args.kept, client=client,
                              progress=lambda done, total: bar.update(done - bar.n))
     with StagedFiles(protect=inputs) as staged:
-        paths = write_bifurcation(result, args.out, staged)
+        paths = write_bifurcation(result, args.out, staged, figure_format(args))
     transitions = result.transitions()
     data = {"transitions": transitions, "detachment_rpm_inverse_kinematics": rig.detachment_speed_hz() * 60.0,
             "restitution_law": law.to_dict(), "regime_counts": result.table["regime"].value_counts().to_dict(),
@@ -183,7 +185,7 @@ def _cam_fit_figures(args, fit):
     from impactid.rigs.flat import figures
 
     names = ["cam_fit.png"] + (["cam_fit_order.png"] if getattr(fit, "order_table", None) is not None else [])
-    return names, lambda staged: figures.cam_fit_figures(fit, args.plots, staged)
+    return names, lambda staged: figures.cam_fit_figures(fit, args.plots, staged, figure_format(args))
 
 
 def run_cam_fit(args, model) -> int:
@@ -292,7 +294,7 @@ _SYNTH = CommandSpec("", "synth", "write a synthetic encoder recording of rig F 
     *RESTITUTION_LAW, SEED, SYNTH_OUT), run_synth, rig_argument="resolve")
 
 COMMANDS = (
-    CommandSpec("", "bifurcation", "rig F bifurcation diagram over cam speed, CSV and PNG (Alzate et al. 2007, "
+    CommandSpec("", "bifurcation", "rig F bifurcation diagram over cam speed, CSV and figure (Alzate et al. 2007, "
                                    "Fig. 16)", (
         Argument(("--rig",), {"metavar": "MODEL|PRESET|RIG.toml", "help": rig_help(
             "the flat-follower rig (default: Alzate et al. 2007 Table 5)")}),
@@ -310,7 +312,7 @@ COMMANDS = (
                                "help": "last revolutions plotted and classified (default half)"}),
         *RESTITUTION_LAW,
         Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
-        JSON, *scheduler_arguments()), run_bifurcation),
+        FIGURE_FORMAT, JSON, *scheduler_arguments()), run_bifurcation),
     CommandSpec("", "restitution", "rig F: coefficient of restitution per cam speed from impacting encoder "
                                    "recordings, and r = a + b omega", (
         Argument(("recordings",), {"metavar": "REC", "nargs": "*",
@@ -344,6 +346,7 @@ COMMANDS = (
                                         "(atomically)"}),
         Argument(("--plots",), {"metavar": "DIR",
                                 "help": "write figures (data and fit, residuals, derivatives, order selection)"}),
+        FIGURE_FORMAT,
         Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})), run_cam_fit),
     CommandSpec("", "detachment", "cam speed at which the follower leaves the cam (inverse kinematics)", (JSON,),
                 run_detachment, rig_argument="resolve"),

@@ -1,4 +1,5 @@
-"""Rig F's figures: the bifurcation diagram and the cam profile fit. matplotlib is imported lazily."""
+"""Rig F's figures: the bifurcation diagram and the cam profile fit, in the package's style
+(:mod:`impactid.plotting`). matplotlib is imported lazily."""
 
 from __future__ import annotations
 
@@ -9,18 +10,25 @@ import numpy as np
 import pandas as pd
 
 from impactid._files import StagedFiles
-from impactid.reports import save_figure_atomic, staged_transaction, write_csv_atomic
+from impactid.plotting import MEASURED, SIMULATED, axis_label, styled
+from impactid.reports import REGIME_COLOURS, save_figure_atomic, staged_transaction, write_csv_atomic
 
 __all__ = ["cam_fit_figures", "plot_bifurcation", "plot_cam_fit", "plot_cam_fit_order", "write_bifurcation"]
 
 
+#: The transition speeds of :meth:`~impactid.rigs.flat.simulate.BifurcationResult.transitions` in words.
+TRANSITION_LABELS = {"detachment_rpm": "detachment", "period1_end_rpm": "end of period-1",
+                     "irregular_rpm": "irregular motion"}
+
+
+@styled
 def plot_bifurcation(result, transitions: dict | None = None):
     """Stroboscopic follower angle against cam speed (Fig. 16 of Alzate et al. (2007)), coloured by regime."""
     from matplotlib.figure import Figure
 
-    colours = {"contact": "tab:green", "period-1": "tab:blue", "period-k": "tab:orange", "irregular": "tab:red"}
+    colours = REGIME_COLOURS
     table = result.table
-    fig = Figure(figsize=(8, 4.5), constrained_layout=True)
+    fig = Figure(figsize=(8, 4.5), layout="constrained")
     ax = fig.subplots()
     for regime, colour in colours.items():
         rows = np.flatnonzero(table["regime"].to_numpy() == regime)
@@ -32,22 +40,25 @@ def plot_bifurcation(result, transitions: dict | None = None):
     labels: dict[float, list[str]] = {}
     for key, value in (transitions or {}).items():
         if np.isfinite(value):
-            labels.setdefault(float(value), []).append(key.replace("_rpm", ""))
+            labels.setdefault(float(value), []).append(TRANSITION_LABELS.get(key, key.replace("_rpm", "")
+                                                                             .replace("_", " ")))
     for value, names in labels.items():
         ax.axvline(value, color="0.5", lw=0.6, ls="--")
-        ax.text(value, 1.0, " " + " = ".join(names), rotation=90, va="top", ha="right", fontsize=7,
+        ax.text(value, 1.0, " " + ", ".join(names), rotation=90, va="top", ha="right", fontsize=7,
                 transform=ax.get_xaxis_transform())
-    ax.set_xlabel("cam speed [rpm]")
-    ax.set_ylabel(f"follower angle at theta_c = 2 pi k + {result.strobe_phase:.3f} [rad]")
-    ax.set_title(f"rig F bifurcation diagram (last {result.kept} of {result.revolutions} revolutions)")
-    ax.legend(loc="best", fontsize=8, markerscale=1)
+    ax.set_xlabel(axis_label("cam speed", "rpm", r"\Omega"))
+    ax.set_ylabel(rf"follower angle $\theta_f$ at $\theta_c = 2\pi k + {result.strobe_phase:.3f}$ [rad]")
+    ax.set_title(f"Bifurcation diagram of rig F (last {result.kept} of {result.revolutions} revolutions)")
+    ax.legend(title="motion", loc="best", markerscale=1)
     return fig
 
 
-def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None) -> list[Path]:
+def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None,
+                      fmt: str | None = None) -> list[Path]:
     """Write ``bifurcation.csv`` (one row per speed and kept revolution: ``cam_speed_rpm``,
     ``revolution``, ``theta_f`` [rad], ``theta_f_dot`` [rad/s], ``regime``), ``regimes.csv`` (one
-    row per speed) and ``bifurcation.png`` into ``out_dir``, atomically."""
+    row per speed) and ``bifurcation.png`` (or ``.svg``, ``.pdf``: ``fmt``, see
+    :func:`impactid.plotting.save_figure`) into ``out_dir``, atomically."""
 
     out_dir = Path(out_dir)
     table = result.table
@@ -63,10 +74,11 @@ def write_bifurcation(result, out_dir: str | os.PathLike[str], staged: StagedFil
         paths = [write_csv_atomic(points, out_dir / "bifurcation.csv", st),
                  write_csv_atomic(table, out_dir / "regimes.csv", st)]
         fig = plot_bifurcation(result, result.transitions())
-        paths.append(save_figure_atomic(fig, out_dir / "bifurcation.png", st, dpi=130))
+        paths.append(save_figure_atomic(fig, out_dir / "bifurcation.png", st, fmt))
     return paths
 
 
+@styled
 def plot_cam_fit(fit):
     """Figure of a :class:`impactid.rigs.flat.camprofile.CamProfileResult`: follower angle against cam angle with
     the fitted profile (top), residuals at the fitted points (middle), and the profile's analytic first
@@ -79,53 +91,57 @@ def plot_cam_fit(fit):
         raise ValueError("the cam-profile figure needs the fitted data, which a result read from JSON does not keep")
     theta, value = fit.profile.sample(3600)
     _, first, second = fit.profile(theta, derivatives=2)
-    fig = Figure(figsize=(8.0, 9.0), constrained_layout=True)
+    fig = Figure(figsize=(8.0, 9.0), layout="constrained")
     axes = fig.subplots(3, 1, sharex=True)
     ax = axes[0]
     step = max(1, data.nsamples // 4000)  # a readable subsample of the (quantised) samples
-    ax.plot(data.cam_angle[::step], data.follower_angle[::step], ".", ms=1.5, color="0.6",
-            label=f"samples (1 in {step})")
-    ax.plot(data.fit_cam_angle, data.fit_follower_angle, ".", ms=2.5, color="C0", label=f"fitted: {data.fit_points}")
-    ax.plot(theta, value, "-", color="C3", lw=1.2, label=f"{fit.terms}-term Gaussian sum")
-    ax.set(ylabel="follower angle [rad]",
+    ax.plot(data.cam_angle[::step], data.follower_angle[::step], ".", ms=1.5, color="0.65",
+            label=f"measured samples (1 in {step})")
+    ax.plot(data.fit_cam_angle, data.fit_follower_angle, ".", ms=2.5, color=MEASURED,
+            label=f"measured points fitted: {data.fit_points}")
+    ax.plot(theta, value, "-", color=SIMULATED, lw=1.2, label=f"fitted profile ({fit.terms}-term Gaussian sum)")
+    ax.set(ylabel=axis_label("follower angle", "rad", r"\theta_f"),
            title=f"{data.source or 'recording'}: cam profile, {len(data.used_revolutions)} revolution(s)")
     ax.legend(fontsize=8, loc="best")
     ax = axes[1]
-    ax.plot(data.fit_cam_angle, 1e3 * fit.residuals(), ".", ms=2.5, color="C0")
+    ax.plot(data.fit_cam_angle, 1e3 * fit.residuals(), ".", ms=2.5, color=MEASURED)
     ax.axhline(0.0, color="0.3", lw=0.8)
-    ax.set(ylabel="residual [mrad]",
+    ax.set(ylabel=axis_label("residual (measured minus fitted)", "mrad"),
            title=f"residual RMS {fit.rms_residual * 1e3:.3g} mrad, max {fit.max_residual * 1e3:.3g} mrad")
     ax = axes[2]
-    ax.plot(theta, first, "-", color="C2", label="d theta_f / d theta_c [rad/rad]")
-    ax.plot(theta, second, "-", color="C4", label="d2 theta_f / d theta_c2 [rad/rad^2]")
+    ax.plot(theta, first, "-", color="C2", label=r"first, $d\theta_f/d\theta_c$ [rad/rad]")
+    ax.plot(theta, second, "-", color="C0", label=r"second, $d^2\theta_f/d\theta_c^2$ [rad/rad$^2$]")
     ax.axhline(0.0, color="0.3", lw=0.8)
-    ax.set(xlabel="cam angle (recording's convention) [rad]", ylabel="derivative", xlim=(0.0, 2.0 * np.pi))
+    ax.set(xlabel=axis_label("cam angle (the recording's convention)", "rad", r"\theta_c"),
+           ylabel="derivative of the profile [rad/rad, rad/rad$^2$]", xlim=(0.0, 2.0 * np.pi))
     ax.legend(fontsize=8, loc="best")
-    for ax in axes:
-        ax.grid(True, alpha=0.3)
     return fig
 
 
+@styled
 def plot_cam_fit_order(fit):
     """AIC and BIC against the number of Gaussian terms (``terms="auto"`` fits only)."""
     from matplotlib.figure import Figure
 
     table = fit.order_table
-    fig = Figure(figsize=(6.0, 4.2), constrained_layout=True)
+    fig = Figure(figsize=(6.0, 4.2), layout="constrained")
     ax = fig.subplots()
     ax.plot(table["terms"], table["aic"], "o-", label="AIC")
     ax.plot(table["terms"], table["bic"], "s-", label="BIC")
     chosen = table[table["chosen"]]
-    ax.plot(chosen["terms"], chosen[fit.criterion], "r*", ms=14, label=f"chosen by {fit.criterion.upper()}")
-    ax.set(xlabel="Gaussian terms", ylabel="information criterion", title="cam-profile order selection")
-    ax.grid(True, alpha=0.3)
+    ax.plot(chosen["terms"], chosen[fit.criterion], "*", color=SIMULATED, mec="black", ms=14,
+            label=f"chosen by the {fit.criterion.upper()}")
+    ax.set(xlabel=axis_label("Gaussian terms", None), ylabel=axis_label("information criterion", None),
+           title="Cam-profile order selection")
     ax.legend()
     return fig
 
 
-def cam_fit_figures(fit, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None) -> list[Path]:
+def cam_fit_figures(fit, out_dir: str | os.PathLike[str], staged: StagedFiles | None = None,
+                    fmt: str | None = None) -> list[Path]:
     """Write ``cam_fit.png`` (:func:`plot_cam_fit`) and, for ``terms="auto"``, ``cam_fit_order.png``
-    (:func:`plot_cam_fit_order`) into ``out_dir``, atomically."""
+    (:func:`plot_cam_fit_order`) into ``out_dir``, atomically (``fmt``: see
+    :func:`impactid.plotting.save_figure`)."""
 
     out = Path(out_dir)
     written = []
@@ -135,5 +151,5 @@ def cam_fit_figures(fit, out_dir: str | os.PathLike[str], staged: StagedFiles | 
     with staged_transaction(staged) as st:
         for name, make in figures:
             fig = make(fit)
-            written.append(save_figure_atomic(fig, out / name, st, dpi=120))
+            written.append(save_figure_atomic(fig, out / name, st, fmt))
     return written

@@ -44,6 +44,10 @@ from impactid.simulate import dp5
 from impactid.simulate.dp5 import BAD_INPUT, MAX_STEPS, NONFINITE, OK, STATUS_MESSAGES, STEP_UNDERFLOW
 
 _jit = njit(cache=True, inline="always")
+#: The core's stage functions: compiled once and inlined by LLVM (``forceinline``), with the flags of
+#: the function that calls ``dp5.step`` (numba's ``inline="always"`` re-typed them at every stage:
+#: :mod:`impactid.simulate.dp5`, "Compiling a rig's step").
+_STAGE_FLAGS = {"cache": True, "forceinline": True}
 _gap = _jit(_geo.flat_gap)
 _gap_rate = _jit(_geo.flat_gap_rate)
 _lever = _jit(_geo.flat_lever)
@@ -87,12 +91,12 @@ def contact_state(theta_c, omega, p):
     return th, omega * d1, tau
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _begin(mode, t, y, p, law):
     return (0.0,)
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _stage(mode, cache, t, y, d, ch, p, law, K, s, monitor):
     """Free flight (A-10): the rate and acceleration at ``y + d`` (the flight is autonomous)."""
     K[s, 0] = y[1] + d[1]

@@ -22,11 +22,12 @@ import numpy as np
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.flat import FlatFollowerRig
 from impactid.rigs.flat import kernel as FK
+from impactid.rigs.flat.parameters import ALZATE2007
 from impactid.simulate.periodicity import find_period
 from impactid.simulate.tolerances import DEFAULT_TOLERANCES, Tolerances
 
 __all__ = ["DEFAULT_RESTITUTION", "EVENT_KINDS", "RPM", "TWO_PI", "V_STICK", "BifurcationResult", "FlatRun",
-           "SpeedRestitution", "bifurcation", "pack_flat_rig", "simulate_flat", "strobe_phase_default"]
+           "SpeedRestitution", "bifurcation", "pack_flat_rig", "simulate_flat", "strobe_phase_default", "warm_up"]
 
 TWO_PI = 2.0 * math.pi
 RPM = TWO_PI / 60.0  # rad/s per rpm
@@ -357,3 +358,9 @@ def bifurcation(rig: FlatFollowerRig, cam_speeds_hz, restitution=None, *, revolu
                      "steps": int(steps[i])})
     return BifurcationResult(table=pd.DataFrame(rows), strobe_angle=angle.copy(), strobe_rate=rate.copy(),
                              revolutions=revolutions, kept=kept, restitution=law, strobe_phase=phase)
+
+
+def warm_up() -> None:
+    """Rig F's simulator and bifurcation sweep, briefly (``impactid warmup``)."""
+    simulate_flat(ALZATE2007, 130.0 / 60.0, 0.5)
+    bifurcation(ALZATE2007, [130.0 / 60.0], revolutions=4)

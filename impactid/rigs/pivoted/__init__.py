@@ -112,6 +112,7 @@ def _model() -> RigModel:
         estimate_arguments=ESTIMATE_ARGUMENTS,
         replay="impactid.rigs.pivoted.damping_objective:DampingObjective",
         calibrate="impactid.rigs.pivoted.calibration:pipeline_bias",
+        warmup="impactid.rigs.pivoted.runs:warm_up",
     )
 
 

@@ -18,6 +18,7 @@ import argparse
 
 from impactid.commandline import (
     CAM_PPR,
+    FIGURE_FORMAT,
     JSON,
     MAX_SWEEP_POINTS,
     NOISE_CHANNEL,
@@ -31,6 +32,7 @@ from impactid.commandline import (
     check_synth_size,
     command_inputs,
     exponent,
+    figure_format,
     fraction,
     integer_in,
     noise_channels,
@@ -171,7 +173,7 @@ def run_regime_map(args, model) -> int:
                            progress=lambda done, total: bar.update(done - bar.n),
                            max_revolutions=args.max_revolutions, client=client)
     with StagedFiles(protect=inputs) as staged:
-        paths = write_regime_map(frame, args.out, staged)
+        paths = write_regime_map(frame, args.out, staged, figure_format(args))
     for path in paths:
         print(path)
     return 0
@@ -294,7 +296,7 @@ COMMANDS = (
         JSON), run_regime),
     CommandSpec("", "detachment", "cam speed at which the follower leaves the cam (inverse kinematics)", (
         E_OVER_RC_RIG_P, MU, JSON), run_detachment, rig_argument="resolve", default_rig=True),
-    CommandSpec("", "regime-map", "regime map over (e/r_c, cam speed), CSV and PNG (Sundar et al. 2016, Fig. 3)", (
+    CommandSpec("", "regime-map", "regime map over (e/r_c, cam speed), CSV and figure (Sundar et al. 2016, Fig. 3)", (
         *_simulated_rig_arguments(with_ratio=False),
         Argument(("--e-over-rc-values",), {"type": _range, "default": _range("0.05:0.25:5"),
                                            "help": "e/r_c values: 'start:stop:count' or a list (default 0.05:0.25:5)"}),
@@ -303,6 +305,7 @@ COMMANDS = (
         *LAW,
         Argument(("--max-revolutions",), {**MAX_REVOLUTIONS, "help": "longest run per point while settling"}),
         Argument(("--out",), {"required": True, "metavar": "DIR", "help": "output folder"}),
+        FIGURE_FORMAT,
         Argument(("--quiet",), {"action": "store_true", "help": "no progress output"}),
         *scheduler_arguments()), run_regime_map),
     CommandSpec("", "simulate", "long S2 run from static equilibrium; prints the contact table", (

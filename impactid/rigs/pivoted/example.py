@@ -17,9 +17,10 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
+import tempfile
 from pathlib import Path
 
+from impactid._cachedir import user_cache_root
 from impactid.contact import HuntCrossley
 from impactid.io import Recording, read_recording
 from impactid.rigs.pivoted import SUNDAR2016
@@ -39,11 +40,11 @@ EXAMPLE_POINTS = ((0.05, 16.0), (0.25, 15.0))
 
 
 def cache_dir() -> Path:
-    """Folder of cached generated data."""
-    if os.environ.get("IMPACTID_CACHE_DIR"):
-        return Path(os.environ["IMPACTID_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "impactid"
+    """Folder of cached generated data: impactid's user cache (``$IMPACTID_CACHE_DIR`` when set; the
+    compiled kernels' folder is beside it, :mod:`impactid._cachedir`), or a temporary folder without a
+    home folder."""
+    root = user_cache_root()
+    return root if root is not None else Path(tempfile.gettempdir()) / "impactid"
 
 
 def example_recording_paths(refresh: bool = False) -> list[Path]:

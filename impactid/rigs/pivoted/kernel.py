@@ -55,6 +55,29 @@ __all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "NO_GRID_SENS", "NO_SENS", "NO_
 
 _jit = njit(cache=True, inline="always")
 
+#: Compilation flags of the step functions (``_dp5_step``, ``_initial_step``, ``_sensitivity_step``):
+#: numpy's error model, as the core asks (:mod:`impactid.simulate.dp5`, "Compiling a rig's step"),
+#: and FMA contraction, the one fast-math flag that cannot change a result beyond round-off: it
+#: fuses a multiplication and the addition that consumes it into one operation rounded once
+#: instead of twice (each such result within an ulp of the separately rounded one). No
+#: reassociation, no reciprocal approximations, no approximate library functions, and NaN and
+#: infinity keep their meaning (the integrator rejects a non-finite trial step). With it a step
+#: takes about 7 % less (docs/simulator.md, "Speed").
+_STEP_FLAGS = {"cache": True, "error_model": "numpy", "fastmath": {"contract": True}}
+#: Compilation flags of the functions the step functions call once per stage (``_begin``, ``_stage``,
+#: ``_sensitivity_stage``): the step's own flags, so that their arithmetic is the step's, and LLVM's
+#: ``alwaysinline`` (``forceinline``) instead of numba's IR inlining (``inline="always"``): each is
+#: typed and lowered once and LLVM inlines the compiled body at every stage, where numba would
+#: re-type the whole body at each of the seven call sites (that made ``_dp5_step`` 25 s and
+#: ``_sensitivity_step`` 20 s of a cold start; now about 3 s each: docs/simulator.md, "Compile time").
+_STAGE_FLAGS = {**_STEP_FLAGS, "forceinline": True}
+#: Flags of the small helpers the integrator and the observables call at several places (``acceleration``,
+#: ``_trig_at``, ``_dense``, ``_dense_sensitivity``, ``_row_for``): their callers' (default) flags, inlined
+#: by LLVM rather than re-typed by numba at each call (a quarter of ``integrate``'s own compile time).
+_HELPER_FLAGS = {"cache": True, "forceinline": True}
+#: Stage numbers as run-time ``int64`` (a literal would compile ``_sensitivity_stage`` once per stage).
+_S = dp5.STAGE
+
 # Shared physics, compiled from the very functions the public API uses.
 _gap = _jit(_geo.gap)
 _lever_arm = _jit(_geo.lever_arm)
@@ -75,6 +98,12 @@ KIND_RESTITUTION = 1.0
 FREE, CONTACT, STICK = 0, 1, 2
 # ---- event functions -----------------------------------------------------------------------
 EV_GAP, EV_RATE, EV_GAPRATE, EV_DFORCE, EV_VR, EV_LAMBDA = range(6)
+#: The event kinds and modes the integrator passes to its own functions, as run-time ``int64``: a
+#: global integer is a literal to numba, and a literal argument compiles the callee once per value
+#: (``_event_value`` had seven compiled versions, ``_root_dense`` four, ``contact_force`` three).
+_EV_GAP, _EV_RATE, _EV_GAPRATE, _EV_DFORCE, _EV_LAMBDA = (np.int64(k) for k in (EV_GAP, EV_RATE, EV_GAPRATE,
+                                                                          EV_DFORCE, EV_LAMBDA))
+_FREE, _CONTACT = np.int64(FREE), np.int64(CONTACT)
 # ---- contact table columns -----------------------------------------------------------------
 (C_T_START, C_T_END, C_DPSI_START, C_DPSI_END, C_PEAK_DELTA, C_PEAK_FORCE, C_ALPHA_START,
  C_RATE_START, C_ALPHA_END, C_RATE_END, C_KIND, C_FRICTION_REVERSALS, C_T_PEAK_FORCE,
@@ -300,7 +329,7 @@ def _partials_trig(mode, ad, sa, ca, st, ct, p, law, omega):
             force_lnb * arm * inv_i, force_n * arm * inv_i, force_a, force_ad, force_lnb, force_n)
 
 
-@njit(cache=True, inline="always")
+@njit(**_HELPER_FLAGS)
 def acceleration(mode, t, a, ad, p, law, theta_ref, omega):
     """``alpha_ddot`` [rad/s^2] in the given mode.
 
@@ -371,8 +400,9 @@ def observe(t, a, ad, mode, p, law, theta_ref, omega, out):
         out[i, 0] = psi
         out[i, 1] = chi * ad[i] - p[ECC] * math.cos(a[i] + th) * omega
         out[i, 2] = chi
-        out[i, 3] = contact_force(mode[i], t[i], a[i], ad[i], p, law, theta_ref, omega)
-        out[i, 4] = acceleration(mode[i], t[i], a[i], ad[i], p, law, theta_ref, omega)
+        m = np.int64(mode[i])  # the integrator's mode type: one compiled contact_force
+        out[i, 3] = contact_force(m, t[i], a[i], ad[i], p, law, theta_ref, omega)
+        out[i, 4] = acceleration(m, t[i], a[i], ad[i], p, law, theta_ref, omega)
         out[i, 5] = _sliding_velocity(a[i], ad[i], th, omega, psi, p[RSUM], p[ECC], p[R_C])
 
 
@@ -381,7 +411,7 @@ def observe(t, a, ad, mode, p, law, theta_ref, omega, out):
 # ============================================================================================
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _begin(mode, t, y, run, law):
     """Step start: the sines and cosines of alpha and Theta, reused by the stages (angle addition).
 
@@ -396,7 +426,7 @@ def _begin(mode, t, y, run, law):
     return trig[0], trig[1], trig[4], trig[2], trig[3]
 
 
-@njit(cache=True, inline="always")
+@njit(**_STAGE_FLAGS)
 def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
     """Rate and acceleration at ``y + d``, ``t + ch`` (the core's stage); the last stage (``s = 6``)
     also writes the step end's monitored quantities ``(g, dpsi, force, dforce, v_r)`` into
@@ -436,7 +466,7 @@ def _stage(mode, cache, t, y, d, ch, run, law, K, s, S):
         S[8] = math.cos(th1)
 
 
-@njit(cache=True, inline="always")
+@njit(**_HELPER_FLAGS)
 def _trig_at(mode, t, a, theta_ref, omega):
     """``(sin alpha, cos alpha, sin Theta, cos Theta, Theta)`` at ``(t, alpha)``, Theta's sine and
     cosine as 0, 1 in FREE (the ``trig`` a step starts from: :func:`_begin`)."""
@@ -450,15 +480,6 @@ def _trig_at(mode, t, a, theta_ref, omega):
 #: then ``sin alpha, cos alpha, sin Theta, cos Theta, Theta`` there (:func:`_stage`).
 N_MONITOR = 10
 _NO_WORK = np.empty(0)
-#: Compilation flags of the step functions (``_dp5_step``, ``_initial_step``, ``_sensitivity_step``):
-#: numpy's error model, as the core asks (:mod:`impactid.simulate.dp5`, "Compiling a rig's step"),
-#: and FMA contraction, the one fast-math flag that cannot change a result beyond round-off: it
-#: fuses a multiplication and the addition that consumes it into one operation rounded once
-#: instead of twice (each such result within an ulp of the separately rounded one). No
-#: reassociation, no reciprocal approximations, no approximate library functions, and NaN and
-#: infinity keep their meaning (the integrator rejects a non-finite trial step). With it a step
-#: takes about 7 % less (docs/simulator.md, "Speed").
-_STEP_FLAGS = {"cache": True, "error_model": "numpy", "fastmath": {"contract": True}}
 
 
 @_jit
@@ -494,7 +515,7 @@ def _dp5_step(mode, t, a, ad, h, f0, p, law, theta_ref, omega, K, S, trig):
     return y1[0], y1[1], err[0], err[1]
 
 
-@njit(cache=True, inline="always")
+@njit(**_HELPER_FLAGS)
 def _dense(x, h, a0, ad0, Q):
     return dp5.dense(x, h, (a0, ad0), Q, _NO_WORK)
 
@@ -570,26 +591,26 @@ def _sensitivity_step(mode, t, a, ad, h, K, sens0, sens1, KS, work, p, law, thet
     y = (a, ad)
     for i in range(work.shape[0]):
         work[i] = 0.0
-    _sensitivity_stage(mode, 0, a, ad, (0.0, 0.0), work, 0.0, sens0, KS, trig0, pt, law_t, omega)
-    _sensitivity_stage(mode, 1, a, ad, dp5.tableau_combine(y, K, 1, h, _NO_WORK),
+    _sensitivity_stage(mode, _S[0], a, ad, (0.0, 0.0), work, 0.0, sens0, KS, trig0, pt, law_t, omega)
+    _sensitivity_stage(mode, _S[1], a, ad, dp5.tableau_combine(y, K, 1, h, _NO_WORK),
                        dp5.tableau_combine(work, KS, 1, h, work), _C[1] * h, sens0, KS, trig0, pt, law_t, omega)
-    _sensitivity_stage(mode, 2, a, ad, dp5.tableau_combine(y, K, 2, h, _NO_WORK),
+    _sensitivity_stage(mode, _S[2], a, ad, dp5.tableau_combine(y, K, 2, h, _NO_WORK),
                        dp5.tableau_combine(work, KS, 2, h, work), _C[2] * h, sens0, KS, trig0, pt, law_t, omega)
-    _sensitivity_stage(mode, 3, a, ad, dp5.tableau_combine(y, K, 3, h, _NO_WORK),
+    _sensitivity_stage(mode, _S[3], a, ad, dp5.tableau_combine(y, K, 3, h, _NO_WORK),
                        dp5.tableau_combine(work, KS, 3, h, work), _C[3] * h, sens0, KS, trig0, pt, law_t, omega)
-    _sensitivity_stage(mode, 4, a, ad, dp5.tableau_combine(y, K, 4, h, _NO_WORK),
+    _sensitivity_stage(mode, _S[4], a, ad, dp5.tableau_combine(y, K, 4, h, _NO_WORK),
                        dp5.tableau_combine(work, KS, 4, h, work), _C[4] * h, sens0, KS, trig0, pt, law_t, omega)
-    _sensitivity_stage(mode, 5, a, ad, dp5.tableau_combine(y, K, 5, h, _NO_WORK),
+    _sensitivity_stage(mode, _S[5], a, ad, dp5.tableau_combine(y, K, 5, h, _NO_WORK),
                        dp5.tableau_combine(work, KS, 5, h, work), _C[5] * h, sens0, KS, trig0, pt, law_t, omega)
     dS = dp5.tableau_combine(work, KS, 6, h, work)
     for q in range(sens0.shape[0]):
         sens1[q, 0] = sens0[q, 0] + dS[2 * q]
         sens1[q, 1] = sens0[q, 1] + dS[2 * q + 1]
-    _sensitivity_stage(mode, 6, a, ad, dp5.tableau_combine(y, K, 6, h, _NO_WORK), dS, h, sens0, KS, trig0, pt,
+    _sensitivity_stage(mode, _S[6], a, ad, dp5.tableau_combine(y, K, 6, h, _NO_WORK), dS, h, sens0, KS, trig0, pt,
                        law_t, omega)
 
 
-@_jit
+@njit(**_STAGE_FLAGS)
 def _sensitivity_stage(mode, s, a, ad, d, dS, ch, sens0, KS, trig0, p, law, omega):
     """Row ``s`` of the sensitivities' stages: the variational right-hand side at the stage state
     ``(a, ad) + d`` and time ``t + ch``, for the sensitivities ``sens0 + dS`` (``dS`` flat, 2 per
@@ -608,7 +629,7 @@ def _sensitivity_stage(mode, s, a, ad, d, dS, ch, sens0, KS, trig0, p, law, omeg
         KS[s, 2 * q + 1] = f_a * s_a + f_ad * s_d + (f_lnb if q == 0 else f_n)
 
 
-@njit(cache=True, inline="always")
+@njit(**_HELPER_FLAGS)
 def _dense_sensitivity(x, h, sens0, QS, q, component):
     """Sensitivity ``component`` (0: alpha, 1: alpha_dot) of parameter ``q`` at fraction ``x`` of a step."""
     c = 2 * q + component
@@ -623,8 +644,8 @@ def _dense_sensitivity(x, h, sens0, QS, q, component):
 @njit(cache=True)
 def initial_mode(t, a, ad, p, law, theta_ref, omega):
     """Mode of a state: in contact if ``psi_i < 0``, or ``psi_i ~ 0`` and approaching."""
-    psi = _event_value(EV_GAP, FREE, t, a, ad, p, law, theta_ref, omega)
-    dpsi = _event_value(EV_GAPRATE, FREE, t, a, ad, p, law, theta_ref, omega)
+    psi = _event_value(_EV_GAP, _FREE, t, a, ad, p, law, theta_ref, omega)
+    dpsi = _event_value(_EV_GAPRATE, _FREE, t, a, ad, p, law, theta_ref, omega)
     touching = psi < 0.0 or (abs(psi) <= 1e-15 and dpsi < 0.0)
     if not touching:
         return FREE
@@ -633,7 +654,7 @@ def initial_mode(t, a, ad, p, law, theta_ref, omega):
     return STICK  # restitution model: a state inside the cam is projected onto the constraint
 
 
-@njit(cache=True, inline="always")
+@njit(**_HELPER_FLAGS)
 def _row_for(n_contacts, capacity, overflow_ok):
     """Row of the contact table for contact number ``n_contacts``; -1 when the table is full
     (with ``overflow_ok`` the last row is reused instead, if the table has at least two)."""
@@ -745,7 +766,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
     if mode == CONTACT or mode == STICK:
         if n_contacts >= cap_c:
             return RunEnd(CONTACTS_FULL, n_contacts, n_apexes, t, a, ad, mode, alpha_max, t_alpha_max, 0, 0)
-        dpsi0 = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+        dpsi0 = _event_value(_EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
         _open_row(contacts, n_contacts, ROW_COMPLIANT if mode == CONTACT else ROW_STICK, t, a, ad, dpsi0)
         f_start = contact_force(mode, t, a, ad, p, law, theta_ref, omega)
         contacts[n_contacts, C_PEAK_FORCE] = f_start
@@ -837,7 +858,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             switch = True
             n_steps += 1
         elif switch:
-            term_kind = EV_LAMBDA if mode == STICK else EV_GAP
+            term_kind = _EV_LAMBDA if mode == STICK else _EV_GAP
             dp5.dense_coefficients(K, Q)
             x = _root_dense(term_kind, mode, t, h, a, ad, Q, p, law, theta_ref, omega, g0, g1)
             h_ev = x * h
@@ -870,7 +891,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                     dp5.dense_coefficients(KS, QS)
             # ---- non-terminal events inside [t, t1] -------------------------------------------
             if ad > 0.0 and ad1 <= 0.0:
-                x = _root_dense(EV_RATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, ad, ad1)
+                x = _root_dense(_EV_RATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, ad, ad1)
                 ax, adx = _dense(x, h, a, ad, Q)
                 if cap_a > 0:
                     if n_apexes >= cap_a:
@@ -895,9 +916,9 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                     contacts[open_row, C_PEAK_DELTA] = -g1
                     contacts[open_row, C_T_PEAK_DELTA] = t1
                 if q0 < 0.0 and q1 >= 0.0:
-                    x = _root_dense(EV_GAPRATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, q0, q1)
+                    x = _root_dense(_EV_GAPRATE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, q0, q1)
                     ax, adx = _dense(x, h, a, ad, Q)
-                    dx = -_event_value(EV_GAP, mode, t + x * h, ax, adx, p, law, theta_ref, omega)
+                    dx = -_event_value(_EV_GAP, mode, t + x * h, ax, adx, p, law, theta_ref, omega)
                     if dx > contacts[open_row, C_PEAK_DELTA]:
                         contacts[open_row, C_PEAK_DELTA] = dx
                         contacts[open_row, C_T_PEAK_DELTA] = t + x * h
@@ -906,7 +927,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                     contacts[open_row, C_PEAK_FORCE] = f1
                     contacts[open_row, C_T_PEAK_FORCE] = t1
                 if r0 > 0.0 and r1 <= 0.0:
-                    x = _root_dense(EV_DFORCE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, r0, r1)
+                    x = _root_dense(_EV_DFORCE, mode, t, h, a, ad, Q, p, law, theta_ref, omega, r0, r1)
                     ax, adx = _dense(x, h, a, ad, Q)
                     fx = contact_force(mode, t + x * h, ax, adx, p, law, theta_ref, omega)
                     if fx > contacts[open_row, C_PEAK_FORCE]:
@@ -946,7 +967,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
             h = h * factor
             continue
         # ---- mode switch at (t, a, ad) --------------------------------------------------------
-        dpsi = _event_value(EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
+        dpsi = _event_value(_EV_GAPRATE, mode, t, a, ad, p, law, theta_ref, omega)
         if mode == FREE:
             row = _row_for(n_contacts, cap_c, overflow_ok)
             if row < 0:
@@ -954,7 +975,7 @@ def integrate(t0, a0, ad0, mode0, t_end, p, law, theta_ref, omega,
                 break
             if not restitution:
                 _open_row(contacts, row, ROW_COMPLIANT, t, a, ad, dpsi)
-                f_start = contact_force(CONTACT, t, a, ad, p, law, theta_ref, omega)
+                f_start = contact_force(_CONTACT, t, a, ad, p, law, theta_ref, omega)
                 contacts[row, C_PEAK_FORCE] = f_start
                 contacts[row, C_T_PEAK_FORCE] = t
                 open_row = row

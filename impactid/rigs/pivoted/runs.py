@@ -23,12 +23,12 @@ import pandas as pd
 from impactid.contact import HuntCrossley, Restitution
 from impactid.errors import SimulationError, SimulationInputError
 from impactid.rigs.pivoted import kernel as K
-from impactid.rigs.pivoted.parameters import MODEL_NAME, PivotedFollowerRig
+from impactid.rigs.pivoted.parameters import MODEL_NAME, SUNDAR2016, PivotedFollowerRig
 from impactid.simulate.tolerances import DEFAULT_TOLERANCES, Tolerances
 
 __all__ = ["BATCH_CHUNK_JOBS", "DEFAULT_TOLERANCES", "MODE_NAMES", "S1_CONTACT_ROWS", "S1_MAX_STEPS", "BatchResult",
            "EventResult", "Law", "SimulationResult", "Tolerances", "observables", "pack_law", "pack_rig",
-           "simulate", "simulate_event", "simulate_events"]
+           "simulate", "simulate_event", "simulate_events", "warm_up"]
 
 Law = HuntCrossley | Restitution
 
@@ -465,7 +465,8 @@ def simulate_event(rig: PivotedFollowerRig, cam_speed_hz: float, law: Law, alpha
     table = contacts[:n_contacts]
     if grid.shape[0]:
         obs = np.empty((grid.shape[0], 6))
-        K.observe(grid, g_a, g_d, g_m, p, law_vec, float(theta0), omega, obs)
+        # a writable copy: the same compiled signature as the batch's (pack_law's array is read-only)
+        K.observe(grid, g_a, g_d, g_m, p, law_vec.copy(), float(theta0), omega, obs)
         force, indentation = obs[:, 3], np.where(g_m != K.FREE, -obs[:, 0], 0.0)
     else:  # no histories requested: skip the observation pass (S1 events are run by the thousand)
         force, indentation = g_a, g_d
@@ -619,6 +620,20 @@ def observables(rig: PivotedFollowerRig, law: Law, cam_speed_hz: float, t, alpha
     t = np.ascontiguousarray(t, dtype=float)
     out = np.empty((t.shape[0], 6))
     K.observe(t, np.ascontiguousarray(alpha, dtype=float), np.ascontiguousarray(alpha_dot, dtype=float),
-              np.ascontiguousarray(mode, dtype=np.int8), p, law_vec, theta_ref, 2.0 * math.pi * cam_speed_hz, out)
+              np.ascontiguousarray(mode, dtype=np.int8), p, law_vec.copy(), theta_ref, 2.0 * math.pi * cam_speed_hz,
+              out)  # a writable law vector: one compiled signature of observe (pack_law's is read-only)
     return pd.DataFrame(out, columns=["gap", "gap_rate", "lever_arm", "contact_force", "alpha_ddot",
                                       "sliding_velocity"], index=pd.Index(t, name="t"))
+
+
+def warm_up() -> None:
+    """Rig P's simulator: a short run with a sample grid (``simulate``, ``synth``) and a batch of S1 events
+    with forward sensitivities and histories (the estimate's fits), with the argument types the commands
+    use, so that each kernel compiles (or loads from numba's cache) the signature they run
+    (``impactid warmup``, :attr:`impactid.rigs.base.RigModel.warmup`)."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
+    law = HuntCrossley(24.7e9, 1.5)
+    simulate(rig, 16.0, law, 0.05, t_eval=np.linspace(0.0, 0.05, 11))
+    states = np.array([[0.07, -4.0, 0.3]])
+    simulate_events(rig, 16.0, states, np.array([0.0625]), np.array([[24.7e9, 1.5]]),
+                    grids=[np.linspace(0.0, 1e-3, 5)], sensitivities=True)

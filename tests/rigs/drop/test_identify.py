@@ -110,7 +110,7 @@ def test_result_round_trip_and_figure(reference_drops):
     assert {"onset_time_fitted_s", "approach_speed_fitted_m_s", "peak_force_model_n"} <= set(table.columns)
     figure = fit.plot(impacts=3)
     assert len(figure.axes) == 3 * 3  # two channels and the residuals, three impacts
-    assert "[m/s^2]" in figure.axes[0].get_ylabel()
+    assert "[m/s$^2$]" in figure.axes[0].get_ylabel()
 
 
 # ---- bad inputs ---------------------------------------------------------------------------------
