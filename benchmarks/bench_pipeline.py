@@ -25,7 +25,6 @@ import itertools
 import json
 import os
 import resource
-import shutil
 import statistics
 import subprocess
 import sys
@@ -49,7 +48,7 @@ from impactid.synth import SensorModel
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pages import BenchmarkPage  # noqa: E402
+from pages import BenchmarkPage, impactid_command  # noqa: E402
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "performance_pipeline.md"
 LAW = HuntCrossley(24.7e9, 1.5)
@@ -69,17 +68,6 @@ BEFORE = {"beta": 24703043627.81368, "interval": (24696386150.307674, 2470970289
 NEEDED = ("accel_tangential", "cam_angle")
 
 
-def _impactid() -> list[str]:
-    """The console script beside this interpreter (else the launcher through ``python -c``)."""
-    script = Path(sys.executable).with_name("impactid")
-    if script.exists():
-        return [str(script)]
-    found = shutil.which("impactid")
-    if found:
-        return [found]
-    return [sys.executable, "-c", "import sys; from impactid._launcher import main; sys.exit(main())"]
-
-
 def _recording(path: Path) -> Path:
     """The 60 s recording at ``path``, synthesised first when missing (about 25 s, 1 GB)."""
     if not path.exists():
@@ -93,7 +81,7 @@ def _recording(path: Path) -> Path:
 def _run_estimate(path: Path, out: Path) -> tuple[float, float, float]:
     """``impactid estimate PATH --fix-n 1.5``: (wall [s], CPU [s], peak resident memory [bytes])."""
     start = time.perf_counter()
-    child = subprocess.Popen([*_impactid(), "estimate", str(path), "--fix-n", "1.5", "--out", str(out)],
+    child = subprocess.Popen([*impactid_command(), "estimate", str(path), "--fix-n", "1.5", "--out", str(out)],
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start

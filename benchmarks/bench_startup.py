@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import shutil
 import statistics
 import subprocess
 import sys
@@ -32,7 +31,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from pages import BenchmarkPage  # noqa: E402
+from pages import BenchmarkPage, impactid_command  # noqa: E402
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "performance_startup.md"
 
@@ -45,17 +44,6 @@ _PROBE = ("import contextlib, io, sys\n"
           "with contextlib.redirect_stdout(io.StringIO()), contextlib.suppress(SystemExit):\n"
           "    main(sys.argv[1:])\n"
           f"print(','.join(m for m in {HEAVY!r} if m in sys.modules))\n")
-
-
-def _impactid() -> list[str]:
-    """The console script beside this interpreter (else the launcher through ``python -c``)."""
-    script = Path(sys.executable).with_name("impactid")
-    if script.exists():
-        return [str(script)]
-    found = shutil.which("impactid")
-    if found:
-        return [found]
-    return [sys.executable, "-c", "import sys; from impactid._launcher import main; sys.exit(main())"]
 
 
 def _seconds(command: list[str]) -> float:
@@ -74,7 +62,7 @@ def main() -> None:
     parser.add_argument("--repeat", type=int, default=5, help="timed runs of each command (default 5)")
     parser.add_argument("--no-page", action="store_true", help="print only (do not write the page)")
     args = parser.parse_args()
-    script = _impactid()
+    script = impactid_command()
     cases = [
         ("impactid --help", [*script, "--help"], 0.3, ["--help"]),
         ("impactid estimate --help", [*script, "estimate", "--help"], 0.3, ["estimate", "--help"]),

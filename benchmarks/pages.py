@@ -12,6 +12,7 @@ from __future__ import annotations
 import io
 import os
 import platform
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -69,3 +70,15 @@ class BenchmarkPage:
         partial.write_text(text)
         os.replace(partial, self.path)
         print(f"wrote {self.path}")
+
+
+def impactid_command() -> list[str]:
+    """The ``impactid`` console script beside this interpreter (else on the PATH, else its entry module
+    through ``python -c``): what a user types, for the benchmarks that time a command."""
+    script = Path(sys.executable).with_name("impactid")
+    if script.exists():
+        return [str(script)]
+    found = shutil.which("impactid")
+    if found:
+        return [found]
+    return [sys.executable, "-c", "import sys; from impactid_console import main; sys.exit(main())"]
