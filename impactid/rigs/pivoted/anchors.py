@@ -24,6 +24,7 @@ with the Hertz check that tells its two roots apart (:func:`hertz_ratio`).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, Protocol
 
@@ -40,7 +41,7 @@ from impactid.signal import quantisation_step
 __all__ = ["ANCHORS", "GUESS_EVENTS", "HERTZ_PHASE_DISAGREEMENT", "HERTZ_PHASE_GAIN", "HERTZ_RATIO_SYSTEMATIC",
            "PHASE_NOTE_SPREAD", "PHASE_PROFILE_FACTOR", "PHASE_PROFILE_MIN", "Anchor", "AnchoredOnsets",
            "CamGeometryAnchor", "CamPhaseAnchor", "ContactWindow", "EventWindows", "ReturnTimeAnchor", "hertz_ratio",
-           "phase_from_hertz", "phase_profile_stderr", "theta_from_gap"]
+           "bracketed_root", "phase_from_hertz", "phase_profile_stderr", "theta_from_gap"]
 
 #: How far [rad] beyond its bracket a closed-form root of the gap may lie by rounding (:func:`theta_from_gap`).
 ROOT_SLACK = 1e-12
@@ -370,6 +371,15 @@ HERTZ_PHASE_GAIN = 3.0
 HERTZ_PHASE_DISAGREEMENT = 2.0
 
 
+def bracketed_root(f: Callable[[float], float], lo: float, hi: float, *, xtol: float) -> float:
+    """The root of ``f`` in ``[lo, hi]`` (its ends of opposite signs) by Brent's method, or NaN where ``f``
+    is undefined (NaN) somewhere on the way: a quantity that does not exist there has no root to give."""
+    try:
+        return float(optimize.brentq(f, lo, hi, xtol=xtol))
+    except ValueError:  # brentq's "function value is NaN" (or ends of one sign)
+        return math.nan
+
+
 def phase_from_hertz(windows: EventWindows, phase: float, stderr: float) -> tuple[float, float, str]:
     """The cam phase [rad] and its standard error [rad] checked against the contacts' Hertz ratios, and what
     the ratios did ("" where nothing).
@@ -453,7 +463,9 @@ def phase_from_hertz(windows: EventWindows, phase: float, stderr: float) -> tupl
     f_lo, f_hi = mean_log(lo), mean_log(hi)
     if not (math.isfinite(f_lo) and math.isfinite(f_hi) and f_lo * f_hi < 0.0):
         return phase, stderr, ""
-    hertz = optimize.brentq(mean_log, lo, hi, xtol=1e-5)
+    hertz = bracketed_root(mean_log, lo, hi, xtol=1e-5)
+    if not math.isfinite(hertz):  # the ratios vanish inside the bracket (no indentation or force there)
+        return phase, stderr, ""
     values = log_ratios(hertz)
     m = int(np.isfinite(values).sum())
     step = 1e-3

@@ -110,3 +110,14 @@ def test_contact_windows_apply_the_constants(windows):
     np.testing.assert_array_equal(alpha, windows.angles[1][:alpha.size] + 0.5)
     assert t[0] == pytest.approx(windows.onset_offset[1] * windows.dt)
     assert acceleration.size == alpha.size == min(int(windows.contact_end[1]) + 1, windows.angles[1].size)
+
+
+def test_the_hertz_phase_root_is_nan_where_the_ratios_vanish_inside_the_bracket():
+    """The Hertz-ratio phase's root finder meets NaN where a trial phase leaves no indentation or force
+    (a rig constant 40 % off did: a traceback from brentq); it gives NaN there, and the root elsewhere."""
+    import math
+
+    from impactid.rigs.pivoted.anchors import bracketed_root
+
+    assert bracketed_root(lambda q: q - 0.1, -0.5, 0.5, xtol=1e-9) == pytest.approx(0.1, abs=1e-8)
+    assert math.isnan(bracketed_root(lambda q: q - 0.1 if abs(q) > 0.2 else math.nan, -0.5, 0.5, xtol=1e-9))
