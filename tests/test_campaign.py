@@ -309,7 +309,9 @@ def test_command_without_an_output_folder_or_dask(tmp_path, recordings, capsys, 
     import impactid.distributed as D
 
     monkeypatch.setattr(D, "missing", lambda *modules: ["distributed"])
-    assert main(["campaign", str(path), "--out", str(tmp_path / "o")]) == 2
+    # a cluster asked for without dask: refused (the default runs serially instead, with a warning:
+    # test_command_runs_serially_without_the_campaign_extra)
+    assert main(["campaign", str(path), "--workers", "2", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "impactid campaign needs distributed" in err and "pip install 'impactid[campaign]'" in err
     assert not (tmp_path / "o").exists()

@@ -695,7 +695,7 @@ def test_interrupt_while_plotting_keeps_the_result_and_leaves_no_figure(good, tm
     def interrupted(*args, **kwargs):
         raise KeyboardInterrupt
 
-    def save(fig, path, staged=None, **kw):
+    def save(fig, path, staged=None, fmt=None, **kw):
         return (staged.stage(path), interrupted())[0] if staged else interrupted()
 
     for module in (R, F):  # the writer, and the name rig P's figures call it by
