@@ -73,7 +73,8 @@ TARGETS = {
     "confident": "zero confident wrong answers: no estimate more than 5 % off with a 95 % interval that excludes "
                  "the truth, in any class",
     "n_fixed": "n fixed, noise-free: beta within 1 % in at least 95 % of cases",
-    "n_fixed_classes": "n fixed, noise-free, per class (riding, S3 and misspecified excluded): beta within 1 % in "
+    "n_fixed_classes": "n fixed, noise-free, per class (riding, S3 and misspecified excluded, and irregular motion, "
+                       "refused by design): beta within 1 % in "
                        "at least 95 % of the cases estimated, and no more than 10 % refused",
     "coverage": "noisy: interval coverage at least 90 %",
     "joint": "joint over two points, noise-free: beta within 5 % and n within 0.02 in at least 90 % of pairs",
@@ -86,9 +87,11 @@ TARGET_PARTS = {"errors": None, "confident": None, "n_fixed": "period-1", "n_fix
                 "coverage": "period-1", "joint": "period-1", "gamma": "period-1", "misspecified": "misspecified"}
 #: The period-1 class each period-1 target is measured on.
 TARGET_CLASS = {"n_fixed": "noise-free", "coverage": "noisy", "joint": "noise-free", "gamma": "S3"}
-#: The noise-free classes of the per-class n-fixed target (riding: refusals by design; S3: not Hunt-Crossley).
-NOISE_FREE_CLASSES = ("noise-free", "friction", "low-rate", "near-plastic", "period-k", "slow-noise-free",
-                      "irregular")
+#: The noise-free classes of the per-class n-fixed target (riding and irregular: refusals by design, as the
+#: cases of other classes whose follower rides the cam (:data:`RIDING`); S3: not Hunt-Crossley).
+NOISE_FREE_CLASSES = ("noise-free", "friction", "low-rate", "near-plastic", "period-k", "slow-noise-free")
+#: The refusal reason of a follower that rides the cam: such a case is a riding case whatever its class.
+RIDING = "rides the cam"
 
 
 def _flatten(rows: list[dict]) -> pd.DataFrame:
@@ -154,11 +157,15 @@ def summarise(frame: pd.DataFrame) -> tuple[list[str], dict[str, bool], dict[str
     met["n_fixed"] = bool(len(nf) and ok.mean() >= 0.95)
     noisy = frame[(frame["klass"] == "noisy") & (frame["status"] == "estimate") & frame["fit"].isin(["n-fixed",
                                                                                                       "joint"])]
-    covered = []
+    # the intervals reported: a withheld one (the model check rejects the law: NaN) excludes nothing and is
+    # counted apart, as a refusal of an interval
+    covered, withheld = [], 0
     for _, row in noisy.iterrows():
-        covered.append(bool(row["beta_covered"]))
-        if row["fit"] == "joint":
-            covered.append(bool(row["n_covered"]))
+        for q in ("beta", "n") if row["fit"] == "joint" else ("beta",):
+            if math.isfinite(row.get(f"{q}_lo", math.nan)) and math.isfinite(row.get(f"{q}_hi", math.nan)):
+                covered.append(bool(row[f"{q}_covered"]))
+            else:
+                withheld += 1
     cov_share = float(np.mean(covered)) if covered else math.nan
     met["coverage"] = bool(covered and cov_share >= 0.90)
     jt = frame[(frame["klass"] == "noise-free") & (frame["fit"] == "joint")]
@@ -170,7 +177,8 @@ def summarise(frame: pd.DataFrame) -> tuple[list[str], dict[str, bool], dict[str
     measured = {
         "errors": f"{len(errors)} errors",
         "n_fixed": f"{_share(ok)} within 1 %",
-        "coverage": f"{sum(covered)}/{len(covered)} intervals ({100 * cov_share:.0f} %) contain the truth",
+        "coverage": f"{sum(covered)}/{len(covered)} reported intervals ({100 * cov_share:.0f} %) contain the truth "
+                    f"({withheld} withheld by the model check)",
         "joint": f"{_share(jok)} within 5 % and 0.02",
         "gamma": f"{_share(gok)} within 2 %",
     }
@@ -357,6 +365,9 @@ def targets_all(frames: dict[str, pd.DataFrame], met: dict[str, bool]) -> tuple[
     for klass in NOISE_FREE_CLASSES:
         part = everything[(everything["klass"] == klass) & (everything["fit"] == "n-fixed")] \
             if not everything.empty else everything
+        if part.empty:
+            continue
+        part = part[~((part["status"] == "refusal") & part["reason"].astype(str).str.contains(RIDING))]
         if part.empty:
             continue
         est = part[part["status"] == "estimate"]

@@ -91,11 +91,19 @@ def test_quadrature_of_shifts():
     assert damping_least_squares.quadrature([], grad) == 0.0
 
 
-def test_separability_and_bound_notes(s2_events):
+def test_separability_and_bound_notes(s2_events, monkeypatch):
     problem = damping.damping_problem(s2_events)
     notes: list[str] = []
-    assert damping_diagnostics.separability(problem, (1.4, 1.6), (1e10, 3e10), "the region", notes) is True
-    assert notes == []
+    # one operating point of period-1 motion: impacts all alike carry one observable, whatever the n interval
+    assert damping_diagnostics.separability(problem, (1.4, 1.6), (1e10, 3e10), "the region", notes) is False
+    assert len(notes) == 1 and "nearly the same approach speed" in notes[0]
+    notes.clear()
+    with monkeypatch.context() as m:  # approach speeds that spread (two operating points): the interval decides
+        m.setattr(damping_diagnostics, "approach_speed_spread", lambda problem: 0.5)
+        assert damping_diagnostics.separability(problem, (1.4, 1.6), (1e10, 3e10), "the region", notes) is True
+        assert notes == []
+        assert damping_diagnostics.separability(problem, (1.0, 2.0), (1e9, 1e11), "the region", notes) is False
+    notes.clear()
     assert damping_diagnostics.separability(problem, (1.0, 2.0), (1e9, 1e11), "the region", notes) is False
     assert len(notes) == 1 and "not separable" in notes[0] and "the region" in notes[0]
     fixed = damping.damping_problem(s2_events, fix_n=1.5)

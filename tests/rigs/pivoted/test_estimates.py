@@ -103,6 +103,9 @@ def test_single_recording_joint_fit_warns_that_beta_n_are_not_separable(s2_event
     assert est.separable is False
     assert est.n_interval[0] <= N <= est.n_interval[1]
     assert est.n_interval[1] - est.n_interval[0] > 0.25
+    # not separable: the intervals are the search box (the data fix only the valley beta(n)), and say so
+    assert est.beta_interval[0] <= BETA <= est.beta_interval[1]
+    assert any("intervals of beta and n are the search box" in w for w in est.warnings)
     # the identifiability block speaks of n's refit profile (its notes too), and an n the data do not determine
     # is no reason to prefer fitting it over the held 1.5
     block = est.identifiability
