@@ -228,8 +228,9 @@ def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_par
 
     Returns
     -------
-    (ModelCheck, rig P's own checks: ``{"contact_duration": contact_duration_check block,
-    "contact_pulse": pulse_check block}``); the check is :meth:`~impactid.engine.ModelCheck.rejected`
+    (ModelCheck, rig P's own checks: a dict of the ``contact_duration`` block of
+    :func:`contact_duration_check` and the ``contact_pulse`` block of
+    :func:`~impactid.rigs.pivoted.pulse_check.pulse_check`); the check is :meth:`~impactid.engine.ModelCheck.rejected`
     when the contact durations reject the law, and a ``systematic misfit`` with its intervals withheld
     (:func:`~impactid.rigs.pivoted.pulse_check.withhold_for_rig`) when the contact pulses find one.
     """
