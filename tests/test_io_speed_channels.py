@@ -9,15 +9,19 @@ from impactid.io import RecordingError, read_csv, read_hdf5, read_recording, wri
 from tests.test_io import small_recording
 
 
-@pytest.mark.parametrize("kind", ["h5", "csv"])
-def test_only_the_channels_asked_for_are_read_and_they_are_unchanged(tmp_path, kind):
-    """The channels asked for (those the file has) come back sample for sample; the others are not read."""
-    rec = small_recording()
+def _written(rec, tmp_path, kind: str):
+    """``rec`` written as HDF5 or as CSV (with its rig file) in ``tmp_path``; the path read back."""
     if kind == "h5":
         path = tmp_path / "r.h5"
         write_hdf5(rec, path)
-    else:
-        path, _ = write_csv(rec, tmp_path / "r.csv")
+        return path
+    return write_csv(rec, tmp_path / "r.csv")[0]
+
+
+@pytest.mark.parametrize("kind", ["h5", "csv"])
+def test_only_the_channels_asked_for_are_read_and_they_are_unchanged(tmp_path, kind):
+    """The channels asked for (those the file has) come back sample for sample; the others are not read."""
+    path = _written(small_recording(), tmp_path, kind)
     whole = read_recording(path, check=False)
     part = read_recording(path, channels=("accel_tangential", "cam_angle", "not_in_the_file"), check=False)
     assert list(part.channels) == ["accel_tangential", "cam_angle"]
@@ -32,12 +36,7 @@ def test_only_the_channels_asked_for_are_read_and_they_are_unchanged(tmp_path, k
 
 @pytest.mark.parametrize("kind", ["h5", "csv"])
 def test_none_of_the_channels_in_the_file_is_an_error_naming_both(tmp_path, kind):
-    rec = small_recording()
-    if kind == "h5":
-        path = tmp_path / "r.h5"
-        write_hdf5(rec, path)
-    else:
-        path, _ = write_csv(rec, tmp_path / "r.csv")
+    path = _written(small_recording(), tmp_path, kind)
     with pytest.raises(RecordingError, match=r"none of the channels follower_angle is in the recording \(it has "
                                              r"accel_tangential"):
         read_recording(path, channels=("follower_angle",))
