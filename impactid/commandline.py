@@ -16,7 +16,7 @@ import importlib.util
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
 
 from impactid._files import StagedFiles, check_distinct_inputs, check_output
@@ -24,13 +24,13 @@ from impactid.errors import ImpactidError
 from impactid.rigs.base import Argument
 from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, RIG_MODELS, rig_by_name, rig_model
 
-__all__ = ["CAM_PPR", "FIGURE_FORMAT", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NOISE_CHANNEL", "PLOTS",
-           "SAMPLE_RATE", "SEED", "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed", "check_outputs",
-           "check_synth_size",
-           "command_inputs", "deliver", "end_progress_line", "exponent", "figure_format", "fraction", "integer_in",
-           "is_rig_file", "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive",
-           "print_json", "progress_bar", "recording_arguments", "recording_paths", "recording_rig",
-           "rig_help", "say_written", "speed_arguments", "stage_progress", "write_synthetic"]
+__all__ = ["CAM_PPR", "FIGURE_FORMAT", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NAMESPACE_KEYS",
+           "NOISE_CHANNEL", "PLOTS", "SAMPLE_RATE", "SEED", "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed",
+           "check_outputs", "check_synth_size", "command_inputs", "deliver", "end_progress_line", "exponent",
+           "figure_format", "fraction", "integer_in", "is_rig_file", "json_text", "noise_channels", "nonnegative",
+           "num", "number", "pair", "positive", "print_json", "progress_bar", "recording_arguments",
+           "recording_paths", "recording_rig", "refuse_other_rigs_options", "rig_help", "say_written",
+           "speed_arguments", "stage_progress", "write_synthetic"]
 
 #: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
 MAX_SWEEP_POINTS = 10_000
@@ -200,6 +200,26 @@ def refuse_foreign_options(args, model, command_key: str = "valvetrain_command",
         if dest not in own and value not in (None, False, [], ()):
             raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of '{group} {name}' for the "
                              f"{model.name!r} rig (it belongs to another rig's version of the command)")
+
+
+#: What the command line itself sets in a command's namespace (no rig's option).
+NAMESPACE_KEYS = frozenset({"command", "func", "rig", "resolved_rig", "option_defaults"})
+
+
+def refuse_other_rigs_options(args, own: Iterable[str], *, command: str, model_name: str, note: str = "",
+                              hints: Mapping[str, str] | None = None) -> None:
+    """Refuse an option of another rig's version of ``command`` (argparse takes the union of the rigs'
+    options; this rig would silently ignore it): one whose value differs from its default
+    (``args.option_defaults``, set by the command line) and that is not among ``own`` (this rig's
+    ``dest`` names, :func:`impactid.rigs.base.argument_dests`). The message ends with ``note``, or with
+    ``hints[dest]`` for that option."""
+    defaults = getattr(args, "option_defaults", {})
+    mine = NAMESPACE_KEYS | set(own)
+    for dest, value in sorted(vars(args).items()):
+        if dest not in mine and dest in defaults and value != defaults[dest]:
+            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of '{command}' for the "
+                             f"{model_name!r} rig (it belongs to another rig's version of the command)"
+                             f"{(hints or {}).get(dest, '')}{note}")
 
 
 def noise_channels(items) -> dict[str, float]:

@@ -25,9 +25,10 @@ from impactid.commandline import (
     nonnegative,
     pair,
     positive,
+    refuse_other_rigs_options,
 )
 from impactid.rigs.ball.parameters import ball_preset
-from impactid.rigs.base import Argument, CommandSpec
+from impactid.rigs.base import Argument, CommandSpec, argument_dests
 
 __all__ = ["COMMANDS", "LAWS", "command", "synth_command"]
 
@@ -127,20 +128,6 @@ def _synth_arguments() -> tuple[Argument, ...]:
     )
 
 
-def _refuse_foreign_options(args, spec: CommandSpec) -> None:
-    """Refuse an option another rig's version of ``impactid synth`` declares (argparse accepts the union
-    of the rigs' options; the ball would silently ignore it): a value that differs from its default
-    (``args.option_defaults``, set by the command line)."""
-    defaults = getattr(args, "option_defaults", {})
-    own = {"command", "func", "rig", "resolved_rig", "option_defaults"}
-    own.update(argument.flags[0].lstrip("-").replace("-", "_") for argument in spec.arguments)
-    for dest, value in sorted(vars(args).items()):
-        if dest not in own and dest in defaults and value != defaults[dest]:
-            hint = " (the trigger timing noise is --jitter)" if dest == "noise" else ""
-            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'synth' for the {MODEL_NAME!r} "
-                             f"rig (it belongs to another rig's synth){hint}")
-
-
 def _synth_ball(args):
     """The ball of ``impactid synth``: ``--ball``, else the preset ``--rig`` named (table tennis for the
     model's name); a ``--ball`` that contradicts a preset named by ``--rig`` is refused."""
@@ -158,7 +145,8 @@ def run_synth(args, model) -> int:
     Excel export or WAV audio, for ``impactid bounces``."""
     from impactid.rigs.ball.synth import DEFAULT_BOUNCE_LAW, DEFAULT_HEIGHT, STOPWATCH_FAULTS, synth_drop, write_drop
 
-    _refuse_foreign_options(args, SYNTH)
+    refuse_other_rigs_options(args, argument_dests(SYNTH.arguments), command="synth", model_name=MODEL_NAME,
+                              hints={"noise": " (the trigger timing noise is --jitter)"})
     ball = _synth_ball(args)
     height = DEFAULT_HEIGHT if args.height is None else args.height
     if not 0.02 <= height <= 20.0:

@@ -38,10 +38,11 @@ from impactid.commandline import (
     num,
     number,
     positive,
+    refuse_other_rigs_options,
     say_written,
     write_synthetic,
 )
-from impactid.rigs.base import Argument, CommandSpec
+from impactid.rigs.base import Argument, CommandSpec, argument_dests
 from impactid.rigs.drop.arguments import fit_arguments
 
 __all__ = ["COMMANDS", "fit_arguments", "fit_figures"]
@@ -80,25 +81,6 @@ _RIG_FILE = Argument(("--rig-file",), {"metavar": "RIG.toml",
                                                "fit: the recordings' own rigs)"})
 _JSON = Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})
 _PLOTS = Argument(("--plots",), {"metavar": "DIR", "help": "write figures into this folder"})
-
-
-def _foreign_options(args, spec: CommandSpec, command: list[str]) -> None:
-    """Refuse an option another rig's version of a shared command declared (argparse accepts the union
-    of the rigs' options; this rig would silently ignore it): a value that differs from its default
-    (``args.option_defaults``, set by the command line)."""
-    defaults = getattr(args, "option_defaults", {})
-    own = {"command", "func", "rig", "resolved_rig", "option_defaults"}
-    for argument in spec.arguments:
-        flag = argument.flags[0]
-        options = argument.options() if callable(argument.options) else argument.options
-        own.add(options.get("dest") or flag.lstrip("-").replace("-", "_"))
-    for dest, value in sorted(vars(args).items()):
-        if dest in own or dest not in defaults:
-            continue
-        if value != defaults[dest]:
-            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of '{' '.join(command[:1])}' for "
-                             f"the {MODEL_NAME!r} rig (it belongs to another rig; the drop's damping is "
-                             "--damping-beta/--damping-n)")
 
 
 def _height(args, operating) -> tuple[float, float]:
@@ -143,7 +125,8 @@ def run_synth(args, model) -> int:
     from impactid.rigs.drop.synth import DEFAULT_PRE_TRIGGER_S, DEFAULT_SAMPLE_RATE_HZ, synth_drop_impact
     from impactid.synth.sensors import SensorModel
 
-    _foreign_options(args, _SYNTH, ["synth", "--rig", MODEL_NAME, "--out", "x.h5"])
+    refuse_other_rigs_options(args, argument_dests(_SYNTH.arguments), command="synth", model_name=MODEL_NAME,
+                              note=" (the drop's damping is --damping-beta/--damping-n)")
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
     height, release = _height(args, operating)
     law = _law(args, rig)

@@ -52,13 +52,14 @@ from impactid.commandline import (
     recording_arguments,
     recording_paths,
     recording_rig,
+    refuse_other_rigs_options,
     rig_help,
     say_written,
     speed_arguments,
     write_synthetic,
 )
 from impactid.distributed import scheduler_arguments
-from impactid.rigs.base import Argument, CommandSpec
+from impactid.rigs.base import Argument, CommandSpec, argument_dests
 
 #: The rig's model name (``impactid.rigs.flat.parameters.MODEL_NAME``; that module loads numpy).
 MODEL_NAME = "flat-follower"
@@ -224,26 +225,11 @@ def run_cam_fit(args, model) -> int:
     return 0
 
 
-def _refuse_foreign_options(args, spec: CommandSpec) -> None:
-    """Refuse an option another rig's version of ``impactid synth`` declares (argparse accepts the union
-    of the rigs' options; rig F would silently ignore it): a value that differs from its default
-    (``args.option_defaults``, set by the command line)."""
-    defaults = getattr(args, "option_defaults", {})
-    own = {"command", "func", "rig", "resolved_rig", "option_defaults"}
-    for argument in spec.arguments:
-        options = argument.options() if callable(argument.options) else argument.options
-        own.add(options.get("dest") or argument.flags[0].lstrip("-").replace("-", "_"))
-    for dest, value in sorted(vars(args).items()):
-        if dest not in own and dest in defaults and value != defaults[dest]:
-            raise UsageError(f"argument --{dest.replace('_', '-')}: not an option of 'synth' for the {MODEL_NAME!r} "
-                             "rig (it belongs to another rig's synth)")
-
-
 def run_synth(args, model) -> int:
     """``impactid synth --rig flat-follower``: permanent contact below detachment, impacting at or above it."""
     from impactid.synth import SensorModel
 
-    _refuse_foreign_options(args, _SYNTH)
+    refuse_other_rigs_options(args, argument_dests(_SYNTH.arguments), command="synth", model_name=MODEL_NAME)
     rig, operating = args.resolved_rig.rig, args.resolved_rig.operating
     noise = noise_channels(args.noise_channel)
     speed = cam_speed(args, operating)
