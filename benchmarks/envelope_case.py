@@ -777,6 +777,18 @@ def _fit_summary(result, case: E.Case) -> dict:
         out.update(n=d.n, n_error=d.n - case.n, n_interval=list(d.n_interval), separable=d.separable,
                    n_half_widths=_half_widths(d.n, d.n_interval, case.n), phase_n_sd=d.phase_n_sd)
     out["calibration"] = [dict(c) for c in result.calibration]
+    check = dict(d.model_check or {})
+    durations = dict(check.get("contact_duration") or {})
+    pulse = dict(check.get("contact_pulse") or {})
+    out["model_check"] = {"verdict": check.get("verdict"), "action": check.get("action"),
+                          "duration": durations.get("verdict"),
+                          "duration_measured_ms": 1e3 * durations.get("measured_median_s", math.nan),
+                          "duration_replayed_ms": 1e3 * durations.get("replayed_median_s", math.nan),
+                          "duration_model_ms": 1e3 * durations.get("model_median_s", math.nan),
+                          "duration_difference": durations.get("median_relative_difference", math.nan),
+                          "duration_difference_unreplayed": durations.get("simulated_relative_difference", math.nan),
+                          "duration_threshold": durations.get("threshold", math.nan),
+                          "pulse": pulse.get("verdict")}
     return out
 
 

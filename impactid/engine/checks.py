@@ -68,6 +68,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from impactid.engine.intervals import safe_exp
+
 __all__ = ["GROSS_LACK_OF_FIT", "LACK_OF_FIT_FACTOR", "MIN_STRUCTURE_DATA", "NO_NOISE_REFERENCE",
            "SIGNIFICANT_EXCESS_FLOOR", "SIGNIFICANT_EXCESS_SIGMAS", "STRUCTURE_SIGNIFICANCE", "ModelCheck",
            "check_model", "combine_checks", "governing_check", "residual_against_noise", "widen_interval"]
@@ -389,7 +391,7 @@ def widen_interval(interval: tuple[float, float], value: float, factor: float) -
     if lo > 0.0 and value > 0.0 and hi > 0.0:
         down, up = math.log(value / lo), math.log(hi / value)
         if down > 0.0 and up > 0.0 and abs(down - up) <= 1e-6 * max(down, up):
-            return value * math.exp(-factor * down), value * math.exp(factor * up)
+            return value * safe_exp(-factor * down), value * safe_exp(factor * up)
     return value - factor * (value - lo), value + factor * (hi - value)
 
 

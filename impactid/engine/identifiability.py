@@ -34,7 +34,7 @@ import numpy as np
 from scipy import stats
 
 from impactid.engine.covariance import CONDITION_LIMIT
-from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty
+from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty, safe_exp
 from impactid.engine.least_squares import Search, search
 
 __all__ = ["LRT_SIGNIFICANCE", "NEAR_BOUND_STDERR", "PROFILE_STEPS", "PROFILE_THRESHOLD", "compare_models",
@@ -85,7 +85,7 @@ def _refit_rise(residual: Callable, found: Search, index: int, coordinate: float
     ``coordinate`` (search coordinates) and the others re-optimised from the optimum; and the evaluations."""
     values = found.values()
     fixed = found.free[index]
-    value = math.exp(coordinate) if fixed.log else coordinate
+    value = safe_exp(coordinate) if fixed.log else coordinate
     free = tuple(replace(p, vary=False, value=value, min=min(p.min, value), max=max(p.max, value)) if i == index
                  else replace(p, value=min(max(values[p.name], p.min), p.max)) for i, p in enumerate(found.free))
     if not any(p.vary for p in free):
@@ -154,7 +154,7 @@ def identifiability(found: Search, fit: Uncertainty, *, residual: Callable[[np.n
         lo, hi = p.bounds()
 
         def value_of(u: float, p=p) -> float:
-            return math.exp(u) if p.log else u
+            return safe_exp(u) if p.log else u
 
         for bound, where in ((lo, "min"), (hi, "max")):
             if not math.isfinite(bound):
@@ -359,5 +359,5 @@ def profile_interval(residual: Callable[[np.ndarray], np.ndarray], found: Search
         ends.append(0.5 * (inner + outer))
     low, high = ends
     if free.log:
-        return (math.exp(low), math.exp(high))
+        return (safe_exp(low), safe_exp(high))
     return (low, high)

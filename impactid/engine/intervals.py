@@ -15,10 +15,23 @@ from impactid.engine.covariance import Covariance, covariance_from_jacobian
 from impactid.engine.least_squares import Search
 from impactid.results import Parameter
 
-__all__ = ["BOUND_TOLERANCE", "Uncertainty", "linearised_bootstrap", "uncertainty"]
+__all__ = ["BOUND_TOLERANCE", "Uncertainty", "linearised_bootstrap", "safe_exp", "uncertainty"]
 
 #: A value within this fraction of a bound's magnitude (at least 1) counts as on the bound [-].
 BOUND_TOLERANCE = 1e-6
+#: The largest argument of ``exp`` whose value is a finite float (``ln`` of the largest float).
+_LOG_MAX_FLOAT = math.log(np.finfo(float).max)
+
+
+def safe_exp(u: float) -> float:
+    """``exp(u)`` without the overflow: ``inf`` beyond the largest float (a log-coordinate interval whose
+    standard error is huge reaches there), 0 below the smallest, NaN for NaN."""
+    u = float(u)
+    if math.isnan(u):
+        return math.nan
+    if u > _LOG_MAX_FLOAT:
+        return math.inf
+    return math.exp(u)
 
 @dataclass(frozen=True)
 class Uncertainty:
@@ -104,7 +117,7 @@ def uncertainty(found: Search, *, confidence: float = 0.95, scale: float | None 
             interval = (x - q * se, x + q * se)
             stderr = value * se if p.log else se
             if p.log:
-                interval = (math.exp(interval[0]), math.exp(interval[1]))
+                interval = (safe_exp(interval[0]), safe_exp(interval[1]))
             note = "on a bound of the search: the data do not bound it inside" if hit else ""
         else:
             interval, stderr, note = (math.nan, math.nan), math.nan, "undetermined by the data"

@@ -25,7 +25,9 @@ data of the right law. The recordings' mean residuals are not tested against eac
 what a joint fit's ``n`` and each recording's systematic error absorb, and the law comparison (``n``
 fitted against ``n`` held) states what the data say about them. Rig P's own check compares the
 measured first-contact durations with the fitted law's (one S1 run per event at the estimate,
-counted in the check, not in the fit's simulations): a law whose contacts last more than
+counted in the check, not in the fit's simulations), measured like the recording's: the replayed
+contacts go through the same event detector with the recording's noise (:func:`detected_durations`),
+since the noise cuts a measured contact short. A law whose contacts, so measured, last more than
 :data:`CONTACT_DURATION_MISMATCH` longer or shorter (median over the events) than measured, or a
 recording without any contact pulse (instantaneous impacts: a restitution law), is rejected. The
 contact-pulse check (:mod:`impactid.rigs.pivoted.pulse_check`, one more S1 run per event, with the
@@ -40,6 +42,7 @@ interval of +-0.2 %).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -59,24 +62,40 @@ from impactid.engine import (
 )
 from impactid.engine.checks import widen_interval as widen_by_factor
 from impactid.engine.identifiability import LRT_SIGNIFICANCE, profile_note
+from impactid.events import BASELINE_GAP, BASELINE_LENGTH, CONTACT_END_BASELINE_S, NoImpactsError, find_events
+from impactid.io import Recording, RecordingError
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
 from impactid.rigs.pivoted.pulse_check import pulse_check, withhold_for_rig
-from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL
+from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL, EventSet
+from impactid.rigs.pivoted.runs import simulate_events
 
-__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "N_COMPARED", "SEPARABILITY_WIDTH", "apply_model_check",
+__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "DURATION_REPLAYS", "FAILED_SHARE_NOTED", "N_COMPARED",
+           "REPLAY_MARGIN_S",
+           "REPLAY_SEED", "REPLAY_SPAN", "SEPARABILITY_WIDTH", "apply_model_check",
            "approach_speed_spread", "bound_notes", "contact_duration_check", "damping_identifiability",
-           "damping_model_check", "failure_note", "per_event_table", "search_identifiability", "separability",
-           "widen_interval"]
+           "damping_model_check", "detected_durations", "failure_note", "per_event_table", "search_identifiability",
+           "separability", "widen_interval"]
 
 #: Widest ``n`` interval for which ``beta`` and ``n`` count as separable.
 SEPARABILITY_WIDTH = 0.25
 #: Relative spread (std/mean) of approach speeds below which impacts count as "all alike".
 ALIKE_SPREAD = 0.02
-#: Median relative difference between the fitted law's first-contact durations and the measured ones
-#: beyond which the law is rejected: 50 %, against at most 11 % on the noisy example recordings of
-#: the right law (the measured duration is cut by the noise at the contact's ends) and 100 % on a
-#: recording of instantaneous impacts (measured 0 s).
+#: Median relative difference between the fitted law's first-contact durations, as the event detector
+#: measures them with the recording's noise (:func:`detected_durations`), and the measured ones beyond
+#: which the law is rejected; a recording of instantaneous impacts (measured 0 s) differs by 100 %.
+#: Measured on the envelope's recordings of the right law: at most 4.4 % on the noisy ones whose estimate
+#: is within 5 % (the simulated durations, not replayed, differed by up to 260 %), 1e-6 noise-free at
+#: 204.8 kHz, and 3-42 % at 51.2-102.4 kHz, where the recordings' anti-alias filter (which the replay
+#: does not know) stretches the measured pulse.
 CONTACT_DURATION_MISMATCH = 0.5
+#: Noise realisations of each event's replayed contact (the median of their detected durations).
+DURATION_REPLAYS = 3
+#: Seed of the replay's noise (the check gives the same answer on every run).
+REPLAY_SEED = 2026
+#: A replayed contact is sampled over this many times the measured contact, and at least
+#: :data:`REPLAY_MARGIN_S` beyond it [s] (a longer replayed contact is cut there: it is rejected anyway).
+REPLAY_SPAN = 3.0
+REPLAY_MARGIN_S = 2e-3
 #: The damping index a fitted ``n`` is compared with (Hunt and Crossley's).
 N_COMPARED = 1.5
 
@@ -132,9 +151,19 @@ def bound_notes(problem: DampingProblem, logc_hat: float, n_hat: float, notes: l
         notes.append(f"the estimate of n lies on its search bound ({n_hat:.3g})")
 
 
+#: Share of the S1 runs with trial laws that may fail without a note (their count is always in the
+#: result's ``failed_simulations``). A few trial laws far from the estimate (the search's first steps,
+#: extreme corners of the box) exhaust the step budget and are penalised, which steers the search away
+#: from them and changes nothing else; a failure at the estimate itself is a residual of
+#: :data:`FAILED_SIMULATION_RESIDUAL` there, which the model check flags as an outlier. The built-in
+#: example has 1 failure in 6241 runs.
+FAILED_SHARE_NOTED = 0.01
+
+
 def failure_note(obj: DampingObjective, notes: list[str]) -> None:
-    """Say how many S1 runs with trial laws could not be simulated (penalised, not fatal)."""
-    if obj.n_failed:
+    """Say how many S1 runs with trial laws could not be simulated (penalised, not fatal), when they
+    are more than :data:`FAILED_SHARE_NOTED` of the runs."""
+    if obj.n_failed > FAILED_SHARE_NOTED * obj.n_simulations:
         notes.append(f"{obj.n_failed} of {obj.n_simulations} S1 runs with trial laws could not be simulated "
                      f"(step budget or step-size underflow); each counted as a residual of "
                      f"{FAILED_SIMULATION_RESIDUAL:g} for its event, so the search avoided those laws")
@@ -158,8 +187,93 @@ def widen_interval(interval: tuple[float, float], centre: float, extra: float) -
 # ---- the model check ------------------------------------------------------------------------------
 
 
+def _replay_grids(s: EventSet) -> list[np.ndarray] | None:
+    """Per event, the recording's sample instants from the first contact sample on [s from onset],
+    over :data:`REPLAY_SPAN` times the measured contact (at least :data:`REPLAY_MARGIN_S` beyond it,
+    at most the time to the next onset); None without what the detector replay needs."""
+    rate, sigma = s.sample_rate_hz, s.noise_sigma
+    if s.pulse_peak is None or s.contact_duration is None or not (math.isfinite(rate) and rate > 0.0
+                                                                   and math.isfinite(sigma) and sigma >= 0.0):
+        return None
+    dt = 1.0 / rate
+    grids = []
+    for ti, measured, t_end in zip(s.t, s.contact_duration, s.t_end):
+        first = float(ti[0]) if ti.size else 0.5 * dt
+        phase = first - dt * math.floor(first / dt)  # the first sample at or after the onset
+        phase = phase if phase > 0.0 else dt
+        measured = float(measured) if math.isfinite(measured) and measured > 0.0 else 0.0
+        span = min(max(REPLAY_SPAN * measured, measured + REPLAY_MARGIN_S), float(t_end) * (1.0 - 1e-9))
+        count = max(int(math.floor((span - phase) / dt)) + 1, 1)
+        grids.append(phase + dt * np.arange(count))
+    return grids
+
+
+def detected_durations(force: Sequence[np.ndarray], grids: Sequence[np.ndarray], peak: np.ndarray, sigma: float,
+                       rate_hz: float, *, replays: int | None = None, seed: int | None = None) -> np.ndarray:
+    """The contact durations the event detector (:func:`impactid.events.find_events`) measures on
+    simulated contact pulses with the recording's noise [s].
+
+    Each event's contact force on its sample instants (``grids``, from the onset [s]) is scaled to the
+    measured pulse peak (the accelerometer's deviation from the free flight is the contact force
+    times a lever and an inertia that change little over a contact), laid on a quiet free flight
+    long enough for the detector's baselines, and white noise of the recording's noise floor
+    ``sigma`` [m/s^2] is added; ``replays`` noise realisations of every event are detected in one
+    synthetic recording at ``rate_hz``, and each event's duration is the median of its detections
+    (0 where no pulse is detected: the replay has no contact the detector sees; NaN where the
+    replay failed). Returns (events,) [s].
+    """
+    replays = DURATION_REPLAYS if replays is None else int(replays)
+    seed = REPLAY_SEED if seed is None else int(seed)
+    lead = BASELINE_GAP + BASELINE_LENGTH + 64
+    tail = int(math.ceil(CONTACT_END_BASELINE_S * rate_hz)) + BASELINE_GAP + BASELINE_LENGTH + 64
+    pieces, starts = [], []
+    position = 0
+    scaled = []
+    for f, p in zip(force, peak):
+        f = np.asarray(f, dtype=float)
+        top = float(np.max(f)) if f.size else 0.0
+        ok = np.all(np.isfinite(f)) and math.isfinite(p)
+        scaled.append(None if not ok else (f * (p / top) if top > 0.0 else np.zeros_like(f)))
+    for _ in range(replays):
+        for pulse in scaled:
+            length = lead + (0 if pulse is None else pulse.size) + tail
+            piece = np.zeros(length)
+            if pulse is not None:
+                piece[lead:lead + pulse.size] = pulse
+            starts.append(position)
+            pieces.append(piece)
+            position += length
+    x = np.concatenate(pieces) if pieces else np.zeros(0)
+    x = x + np.random.default_rng(seed).normal(0.0, sigma, x.size) if sigma > 0.0 else x
+    found = np.full(len(starts), 0.0)
+    try:
+        table = find_events(Recording(channels={"accel_tangential": x}, sample_rate_hz=rate_hz,
+                                      units={"accel_tangential": "m/s^2"}, source="replayed contacts"),
+                            warn=False).table
+    except (NoImpactsError, RecordingError):
+        table = None
+    if table is not None and len(table):
+        segment = np.searchsorted(np.asarray(starts), table["onset_index"].to_numpy(), side="right") - 1
+        duration = (table["t_separation"] - table["t_onset"]).to_numpy(dtype=float)
+        seen = np.zeros(len(starts), dtype=bool)
+        for k, d in zip(segment, duration):
+            if k >= 0 and not seen[k]:  # the first pulse of a segment: the first contact
+                found[k], seen[k] = d, True
+    n_events = len(scaled)
+    per_replay = found.reshape(replays, n_events) if n_events else np.zeros((replays, 0))
+    out = np.median(per_replay, axis=0) if n_events else np.zeros(0)
+    out[[pulse is None for pulse in scaled]] = math.nan
+    return out
+
+
 def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> dict[str, Any]:
     """Rig P's own model check: the fitted law's first-contact durations against the measured ones.
+
+    The measured duration is cut by the noise at the contact's ends (by 2-42 % at 0.2-0.9 % noise on
+    recordings of the right law): the fitted law's contacts are therefore replayed through the same
+    event detector with the recording's noise (:func:`detected_durations`) and compared like with
+    like. Without what the replay needs (an event set made by hand) the simulated durations are
+    compared as they are.
 
     Parameters
     ----------
@@ -170,34 +284,58 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
     -------
     dict
         ``verdict`` (``consistent``, ``rejected`` or ``not checked`` when no duration is measured),
-        ``events`` compared, ``measured_median_s``, ``model_median_s``, ``median_relative_difference``,
-        ``threshold`` (:data:`CONTACT_DURATION_MISMATCH`), ``simulations`` (one S1 run per event at the
-        estimate) and ``reason`` (in words).
+        ``events`` compared, ``measured_median_s``, ``model_median_s`` (the simulated contacts),
+        ``replayed_median_s`` (the same as the detector measures them with the recording's noise),
+        ``median_relative_difference`` (replayed against measured), ``simulated_relative_difference``
+        (the simulated durations against the measured ones, as they are: reported), ``threshold``
+        (:data:`CONTACT_DURATION_MISMATCH`), ``compared`` (``detector replay`` or ``simulated``),
+        ``simulations`` (one S1 run per event at the estimate) and ``reason`` (in words).
     """
-    measured, model, runs = [], [], 0
+    measured, model, replayed, runs = [], [], [], 0
+    how = set()
+    trial = np.array([[beta, n]])
     for s in problem.sets:
         if s.contact_duration is None or len(s) == 0:
             continue
-        measured.append(np.asarray(s.contact_duration, dtype=float))
-        model.append(np.asarray(s.simulate(np.array([[beta, n]])).contact_duration, dtype=float)[0])
+        m_s = np.asarray(s.contact_duration, dtype=float)
+        grids = _replay_grids(s)
+        if grids is None:
+            f_s = np.asarray(s.simulate(trial).contact_duration, dtype=float)[0]
+            r_s = f_s
+            how.add("simulated")
+        else:
+            batch = simulate_events(s.rig, s.cam_speed_hz, s.states, s.t_end, trial, grids=grids, on_failure="flag")
+            f_s = np.where(batch.failed[0], np.nan, np.asarray(batch.contact_duration, dtype=float)[0])
+            force = [batch.contact_force[0, batch.grid_offsets[i]:batch.grid_offsets[i + 1]] for i in range(len(s))]
+            force = [np.full(1, np.nan) if batch.failed[0, i] else f for i, f in enumerate(force)]
+            r_s = detected_durations(force, grids, np.asarray(s.pulse_peak, dtype=float), s.noise_sigma,
+                                     s.sample_rate_hz)
+            how.add("detector replay")
+        measured.append(m_s)
+        model.append(f_s)
+        replayed.append(r_s)
         runs += len(s)
     block: dict[str, Any] = {"verdict": "not checked", "events": 0, "measured_median_s": math.nan,
-                             "model_median_s": math.nan, "median_relative_difference": math.nan,
-                             "threshold": CONTACT_DURATION_MISMATCH, "simulations": runs, "reason": ""}
+                             "model_median_s": math.nan, "replayed_median_s": math.nan,
+                             "median_relative_difference": math.nan, "threshold": CONTACT_DURATION_MISMATCH,
+                             "compared": " and ".join(sorted(how)), "simulations": runs, "reason": ""}
     if not measured:
         block["reason"] = "no measured contact duration"
         return block
-    m, f = np.concatenate(measured), np.concatenate(model)
-    ok = np.isfinite(m) & np.isfinite(f)
+    m, f, r = np.concatenate(measured), np.concatenate(model), np.concatenate(replayed)
+    ok = np.isfinite(m) & np.isfinite(r)
     if not ok.any():
         block["reason"] = "no event with both a measured and a simulated contact duration"
         return block
-    m, f = m[ok], f[ok]
+    m, f, r = m[ok], f[ok], r[ok]
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.where(m > 0.0, np.abs(f / np.where(m > 0.0, m, 1.0) - 1.0), np.where(f > 0.0, np.inf, 0.0))
+        rel = np.where(m > 0.0, np.abs(r / np.where(m > 0.0, m, 1.0) - 1.0), np.where(r > 0.0, np.inf, 0.0))
+        raw = np.abs(f / np.where(m > 0.0, m, np.nan) - 1.0)
     median = float(np.median(rel))
-    block.update(events=int(m.size), measured_median_s=float(np.median(m)), model_median_s=float(np.median(f)),
-                 median_relative_difference=median)
+    block.update(events=int(m.size), measured_median_s=float(np.median(m)),
+                 model_median_s=float(np.nanmedian(f)) if np.any(np.isfinite(f)) else math.nan,
+                 replayed_median_s=float(np.median(r)), median_relative_difference=median,
+                 simulated_relative_difference=float(np.nanmedian(raw)) if np.any(np.isfinite(raw)) else math.nan)
     if not median <= CONTACT_DURATION_MISMATCH:
         block["verdict"] = "rejected"
         if float(np.max(m)) <= 0.0:
@@ -206,9 +344,11 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
                                f"{1e3 * block['model_median_s']:.3g} ms: a contact law does not describe these "
                                "impacts (a restitution law may)")
         else:
-            block["reason"] = (f"the fitted law's first contacts last {1e3 * block['model_median_s']:.3g} ms against "
-                               f"{1e3 * block['measured_median_s']:.3g} ms measured (median relative difference "
-                               f"{100 * median:.3g} %, more than {100 * CONTACT_DURATION_MISMATCH:g} %)")
+            block["reason"] = (f"the fitted law's first contacts last {1e3 * block['model_median_s']:.3g} ms "
+                               f"({1e3 * block['replayed_median_s']:.3g} ms as the event detector measures them "
+                               f"with the recording's noise) against {1e3 * block['measured_median_s']:.3g} ms "
+                               f"measured (median relative difference {100 * median:.3g} %, more than "
+                               f"{100 * CONTACT_DURATION_MISMATCH:g} %)")
     else:
         block["verdict"] = "consistent"
     return block

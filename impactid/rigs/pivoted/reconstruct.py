@@ -113,6 +113,8 @@ from impactid.rigs.pivoted.anchors import (
     hertz_ratio,
     theta_from_gap,
 )
+from impactid.rigs.pivoted.freeflight import free_flight_fit
+from impactid.rigs.pivoted.runs import pack_rig
 from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator, sampled_model_correction
 
 __all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
@@ -200,6 +202,15 @@ class Reconstruction:
     #: cam-phase anchor only: the recording's cam phase ``Theta_ref`` [rad] and its standard error
     cam_phase: float = math.nan
     cam_phase_stderr: float = math.nan
+    #: the rig file's free-flight model against the recording's free flights
+    #: (:meth:`~impactid.rigs.pivoted.freeflight.FreeFlightFit.to_dict`; empty when not made)
+    free_flight: dict = field(default_factory=dict, repr=False)
+    #: why the recorded motion is not the rig file's, for a refusal where the reconstruction fails at most
+    #: events: the free flight disagrees with the rig's inertia and spring (``rig_mismatch``), or it agrees
+    #: but the onsets do not lie on the rig file's cam (``geometry_mismatch``); "" otherwise
+    #: (:func:`_rig_file_check`)
+    rig_mismatch: str = ""
+    geometry_mismatch: str = ""
     _recording: Recording | None = field(default=None, repr=False)
 
     def __len__(self) -> int:
@@ -281,6 +292,9 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     messages += _riding_by_force_balance(recording, table, durations, cam_speed_hz)
     messages += _plausibility(windows, anchored, hertz)
     messages += _reconstruction_notes(recording, table, anchor)
+    free_flight, rig_mismatch, geometry_mismatch = _rig_file_check(windows, anchored, noise)
+    if rig_mismatch:
+        messages.append(f"{recording.source or 'recording'}: {rig_mismatch}")
     int_name = integration if isinstance(integration, str) else getattr(integration, "__name__", "custom")
     if warn:
         for message in messages[len(events.warnings) if given else 0:]:
@@ -288,7 +302,8 @@ def reconstruct(recording: Recording, events: EventTable | None = None, *, integ
     return Reconstruction(
         table=table, contact=contact, integration=int_name, anchor=anchor, rig=rig, cam_speed_hz=cam_speed_hz,
         events=events, warnings=tuple(messages), cam_phase=float(anchored.cam_phase),
-        cam_phase_stderr=float(anchored.cam_phase_stderr),
+        cam_phase_stderr=float(anchored.cam_phase_stderr), free_flight=free_flight, rig_mismatch=rig_mismatch,
+        geometry_mismatch=geometry_mismatch,
         provenance=events.provenance + (f"reconstruct(integration={int_name!r}, anchor={anchor!r}): "
                                         f"{len(table)} events",),
         _recording=recording)
@@ -773,6 +788,41 @@ def _plausibility(windows: EventWindows, anchored: AnchoredOnsets, hertz: np.nda
     """
     return (_onset_angle_check(windows, anchored.return_time_onset) + _hertz_check(windows, hertz)
             + _force_balance_check(windows, anchored.constants))
+
+
+def _rig_file_check(windows: EventWindows, anchored: AnchoredOnsets, noise: float) -> tuple[dict, str, str]:
+    """The rig file against the recording's free flights (:func:`~impactid.rigs.pivoted.freeflight.free_flight_fit`).
+
+    Each flight (the return-time anchor's free samples) is compared at the return-time anchor's angles
+    (they exist wherever the onset state may not: the anchor's constant needs no cam angle). Returns the
+    fit (as a dict; empty when not made), the reason when the free flight disagrees with the rig file's
+    inertia and spring, and, when a clean free flight agrees with them but the onset angles lie outside
+    the angles where the rig file's follower touches its cam, the reason naming the contact geometry.
+    Neither reason is given for a free flight that is not clean (a follower riding the cam, contacts in
+    the flight): what it shows is not a rig constant.
+    """
+    onset = anchored.return_time_onset
+    constants = onset - windows.angle_onset if onset is not None else anchored.constants
+    alphas, accelerations = [], []
+    for i in range(len(windows)):
+        lo, hi = int(windows.free_start[i]), int(windows.free_end[i])
+        if hi - lo >= 16 and math.isfinite(constants[i]):
+            alphas.append(windows.angles[i][lo:hi] + constants[i])
+            accelerations.append(windows.accelerations[i][lo:hi])
+    fit = free_flight_fit(alphas, accelerations, pack_rig(windows.rig), noise)
+    if fit is None:
+        return {}, "", ""
+    if fit.disagrees:
+        return fit.to_dict(), fit.reason(), ""
+    geometry = ""
+    if fit.clean and _onset_angle_check(windows, onset):
+        geometry = ("the recorded free flight between impacts agrees with the rig file's free-flight model (its "
+                    f"inertia I_b and spring k_s: {100 * fit.misfit:.2g} % of the swing), but the reconstructed "
+                    "onsets do not lie where the rig file's follower touches its cam: the recorded motion is not "
+                    "the motion of the rig described by the rig file; check the rig file's contact geometry (the "
+                    "pin radius r_d, the cam radius r_c and eccentricity e, the pivot position) or the "
+                    "accelerometer's scale")
+    return fit.to_dict(), "", geometry
 
 
 def _onset_angle_check(windows: EventWindows, onset: np.ndarray | None) -> list[str]:

@@ -100,6 +100,30 @@ def _riding_reason(rows) -> str:
 _LEFT_OUT = (("riding", _riding_reason),)
 
 
+def _hertz_rig_clause(recon: Reconstruction, disagreeing: int) -> str:
+    """What a Hertz disagreement at most of the ``disagreeing`` events says about the rig file, when the
+    recording's free flight agrees with the rig file's inertia and spring (``recon.free_flight``)."""
+    fit = recon.free_flight
+    if not (fit and fit.get("clean") and not fit.get("disagrees") and disagreeing * 2 > len(recon.table)):
+        return ""
+    return ("; the free flight between impacts agrees with the rig file's inertia I_b and spring k_s, so if the "
+            "impacts are short pulses the recorded motion is not the motion of the rig described by the rig file: "
+            "check its contact constants (the Young's moduli Y_c and Y_b, the pin radius r_d)")
+
+
+def _rig_file_reason(recon: Reconstruction, source: str, tab, valid: np.ndarray) -> tuple[str, ...]:
+    """The reconstruction's finding that the recorded motion is not the rig file's
+    (:attr:`~impactid.rigs.pivoted.reconstruct.Reconstruction.rig_mismatch`, ``geometry_mismatch``), as the
+    first reason, where it explains the events lost: the onset state not reconstructed or a follower
+    riding the cam at most of the events."""
+    riding = tab["riding"].to_numpy(dtype=bool) if "riding" in tab else np.zeros(len(tab), dtype=bool)
+    if recon.rig_mismatch and np.count_nonzero(~valid | riding) * 2 > len(tab):
+        return (f"{source}: {recon.rig_mismatch}",)
+    if recon.geometry_mismatch and np.count_nonzero(~valid) * 2 > len(tab):
+        return (f"{source}: {recon.geometry_mismatch}",)
+    return ()
+
+
 @dataclass(frozen=True)
 class EventSet:
     """The measured events of one recording, ready to be replayed by S1.
@@ -116,6 +140,9 @@ class EventSet:
     peak_indentation : (n,) measured peak indentation [m].
     contact_duration : (n,) measured duration of the first contact [s] (NaN where the gap does not
         reopen); used to tell apart laws that match ``alpha_m`` equally well.
+    pulse_peak : (n,) the event detector's pulse peak above the free-flight baseline [m/s^2], and
+        noise_sigma, sample_rate_hz : the accelerometer's noise floor [m/s^2] and the sample rate [Hz]:
+        what the contact-duration check needs to replay the detector on a simulated pulse.
     t : per-event sample instants of the contact history [s from onset].
     force : per-event measured contact force on ``t`` [N] (None without force channels).
     indentation : per-event measured indentation on ``t`` [m].
@@ -139,6 +166,9 @@ class EventSet:
     theta: tuple[np.ndarray, ...] = ()
     phase_stderr: float = math.nan
     contact_duration: np.ndarray | None = None
+    pulse_peak: np.ndarray | None = None
+    noise_sigma: float = math.nan
+    sample_rate_hz: float = math.nan
 
     def __len__(self) -> int:
         return int(self.events.size)
@@ -190,8 +220,10 @@ class EventSet:
             dropped += (f"{source}: events {bad[:12]}{' ...' if len(bad) > 12 else ''} left out: their reconstructed "
                         f"contact disagrees with the rig's Hertz contact (the accelerometer's force at the deepest "
                         f"indentation is {ratio:.3g} times k_H delta^1.5): the contact is not a short pulse followed "
-                        "by a free flight there (or the accelerometer's units are wrong)",)
+                        "by a free flight there (or the accelerometer's units are wrong)"
+                        + _hertz_rig_clause(recon, np.count_nonzero(ok & ~consistent)),)
         ok &= consistent
+        dropped = _rig_file_reason(recon, source, tab, valid) + dropped
         index = tab.index[ok]
         hist = [recon.contact[int(e)] for e in index]
         force = None
@@ -208,7 +240,10 @@ class EventSet:
                    theta=tuple(np.asarray(h.theta, dtype=float) for h in hist),
                    phase_stderr=float(getattr(recon, "cam_phase_stderr", math.nan)),
                    contact_duration=(tab["contact_duration"].to_numpy(dtype=float)[ok] if "contact_duration" in tab
-                                     else None))
+                                     else None),
+                   pulse_peak=(recon.events.table["peak"].reindex(index).to_numpy(dtype=float)
+                               if "peak" in recon.events.table else None),
+                   noise_sigma=float(recon.events.noise_sigma), sample_rate_hz=float(recon.events.sample_rate_hz))
 
     def subset(self, index) -> EventSet:
         """The events at positions ``index`` (an int, slice or index array) of this set."""
@@ -221,7 +256,8 @@ class EventSet:
                        approach_speed=self.approach_speed[idx], peak_indentation=self.peak_indentation[idx],
                        t=pick(self.t), force=pick(self.force) if self.force is not None else None,
                        indentation=pick(self.indentation), alpha=pick(self.alpha), theta=pick(self.theta),
-                       contact_duration=None if self.contact_duration is None else self.contact_duration[idx])
+                       contact_duration=None if self.contact_duration is None else self.contact_duration[idx],
+                       pulse_peak=None if self.pulse_peak is None else self.pulse_peak[idx])
 
     def scale_alpha_m(self, factor: float) -> EventSet:
         """The same events with the measured ``alpha_m`` multiplied by ``factor`` (a bias correction,

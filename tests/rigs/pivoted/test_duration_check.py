@@ -1,0 +1,75 @@
+"""The contact-duration check measures the replayed contacts as the recording's were measured
+(impactid/rigs/pivoted/damping_diagnostics.py: detected_durations).
+
+The event detector cuts a noisy contact short (it sees a contact only where it rises above the noise), so a
+law's simulated contacts are longer than the measured ones by an amount that grows with the noise. Replayed
+through the same detector with the same noise, the right law's contacts measure as the recording's do.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from impactid.events import find_events
+from impactid.io import Recording
+from impactid.rigs.pivoted.damping_diagnostics import CONTACT_DURATION_MISMATCH, detected_durations
+
+RATE = 204800.0
+DURATION = 3e-4  # a Hertz-like contact of 0.3 ms: 61 samples
+PEAK = 2000.0  # [m/s^2]
+
+
+def _pulses(count: int, phase: float = 0.4):
+    """Per event, sample instants from the onset [s] and a half-sine^1.5 contact force on them [N]."""
+    dt = 1.0 / RATE
+    grids, forces = [], []
+    for k in range(count):
+        t = (phase + 0.05 * k) * dt + dt * np.arange(int(2 * DURATION * RATE))
+        grids.append(t)
+        forces.append(np.where(t < DURATION, np.sin(np.pi * np.minimum(t, DURATION) / DURATION) ** 1.5, 0.0) * 7.0)
+    return grids, forces
+
+
+def _recorded_durations(forces, sigma: float, seed: int) -> np.ndarray:
+    """The durations the detector measures on a 'recording' of the same pulses (its own noise realisation)."""
+    gap = 2000
+    x = np.zeros(gap + len(forces) * (gap + forces[0].size))
+    for k, f in enumerate(forces):
+        start = gap + k * (gap + f.size)
+        x[start:start + f.size] = f * PEAK / f.max()
+    x += np.random.default_rng(seed).normal(0.0, sigma, x.size)
+    table = find_events(Recording({"accel_tangential": x}, RATE, {"accel_tangential": "m/s^2"}), warn=False).table
+    return (table["t_separation"] - table["t_onset"]).to_numpy()
+
+
+def test_noise_free_replay_measures_the_contact_itself():
+    grids, forces = _pulses(8)
+    got = detected_durations(forces, grids, np.full(8, PEAK), 0.0, RATE)
+    assert np.all(np.abs(got - DURATION) < 1.5 / RATE)
+
+
+@pytest.mark.parametrize("noise", [0.03, 0.06])
+def test_noisy_replay_is_cut_short_like_the_recording(noise):
+    grids, forces = _pulses(12)
+    sigma = noise * PEAK
+    replayed = detected_durations(forces, grids, np.full(12, PEAK), sigma, RATE)
+    recorded = _recorded_durations(forces, sigma, seed=7)
+    assert recorded.size == 12
+    # the simulated contact is longer than the measured one, the replay is not: like with like
+    shortfall = float(np.median(1.0 - recorded / DURATION))
+    assert shortfall > 0.05
+    assert abs(float(np.median(replayed)) / float(np.median(recorded)) - 1.0) < 0.05
+    assert float(np.median(np.abs(replayed / recorded - 1.0))) < CONTACT_DURATION_MISMATCH / 5
+
+
+def test_a_replay_that_fails_is_nan_and_one_without_contact_is_zero():
+    grids, forces = _pulses(3)
+    forces[1] = np.full(1, math.nan)
+    grids[1] = grids[1][:1]
+    forces[2] = np.zeros_like(forces[2])
+    got = detected_durations(forces, grids, np.full(3, PEAK), 1.0, RATE)
+    assert math.isfinite(got[0]) and got[0] > 0.0
+    assert math.isnan(got[1]) and got[2] == 0.0
