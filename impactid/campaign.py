@@ -65,6 +65,7 @@ from impactid._version import __version__
 from impactid.campaign_format import FORMAT_HELP  # re-exported: the text lives in a light module
 from impactid.commandline import json_text
 from impactid.errors import ImpactidError
+from impactid.html_report import campaign_page
 from impactid.pipeline import Pipeline, PreparedRecording, _estimable, rig_estimator
 from impactid.rigs.base import OptionError
 from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, PLUGINS, estimable_models
@@ -72,7 +73,7 @@ from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, PLUGINS, estimable_mod
 __all__ = ["FORMAT_HELP", "OPERATING_RIG_PARAMETERS", "CampaignError", "CampaignResult", "CampaignSpec", "FitJob",
            "FitOutcome", "PrepareJob", "PrepareOutcome", "RecordingSpec", "RigHeader", "fit_task", "load_campaign",
            "plan", "prepare_task", "read_fits", "read_recording_spec", "read_rig_header", "rig_groups",
-           "parquet_available", "run_campaign", "summary_table"]
+           "parquet_available", "run_campaign", "summary_table", "write_campaign_report"]
 
 #: Recording files a campaign folder is scanned for.
 RECORDING_SUFFIXES = (".h5", ".hdf5", ".csv")
@@ -1015,6 +1016,19 @@ def run_campaign(spec: CampaignSpec, out: str | os.PathLike[str], *, client: Any
     return CampaignResult(out=out, table=table, ran=counts["ran"], skipped=skipped, failed=failed,
                           prepared=counts["prepared"], cached=counts["cached"], seconds=time.perf_counter() - t0,
                           files=tuple(written), where=where)
+
+
+def write_campaign_report(spec: CampaignSpec, result: CampaignResult, path: str | os.PathLike[str], *,
+                          command: str = "") -> Path:
+    """Write the HTML page of a campaign (``impactid campaign --report``) atomically: the per-recording
+    estimates, the pooled (joint) estimates and the spread of the single fits
+    (:func:`impactid.html_report.campaign_page`). Returns the path."""
+    counts = {"recordings": len(spec.recordings), "fits": result.fits, "done now": result.ran,
+              "skipped (finished earlier)": result.skipped, "failed": result.failed,
+              "seconds": round(result.seconds, 1), "where": result.where}
+    page = campaign_page(spec.name, result.table, command=command, inputs=[str(p) for p in spec.inputs()],
+                         files=[str(f) for f in result.files], counts=counts)
+    return atomic_write(path, page, protect=spec.inputs())
 
 
 def parquet_available() -> bool:

@@ -42,9 +42,12 @@ from impactid._version import __version__
 from impactid.campaign_format import FORMAT_HELP
 from impactid.commandline import (
     FIGURE_FORMAT,
+    REPORT,
     UsageError,
     check_outputs,
+    check_report,
     command_inputs,
+    command_line,
     deliver,
     end_progress_line,
     print_json,
@@ -120,7 +123,7 @@ def cmd_info(args) -> int:
 
 def cmd_campaign(args) -> int:
     from impactid._files import check_output
-    from impactid.campaign import load_campaign, run_campaign
+    from impactid.campaign import load_campaign, run_campaign, write_campaign_report
     from impactid.distributed import cluster_from_args, missing
 
     spec = load_campaign(args.source)
@@ -129,6 +132,7 @@ def cmd_campaign(args) -> int:
         raise UsageError("argument --out: no output folder: give --out DIR, or out = \"DIR\" in the [campaign] "
                          "table of the campaign file")
     check_output(out, option="--out", inputs=spec.inputs(), directory=True)
+    check_report(args, spec.inputs())
     if args.serial:
         if args.scheduler is not None or args.workers:
             raise UsageError("argument --serial: not allowed with --scheduler or --workers N")
@@ -148,6 +152,9 @@ def cmd_campaign(args) -> int:
             "prepared_from_cache": result.cached, "seconds": result.seconds, "where": result.where,
             "files": [str(f) for f in result.files],
             "failures": [{"kind": k, "name": n, "reason": r} for k, n, r in result.failures()]}
+    if args.report is not None:
+        write_campaign_report(spec, result, args.report, command=command_line(args))
+        data["report"] = str(args.report)
     if args.json:
         print_json(data)
     else:
@@ -157,13 +164,14 @@ def cmd_campaign(args) -> int:
         for kind, name, reason in result.failures():
             print(f"  failed: {kind} fit {name}: {reason}")
         print(f"  table written to {' and '.join(str(f) for f in result.files)}")
+        if args.report is not None:
+            print(f"  report written to {args.report}")
     return 0 if result.ok else 1
 
 
 #: Arguments of ``impactid estimate`` that are no rig's estimate option.
-_ESTIMATE_ARGUMENTS = frozenset({"recordings", "example", "rig", "out", "plots", "figure_format", "json", "progress",
-                                 "command", "func",
-                                 "option_defaults"})
+_ESTIMATE_ARGUMENTS = frozenset({"recordings", "example", "rig", "out", "plots", "figure_format", "report", "json",
+                                 "progress", "command", "func", "option_defaults", "argv"})
 
 
 def cmd_estimate(args) -> int:
@@ -226,6 +234,7 @@ def _add_estimate_command(sub) -> None:
     p.add_argument("--plots", metavar="DIR", help="write figures (rig P: hysteresis, restitution, landscape, "
                                                   "residuals)")
     FIGURE_FORMAT.add_to(p)
+    REPORT.add_to(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
@@ -251,6 +260,9 @@ def _add_campaign_command(sub) -> None:
     p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
                    help="progress bar on stderr (default: when stderr is a terminal)")
     p.add_argument("--json", action="store_true", help="print the summary as JSON")
+    p.add_argument("--report", metavar="REPORT.html", default=None,
+                   help="write a self-contained HTML report: the per-recording estimates, the pooled (joint) "
+                        "estimates and the spread of the single fits")
     p.set_defaults(func=cmd_campaign)
 
 
@@ -456,6 +468,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as exc:
         _error(exc)
         return EXIT_INPUT_ERROR
+    args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for a report's provenance
     try:
         with _command_environment():
             return int(args.func(args) or 0)

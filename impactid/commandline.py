@@ -15,6 +15,7 @@ import argparse
 import importlib.util
 import json
 import math
+import shlex
 import sys
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
@@ -25,12 +26,13 @@ from impactid.rigs.base import Argument
 from impactid.rigs.registry import DEFAULT_EXAMPLE_MODEL, RIG_MODELS, rig_by_name, rig_model
 
 __all__ = ["CAM_PPR", "FIGURE_FORMAT", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SAMPLES", "NAMESPACE_KEYS",
-           "NOISE_CHANNEL", "PLOTS", "SAMPLE_RATE", "SEED", "SYNTH_DURATION", "SYNTH_OUT", "UsageError", "cam_speed",
-           "check_outputs", "check_synth_size", "command_inputs", "deliver", "end_progress_line", "exponent",
-           "figure_format", "fraction", "integer_in", "is_rig_file", "json_text", "noise_channels", "nonnegative",
-           "num", "number", "pair", "positive", "print_json", "progress_bar", "recording_arguments",
-           "recording_paths", "recording_rig", "refuse_other_rigs_options", "rig_help", "say_written",
-           "speed_arguments", "stage_progress", "write_synthetic"]
+           "NOISE_CHANNEL", "PLOTS", "REPORT", "SAMPLE_RATE", "SEED", "SYNTH_DURATION", "SYNTH_OUT", "UsageError",
+           "cam_speed", "check_outputs", "check_report", "check_synth_size", "command_inputs", "command_line",
+           "deliver", "end_progress_line", "exponent", "figure_format", "fraction", "integer_in", "is_rig_file",
+           "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive", "print_json",
+           "progress_bar", "recording_arguments", "recording_paths", "recording_rig", "refuse_other_rigs_options",
+           "rig_help", "say_report", "say_written", "speed_arguments", "stage_progress", "write_report",
+           "write_synthetic"]
 
 #: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
 MAX_SWEEP_POINTS = 10_000
@@ -192,7 +194,7 @@ def refuse_foreign_options(args, model, command_key: str = "valvetrain_command",
     spec = next((c for c in model.command_specs() if c.name == name), None)
     if spec is None:
         return
-    own = {"command", command_key, "func", "rig", "resolved_rig", "option_defaults"}
+    own = {"command", command_key, "func", "rig", "resolved_rig", "option_defaults", "argv"}
     for argument in spec.arguments:
         flag = argument.flags[0]
         own.add(flag.lstrip("-").replace("-", "_") if flag.startswith("-") else flag)
@@ -203,7 +205,7 @@ def refuse_foreign_options(args, model, command_key: str = "valvetrain_command",
 
 
 #: What the command line itself sets in a command's namespace (no rig's option).
-NAMESPACE_KEYS = frozenset({"command", "func", "rig", "resolved_rig", "option_defaults"})
+NAMESPACE_KEYS = frozenset({"command", "func", "rig", "resolved_rig", "option_defaults", "argv"})
 
 
 def refuse_other_rigs_options(args, own: Iterable[str], *, command: str, model_name: str, note: str = "",
@@ -248,11 +250,24 @@ def command_inputs(args, recordings: Sequence, extra: Sequence = ()) -> list:
 
 
 def check_outputs(args, inputs: Sequence, *, out: str = "out", out_is_dir: bool = False) -> None:
-    """Check ``--out`` and ``--plots`` before the computation starts."""
+    """Check ``--out``, ``--plots`` and ``--report`` before the computation starts."""
     if getattr(args, out, None) is not None:  # an empty path is refused, not taken for "no output"
         check_output(getattr(args, out), option="--out", inputs=inputs, directory=out_is_dir)
     if getattr(args, "plots", None) is not None:
         check_output(args.plots, option="--plots", inputs=inputs, directory=True)
+    check_report(args, inputs, others={"--out": getattr(args, out, None)})
+
+
+def check_report(args, inputs: Sequence, others: Mapping[str, object] | None = None) -> None:
+    """Check ``--report`` (when the command has it and it is given) before the computation starts:
+    writable, not an input, not the same file as another output (``others``: option to path)."""
+    report = getattr(args, "report", None)
+    if report is None:
+        return
+    check_output(report, option="--report", inputs=inputs)
+    for option, path in (others or {}).items():
+        if path is not None and Path(path).absolute() == Path(report).absolute():
+            raise UsageError(f"argument --report: {report} is also the {option} file; give two different files")
 
 
 def recording_paths(args, several: bool = False) -> list:
@@ -283,25 +298,75 @@ def recording_paths(args, several: bool = False) -> list:
 def deliver(args, data: dict, inputs: Sequence,
             figures: tuple[Sequence[str], Callable[[StagedFiles], object]] | None = None) -> None:
     """Write ``data`` as JSON to ``--out`` (committed first), then the figures into ``--plots``, as a
-    second transaction; ``--json`` prints the JSON on stdout.
+    second transaction, then the HTML page to ``--report`` (:func:`write_report`); ``--json`` prints
+    the JSON on stdout.
 
     ``figures`` is ``(names, write)``: the file names the figures will have (listed in the JSON as
     ``plots``) and ``write(staged)``, which writes them into ``args.plots``. ``--figure-format``
     (:data:`FIGURE_FORMAT`) replaces the names' suffix and holds, while ``write`` runs, as the format
-    :func:`impactid.plotting.save_figure` writes in (:func:`impactid.plotting.figure_format`)."""
+    :func:`impactid.plotting.save_figure` writes in (:func:`impactid.plotting.figure_format`). The
+    page embeds the figures written for ``--plots`` (PNG or SVG), or draws them for itself."""
     fmt = figure_format(args)
+    report = getattr(args, "report", None)
     if args.plots and figures:
         data["plots"] = [str(Path(args.plots) / _named(name, fmt)) for name in figures[0]]
     if args.out:
         with StagedFiles(protect=inputs) as staged:
             staged.write_text(args.out, json_text(data))
+    drawn = None
     if args.plots and figures:
-        from impactid.plotting import figure_format as saving_as  # matplotlib only when figures are drawn
+        from impactid.html_report import FigureCapture  # pandas and matplotlib only when figures are drawn
+        from impactid.plotting import figure_format as saving_as
 
-        with StagedFiles(protect=inputs) as staged, saving_as(fmt):
-            figures[1](staged)
+        with StagedFiles(protect=inputs) as staged, FigureCapture(staged) as capture, saving_as(fmt):
+            figures[1](capture)
+        drawn = capture.figures if fmt in (None, "png", "svg") else None
+    if report is not None:
+        write_report(args, data, inputs, figures, drawn=drawn)
     if args.json:
         print_json(data)
+
+
+def write_report(args, data: Mapping, inputs: Sequence,
+                 figures: tuple[Sequence[str], Callable[[StagedFiles], object]] | None = None, *,
+                 drawn: Sequence | None = None) -> None:
+    """Write ``--report``: the HTML page of the fit document ``data``
+    (:func:`impactid.html_report.fit_page`), atomically; nothing without ``--report``.
+
+    ``figures`` is the command's ``(names, write)`` of ``--plots`` (see :func:`deliver`); ``drawn``
+    the figures already drawn (:class:`impactid.html_report.ReportFigure`), else ``write`` draws them
+    now, as PNG into a private temporary folder (``args.plots`` and ``args.figure_format`` stand for
+    that folder and PNG while it runs: a writer reads them when it runs)."""
+    report = getattr(args, "report", None)
+    if report is None:
+        return
+    from impactid.html_report import FigureCapture, fit_page  # pandas (and matplotlib) only when a page is written
+
+    if drawn is None and figures:
+        from impactid.plotting import figure_format as saving_as
+
+        saved = {key: vars(args)[key] for key in ("plots", "figure_format") if key in vars(args)}
+        with FigureCapture() as capture, saving_as("png"):
+            try:
+                args.plots, args.figure_format = capture.folder, "png"
+                figures[1](capture)
+            finally:
+                for key in ("plots", "figure_format"):
+                    if key in saved:
+                        setattr(args, key, saved[key])
+                    else:
+                        delattr(args, key)
+        drawn = capture.figures
+    page = fit_page(data, command=command_line(args), inputs=[str(p) for p in inputs if p], figures=drawn or ())
+    with StagedFiles(protect=inputs) as staged:
+        staged.write_text(report, page)
+
+
+def command_line(args) -> str:
+    """The command line of ``args`` as typed (``impactid`` and the arguments :func:`impactid.cli.main`
+    parsed, kept in ``args.argv``), for a report's provenance."""
+    argv = getattr(args, "argv", None)
+    return "impactid " + shlex.join(argv) if argv is not None else "impactid " + str(getattr(args, "command", ""))
 
 
 def figure_format(args) -> str | None:
@@ -319,6 +384,13 @@ def say_written(args) -> None:
         print(f"  result written to {args.out}")
     if args.plots:
         print(f"  figures written to {args.plots}")
+    say_report(args)
+
+
+def say_report(args) -> None:
+    """The line that says where ``--report`` was written (nothing without it)."""
+    if getattr(args, "report", None) is not None:
+        print(f"  report written to {args.report}")
 
 
 def check_synth_size(samples: float) -> None:
@@ -444,6 +516,11 @@ JSON = Argument(("--json",), {"action": "store_true", "help": "print JSON"})
 PLOTS = Argument(("--plots",), {"metavar": "DIR", "default": None, "help": "write the figures into DIR"})
 #: ``--figure-format``: the file format of the ``--plots`` figures (:func:`figure_format`; the values
 #: are :data:`impactid.plotting.FORMATS`, spelled out here so that building the parser loads no plotting).
+#: ``--report REPORT.html``: a self-contained HTML page of a fit (:func:`write_report`,
+#: :mod:`impactid.html_report`), written whether or not ``--plots`` is given.
+REPORT = Argument(("--report",), {"metavar": "REPORT.html", "default": None,
+                                  "help": "write a self-contained HTML report (parameters, model check, "
+                                          "identifiability, figures, per-impact tables), atomically"})
 FIGURE_FORMAT = Argument(("--figure-format",), {"choices": ("png", "svg", "pdf"), "default": "png",
                                                 "help": "file format of the --plots figures: png (200 dpi, the "
                                                         "default), svg or pdf (vector)"})

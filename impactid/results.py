@@ -9,7 +9,7 @@ impactid version). Every result prints an lmfit-style ``report()``, round-trips 
 natural answer, draws one with ``plot()`` (a :class:`matplotlib.figure.Figure`, never ``pyplot``).
 
 Non-finite numbers (an undetermined standard error, say) are legal values of a result; in JSON
-they are written as ``null``, and the report says "undetermined".
+they are written as ``null``; the report shows ``n/a`` for them, with the parameter's note saying why.
 
 Every fit states, beside its parameters, its **model check** (``model_check``: whether the model
 describes the data, :func:`impactid.engine.check_model`) and its **identifiability**
@@ -25,7 +25,7 @@ from __future__ import annotations
 import json
 import math
 import os
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -36,7 +36,9 @@ import pandas as pd
 
 from impactid._version import __version__
 
-__all__ = ["FitResult", "Parameter", "json_ready", "result_kinds"]
+__all__ = ["FitResult", "Parameter", "confidence_label", "identifiability_lines", "interval_header", "is_search_box",
+           "json_ready", "model_check_lines", "note_reference", "numbered_notes", "parameter_cells",
+           "parameter_table_lines", "result_kinds", "strongest_correlations"]
 
 _KINDS: dict[str, type[FitResult]] = {}
 
@@ -53,7 +55,7 @@ def _number(value) -> float:
 
 
 def _fmt(value: float, spec: str = ".6g") -> str:
-    return format(value, spec) if value is not None and math.isfinite(value) else "undetermined"
+    return format(value, spec) if value is not None and math.isfinite(value) else "n/a"
 
 
 @dataclass(frozen=True)
@@ -128,15 +130,14 @@ class Parameter:
                    max=math.inf if data.get("max") is None else float(data["max"]))
 
     def report_line(self, width: int = 10) -> str:
-        """One line of a fit report: ``name: value +/- stderr (rel %) [low, high] unit``."""
+        """One line of a fit report: ``name value +/- stderr (rel %) [low, high] unit (note)``; an error
+        or interval the fit did not determine is ``n/a`` (the note says why), a fixed value says so."""
+        cells = parameter_cells(self)
         if self.fixed:
-            return f"    {self.name:<{width}} {_fmt(self.value)} {self.unit}".rstrip() + " (fixed)"
-        rel = ""
-        if math.isfinite(self.stderr) and math.isfinite(self.value) and self.value != 0.0:
-            rel = f" ({100 * abs(self.stderr / self.value):.2g} %)"
-        lo, hi = self.interval
-        text = (f"    {self.name:<{width}} {_fmt(self.value)} +/- {_fmt(self.stderr, '.3g')}{rel} "
-                f"[{_fmt(lo)}, {_fmt(hi)}] {self.unit}").rstrip()
+            text = f"    {self.name:<{width}} {cells['value']} {self.unit}".rstrip() + " (fixed)"
+        else:
+            text = (f"    {self.name:<{width}} {cells['value']} +/- {cells['stderr']} {cells['interval']} "
+                    f"{self.unit}").rstrip()
         return text + (f"   ({self.note})" if self.note else "")
 
 
@@ -248,20 +249,22 @@ class FitResult:
 
     # ---- text -------------------------------------------------------------------------------
     def report(self) -> str:
-        """An lmfit-style fit report: statistics, variables, notes."""
-        width = max([len(n) for n in self.params] + [8]) + 1
+        """An lmfit-style fit report (``lmfit.fit_report``'s layout): the statistics, one table of the
+        parameters (value, standard error and its relative size, the interval with its confidence
+        level, unit, a note reference), the model check, the identifiability block and the notes,
+        each note once (numbered; the parameters' notes are referred to by their number)."""
+        notes = numbered_notes(self)
         lines = [f"[[{self.title}]]"]
         if self.statistics:
             lines.append("[[Fit Statistics]]")
             for key, value in self.statistics.items():
                 text = _fmt(value) if isinstance(value, float) else str(value)
                 lines.append(f"    {key:<22} = {text}")
-        lines.append("[[Variables]]")
-        lines += [p.report_line(width) for p in self.params.values()]
-        lines += _model_check_lines(self.model_check) + _identifiability_lines(self.identifiability)
-        if self.notes:
+        lines += parameter_table_lines(self.params.values(), notes)
+        lines += model_check_lines(self.model_check) + identifiability_lines(self.identifiability)
+        if notes:
             lines.append("[[Notes]]")
-            lines += [f"    - {note}" for note in self.notes]
+            lines += [f"    [{k}] {note}" for k, note in enumerate(notes, 1)]
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -349,7 +352,95 @@ def _g(value, spec: str = ".3g") -> str:
     return format(number, spec) if math.isfinite(number) else "n/a"
 
 
-def _model_check_lines(block: Mapping[str, Any]) -> list[str]:
+# ---- the parameter table ----------------------------------------------------------------------------
+
+#: Words of a parameter's note that say its interval is the search box (the data do not separate it).
+SEARCH_BOX_WORDS = ("search box", "not separable")
+
+
+def is_search_box(parameter: Parameter) -> bool:
+    """Whether ``parameter``'s interval is the search box, not a confidence interval (its note says
+    so: the data do not separate it from another parameter)."""
+    note = parameter.note.lower()
+    return any(word in note for word in SEARCH_BOX_WORDS)
+
+
+def confidence_label(confidence: float) -> str:
+    """``0.95`` as ``"95 %"``."""
+    return f"{100 * confidence:.4g} %"
+
+
+def parameter_cells(parameter: Parameter) -> dict[str, str]:
+    """The text of one parameter's row of a report: ``value``, ``stderr`` (with its size relative to
+    the value), ``interval`` (``[low, high]``, marked ``search box`` where it is one) and ``status``
+    (``fixed``, ``fitted``). What the fit did not determine is ``n/a`` (the note says why), never
+    "undetermined" beside a number that exists."""
+    value = _g(parameter.value, ".6g")
+    if parameter.fixed:
+        return {"value": value, "stderr": "fixed", "interval": "", "status": "fixed"}
+    stderr = "n/a"
+    if math.isfinite(parameter.stderr):
+        stderr = format(parameter.stderr, ".3g")
+        if math.isfinite(parameter.value) and parameter.value != 0.0:
+            stderr += f" ({100 * abs(parameter.stderr / parameter.value):.2g} %)"
+    lo, hi = parameter.interval
+    interval = f"[{_g(lo, '.5g')}, {_g(hi, '.5g')}]" if math.isfinite(lo) or math.isfinite(hi) else "n/a"
+    if interval != "n/a" and is_search_box(parameter):
+        interval += " search box"
+    return {"value": value, "stderr": stderr, "interval": interval, "status": "fitted"}
+
+
+def numbered_notes(result: FitResult) -> list[str]:
+    """The notes of a report, each once, in order: the parameters' notes, then the result's (a
+    parameter's note that is also one of the result's is listed once)."""
+    notes: list[str] = []
+    for note in [p.note for p in result.params.values()] + list(result.notes):
+        text = " ".join(str(note).split())
+        if text and text not in notes:
+            notes.append(text)
+    return notes
+
+
+def note_reference(parameter: Parameter, notes: Sequence[str]) -> str:
+    """``[k]``: the number of ``parameter``'s note among ``notes`` (:func:`numbered_notes`), "" if none."""
+    text = " ".join(parameter.note.split())
+    return f"[{list(notes).index(text) + 1}]" if text and text in notes else ""
+
+
+def interval_header(params: Iterable[Parameter]) -> str:
+    """The header of the interval column: ``95 % interval`` when every interval has that level."""
+    levels = {p.confidence for p in params if not p.fixed}
+    return f"{confidence_label(levels.pop())} interval" if len(levels) == 1 else "interval"
+
+
+def parameter_table_lines(params: Iterable[Parameter], notes: Sequence[str]) -> list[str]:
+    """The ``[[Variables]]`` block: a header and one aligned row per parameter (name, value, standard
+    error, interval, unit, note reference); the confidence level is in the header (or beside each
+    interval when they differ)."""
+    params = list(params)
+    header = interval_header(params)
+    rows = []
+    for p in params:
+        cells = parameter_cells(p)
+        interval = cells["interval"]
+        if header == "interval" and interval not in ("", "n/a"):
+            interval += f" ({confidence_label(p.confidence)})"
+        rows.append([p.name, cells["value"], cells["stderr"], interval, p.unit, note_reference(p, notes)])
+    titles = ["name", "value", "std. error", header, "unit", "note"]
+    widths = [max(len(row[k]) for row in rows + [titles]) for k in range(len(titles))]
+    if not any(row[5] for row in rows):  # no note column when no parameter has a note
+        titles, rows, widths = titles[:5], [row[:5] for row in rows], widths[:5]
+
+    def line(cells) -> str:
+        return ("    " + "  ".join(f"{c:<{w}}" for c, w in zip(cells, widths))).rstrip()
+
+    return ["[[Variables]]", line(titles)] + [line(row) for row in rows]
+
+
+# ---- the model check and identifiability blocks ----------------------------------------------------
+
+
+def model_check_lines(block: Mapping[str, Any]) -> list[str]:
     """The report's lines of a ``model_check`` block: the verdict and one line per check."""
     if not block:
         return []
@@ -386,19 +477,44 @@ def _model_check_lines(block: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def _identifiability_lines(block: Mapping[str, Any], indent: str = "    ") -> list[str]:
-    """The report's lines of an ``identifiability`` block: conditioning, correlation, bounds,
-    profiles, the law comparison (and its parts')."""
+#: Correlations a report lists (lmfit's ``min_correl``): those at least this large in magnitude.
+MIN_CORRELATION = 0.1
+#: At most this many correlations are listed (the strongest).
+MAX_CORRELATIONS = 5
+
+
+def strongest_correlations(block: Mapping[str, Any]) -> list[tuple[str, str, float]]:
+    """``(a, b, r)`` of the strongest correlations of an identifiability block (``names`` and
+    ``correlation``), at least :data:`MIN_CORRELATION` in magnitude, at most :data:`MAX_CORRELATIONS`,
+    strongest first."""
+    names = list(block.get("names") or ())
+    matrix = block.get("correlation") or []
+    pairs = []
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            try:
+                value = float(matrix[i][j])
+            except (IndexError, TypeError, ValueError):
+                continue
+            if math.isfinite(value) and abs(value) >= MIN_CORRELATION:
+                pairs.append((names[i], names[j], value))
+    return sorted(pairs, key=lambda pair: -abs(pair[2]))[:MAX_CORRELATIONS]
+
+
+def identifiability_lines(block: Mapping[str, Any], indent: str = "    ") -> list[str]:
+    """The report's lines of an ``identifiability`` block: conditioning, the strongest correlations,
+    bounds, profiles, the law comparison with AIC, BIC and the likelihood-ratio tests (and its parts')."""
     if not block:
         return []
     lines = ["[[Identifiability]]"] if indent == "    " else []
     if "condition_number" in block:
-        largest = block.get("largest_correlation") or {}
-        pair = "/".join(largest.get("pair") or ())
         lines.append(f"{indent}condition number {_g(block.get('condition_number'))} (limit "
-                     f"{_g(block.get('condition_limit'))}); largest correlation "
-                     + (f"{pair} {_g(largest.get('value'), '+.4f')}" if pair else "n/a")
-                     + f"; determined: {block.get('determined')}")
+                     f"{_g(block.get('condition_limit'))}); determined: {block.get('determined')}")
+        correlations = strongest_correlations(block)
+        if correlations:
+            lines.append(f"{indent}correlations: " + ", ".join(f"C({a}, {b}) = {r:+.4f}" for a, b, r in correlations))
+        elif len(block.get("names") or ()) > 1:
+            lines.append(f"{indent}correlations: all below {MIN_CORRELATION:g} in magnitude")
         profiles = block.get("profiles") or {}
         if profiles:
             lines.append(f"{indent}profiles ({str(block.get('profile_method', '')).split(':')[0]}): "
@@ -409,6 +525,8 @@ def _identifiability_lines(block: Mapping[str, Any], indent: str = "    ") -> li
                 f"{b['name']} {'on' if b.get('on_bound') else 'near'} {b['bound']}" for b in near))
     comparison = block.get("model_comparison")
     if comparison:
+        models = "; ".join(f"{m.get('name')} AIC {_g(m.get('aic'), '.5g')}, BIC {_g(m.get('bic'), '.5g')}"
+                           for m in comparison.get("models", ()))
         tests = "; ".join(f"{t['simple']} vs {t['general']}: LRT {_g(t.get('statistic'))} "
                           f"(p = {_g(t.get('p_value'), '.2g')})" for t in comparison.get("likelihood_ratio", ()))
         wald = comparison.get("wald")
@@ -417,7 +535,9 @@ def _identifiability_lines(block: Mapping[str, Any], indent: str = "    ") -> li
                                             tests)))
         lines.append(f"{indent}{comparison.get('choice') or 'laws'}: preferred {comparison.get('preferred')}"
                      + (f"; {tests}" if tests else ""))
+        if models:
+            lines.append(f"{indent}  {models}")
     for name, part in (block.get("parts") or {}).items():
         lines.append(f"{indent}{name}:")
-        lines += _identifiability_lines(part, indent + "  ")
+        lines += identifiability_lines(part, indent + "  ")
     return lines

@@ -22,7 +22,17 @@ import math
 import warnings
 from pathlib import Path
 
-from impactid.commandline import FIGURE_FORMAT, MAX_SYNTH_SAMPLES, UsageError, refuse_foreign_options
+from impactid.commandline import (
+    FIGURE_FORMAT,
+    MAX_SYNTH_SAMPLES,
+    REPORT,
+    UsageError,
+    check_report,
+    figure_format,
+    refuse_foreign_options,
+    say_report,
+    write_report,
+)
 from impactid.commandline import integer_in as _count
 from impactid.commandline import nonnegative as _nonnegative
 from impactid.commandline import number as _number
@@ -144,23 +154,24 @@ def _check(args, inputs, out_is_dir=False) -> None:
         check_output(args.out, option="--out", inputs=inputs, directory=out_is_dir)
     if getattr(args, "plots", None):
         check_output(args.plots, option="--plots", inputs=inputs, directory=True)
+    check_report(args, inputs, others={"--out": getattr(args, "out", None)})
 
 
 def _write(args, data: dict, inputs, figures=None, printed: dict | None = None) -> None:
-    """JSON to ``--out`` (committed first), then figures into ``--plots``; ``--json`` prints ``printed``
+    """Figures into ``--plots`` and the JSON to ``--out``, staged together (all or nothing), so the JSON's
+    ``plots`` lists the figures written (the key only with ``--plots``); ``--json`` prints ``printed``
     (default: the same data)."""
     from impactid._files import StagedFiles
     from impactid.commandline import json_text as _json_text
     from impactid.commandline import print_json as _print_json
 
-    if getattr(args, "plots", None) and figures is not None:
-        data.setdefault("plots", [])  # the figures' paths when the command names them before writing them
-    if getattr(args, "out", None):
+    plots = bool(getattr(args, "plots", None)) and figures is not None
+    if plots or getattr(args, "out", None):
         with StagedFiles(protect=inputs) as staged:
-            staged.write_text(args.out, _json_text(data))
-    if getattr(args, "plots", None) and figures is not None:
-        with StagedFiles(protect=inputs) as staged:
-            data["plots"] = [str(p) for p in figures(staged)]
+            if plots:
+                data["plots"] = [str(p) for p in figures(staged)]
+            if getattr(args, "out", None):
+                staged.write_text(args.out, _json_text(data))
     if getattr(args, "json", False):
         shown = data if printed is None else printed
         if "plots" in data and printed is not None:
@@ -308,22 +319,21 @@ def run_fit_surge(args, model) -> int:
                     confidence=getattr(args, "confidence", None) or 0.95)
     # the FitResult document (docs/formats.md) and the recordings read; --plots adds "plots"
     data = {**fit.to_dict(), "recordings_read": [str(p) for p in recordings]}
-    figures = None
+    def figures(staged):
+        from impactid.plotting import save_figure
+
+        return [save_figure(fit.plot(), Path(args.plots) / "surge_fit.png", staged, figure_format(args))]
+
     if getattr(args, "plots", None):
-        from impactid.commandline import figure_format
         from impactid.plotting import figure_name
 
         data["plots"] = [figure_name(Path(args.plots) / "surge_fit.png", figure_format(args))]
-
-        def figures(staged):
-            from impactid.plotting import save_figure
-
-            return [save_figure(fit.plot(), Path(args.plots) / "surge_fit.png", staged, figure_format(args))]
-
     json_flag = getattr(args, "json", False)
-    _write(args, data, inputs, figures)
+    _write(args, data, inputs, figures if getattr(args, "plots", None) else None)
+    write_report(args, data, inputs, (["surge_fit.png"], figures))
     if not json_flag:
         print(fit.report())
+        say_report(args)
     return 0
 
 
@@ -425,7 +435,7 @@ COMMANDS = (
         Argument(("--free-k0",), {"action": "store_true", "help": "also fit the spring rate k0"}),
         Argument(("--confidence",), {"type": _fraction, "default": None,
                                      "help": "coverage of the intervals (default 0.95)"}),
-        _OUT_JSON, _PLOTS, FIGURE_FORMAT, _JSON), run_fit_surge),
+        _OUT_JSON, _PLOTS, FIGURE_FORMAT, REPORT, _JSON), run_fit_surge),
     CommandSpec("valvetrain", "synth", "write a synthetic recording with known parameters", (
         _RIG_FILE, _PRESET, _RPM, _LEVEL,
         REVOLUTIONS,

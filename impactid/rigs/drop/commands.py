@@ -21,6 +21,7 @@ from pathlib import Path
 from impactid.commandline import (
     FIGURE_FORMAT,
     NOISE_CHANNEL,
+    REPORT,
     SAMPLE_RATE,
     SEED,
     SYNTH_DURATION,
@@ -200,14 +201,14 @@ def run_simulate(args, model) -> int:
 # ---- impactid drop fit ---------------------------------------------------------------------------
 
 
-def fit_figures(result, plots: str | os.PathLike[str]):
+def fit_figures(result, plots: str | os.PathLike[str] | None):
     """The figure of a drop fit's ``--plots``: its name and its writer (measured and simulated contact
-    signals with the residuals)."""
+    signals with the residuals; ``plots`` None: drawn for the ``--report`` page only)."""
 
     def write(staged):
         from impactid.rigs.drop.figures import save
 
-        return [save(result.plot(), Path(plots) / "drop_fit.png", staged)]
+        return [save(result.plot(), Path(plots or ".") / "drop_fit.png", staged)]
 
     return ["drop_fit.png"], write
 
@@ -228,7 +229,7 @@ def run_fit(args, model) -> int:
     data = result.to_dict()
     data["recordings_read"] = [str(p) for p in paths]
 
-    deliver(args, data, inputs, fit_figures(result, args.plots) if args.plots else None)
+    deliver(args, data, inputs, fit_figures(result, args.plots))  # --plots, and the --report page
     if args.json:
         return 0
     print(result.report())
@@ -251,5 +252,5 @@ COMMANDS = (
         _RIG_FILE,
         *fit_arguments(),
         Argument(("--out",), {"metavar": "RESULT.json", "help": "write the result as JSON (atomically)"}),
-        _PLOTS, FIGURE_FORMAT, _JSON), run_fit),
+        _PLOTS, FIGURE_FORMAT, REPORT, _JSON), run_fit),
 )

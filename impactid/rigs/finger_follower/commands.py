@@ -26,7 +26,16 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from impactid.commandline import FIGURE_FORMAT, integer_in, positive, refuse_foreign_options
+from impactid.commandline import (
+    FIGURE_FORMAT,
+    REPORT,
+    check_report,
+    integer_in,
+    positive,
+    refuse_foreign_options,
+    say_report,
+    write_report,
+)
 from impactid.errors import RigParameterError, SimulationError, SimulationInputError
 from impactid.rigs.base import Argument, CommandSpec
 
@@ -127,6 +136,7 @@ def _check(args, inputs, out_option: str = "--out") -> None:
         check_output(args.out, option=out_option, inputs=inputs)
     if getattr(args, "plots", None):
         check_output(args.plots, option="--plots", inputs=inputs, directory=True)
+    check_report(args, inputs, others={out_option: getattr(args, "out", None)})
 
 
 def _json_text(data: dict) -> str:
@@ -153,6 +163,11 @@ def _deliver(args, data: dict, inputs, figures=()) -> None:
 
             for name, make in figures:
                 F.save(make(), Path(args.plots) / name, staged, fmt)
+    if getattr(args, "report", None) is not None:  # the fit commands' --report: the figures drawn again, for the page
+        from impactid.rigs.finger_follower import figures as F
+
+        write_report(args, data, inputs, ([name for name, _ in figures], lambda staged: [
+            F.save(make(), Path(args.plots) / name, staged, figure_format(args)) for name, make in figures]))
     if args.json:
         sys.stdout.write(_json_text(data))
 
@@ -442,6 +457,7 @@ def run_fit_tappet(args, model) -> int:
     if not args.json:
         for f in fits:
             print(f.report())
+        say_report(args)
     return 1 if failed else 0
 
 
@@ -460,6 +476,7 @@ def run_fit_lift(args, model) -> int:
         warnings.warn(note, stacklevel=2)
     if not args.json:
         print(fit.report())
+        say_report(args)
     return 0
 
 
@@ -483,6 +500,7 @@ def run_fit_damping(args, model) -> int:
         warnings.warn(note, stacklevel=2)
     if not args.json:
         print(fit.report())
+        say_report(args)
     return 0
 
 
@@ -526,17 +544,17 @@ COMMANDS = (
                 run_synth),
     CommandSpec("valvetrain", "fit-tappet", "fit the hydraulic tappet's drag (alpha, beta) to tappet motion",
                 (Argument(("recordings",), {"nargs": "+", "help": "recordings (HDF5, or CSV with a TOML rig file)"}),
-                 JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT,
+                 JSON, OUT, PLOTS, FIGURE_FORMAT, REPORT, RIG_FILE, LIFT,
                  Argument(("--joint",), {"action": "store_true",
                                          "help": "one (alpha, beta) for all recordings (default: one per speed)"})),
                 run_fit_tappet),
     CommandSpec("valvetrain", "fit-lift", "fit the cam lift law to low-speed valve displacement",
                 (Argument(("recording",), {"help": "recording at low speed (HDF5, or CSV with a TOML rig file)"}),
-                 JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE),
+                 JSON, OUT, PLOTS, FIGURE_FORMAT, REPORT, RIG_FILE),
                 run_fit_lift),
     CommandSpec("valvetrain", "fit-damping", "fit the contact and valve-spring damping ratios to the valve's ringing",
                 (Argument(("recording",), {"help": "recording at a speed where the valve rings at closure (HDF5, or "
                                                    "CSV with a TOML rig file)"}),
-                 JSON, OUT, PLOTS, FIGURE_FORMAT, RIG_FILE, LIFT),
+                 JSON, OUT, PLOTS, FIGURE_FORMAT, REPORT, RIG_FILE, LIFT),
                 run_fit_damping),
 )

@@ -29,6 +29,7 @@ from impactid.commandline import (
     JSON,
     MAX_SWEEP_POINTS,
     NOISE_CHANNEL,
+    REPORT,
     SAMPLE_RATE,
     SEED,
     SYNTH_DURATION,
@@ -54,8 +55,10 @@ from impactid.commandline import (
     recording_rig,
     refuse_other_rigs_options,
     rig_help,
+    say_report,
     say_written,
     speed_arguments,
+    write_report,
     write_synthetic,
 )
 from impactid.distributed import scheduler_arguments
@@ -165,6 +168,7 @@ def run_restitution(args, model) -> int:
     if args.out:
         with StagedFiles(protect=inputs) as staged:
             staged.write_text(args.out, json_text(data))
+    write_report(args, data, inputs)
     if args.json:
         print_json(data)
         return 0
@@ -178,6 +182,7 @@ def run_restitution(args, model) -> int:
         print(f"impactid: note: {note}", file=sys.stderr)
     if args.out:
         print(f"  result written to {args.out}")
+    say_report(args)
     return 0
 
 
@@ -311,7 +316,7 @@ COMMANDS = (
                                          "(Alzate et al. 2007)"}),
         Argument(("--rig",), {"metavar": "RIG.toml|MODEL|PRESET",
                               "help": rig_help("the rig for first-bounce (default: the recording's)")}),
-        OUT_JSON, JSON), run_restitution),
+        OUT_JSON, REPORT, JSON), run_restitution),
     CommandSpec("", "cam-fit", "fit a Gaussian-sum cam profile (Alzate et al. 2007, eq. 1) to rig F encoder data", (
         *recording_arguments(),
         Argument(("--terms",), {"default": "7", "metavar": "N|auto",
@@ -332,7 +337,7 @@ COMMANDS = (
                                         "(atomically)"}),
         Argument(("--plots",), {"metavar": "DIR",
                                 "help": "write figures (data and fit, residuals, derivatives, order selection)"}),
-        FIGURE_FORMAT,
+        FIGURE_FORMAT, REPORT,
         Argument(("--json",), {"action": "store_true", "help": "print the result as JSON"})), run_cam_fit),
     CommandSpec("", "detachment", "cam speed at which the follower leaves the cam (inverse kinematics)", (JSON,),
                 run_detachment, rig_argument="resolve"),
