@@ -1305,6 +1305,7 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
                                     nested=[(f"{a} terms", f"{b} terms") for a, b in zip(table["terms"][:-1],
                                                                                         table["terms"][1:])],
                                     choice=f"the number of Gaussian terms (chosen by {criterion.upper()})")
+        comparison = _chosen_order(comparison, pick, criterion)
     described = identifiability(full, fit, comparison=comparison, describes_data=checked.describes_data,
                                 quadratic_reason=f"a refit of {3 * pick} coefficients per point costs a whole fit")
     statistics = {**fit.statistics, "terms": pick, "nsamples": data.nsamples, "chisqr": crit.chisqr, "aic": crit.aic,
@@ -1318,6 +1319,11 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
     if zero:
         notes.append(f"centre and width undetermined for the zero-amplitude term(s) {', '.join(map(str, zero))}")
     notes += list(check_notes) + list(checked.further_notes)
+    if comparison is not None and comparison.get("preferred_by_likelihood_ratio"):
+        notes.append(f"{pick} terms by {criterion.upper()}; the likelihood-ratio tests of each order against the next "
+                     f"would take {comparison['preferred_by_likelihood_ratio']}: they count every sample as an "
+                     "independent residual, but the residuals are timing and quantisation errors correlated along the "
+                     "cam, which overstates the evidence for more terms (read the table of orders)")
     notes += [f"revolution {k} rejected: {reason}" for k, reason in data.rejected_revolutions.items()]
     theta, value = profile.sample(3600)
     details = {
@@ -1352,6 +1358,19 @@ def fit_cam_profile(data, terms: int | str = DEFAULT_TERMS, *, criterion: str = 
     return CamProfileResult(params=parameters, statistics=statistics, notes=tuple(notes), tables=tables,
                             details=details, provenance=provenance, data=data, model_check=combine_checks([checked]),
                             identifiability=described)
+
+
+def _chosen_order(comparison: dict, pick: int, criterion: str) -> dict:
+    """The comparison of the orders with the order the fit took (``pick``, by ``criterion``) as its
+    ``preferred``; where the likelihood-ratio tests' own preference differs, it is kept as
+    ``preferred_by_likelihood_ratio`` and the rule says why the criterion decides."""
+    chosen = f"{pick} terms"
+    if comparison.get("preferred") == chosen:
+        return comparison
+    return {**comparison, "preferred": chosen, "preferred_by_likelihood_ratio": comparison.get("preferred"),
+            "rule": (f"the order with the lowest {criterion.upper()} (the likelihood-ratio tests, which count every "
+                     "sample as an independent residual, are shown but do not decide: the residuals are timing and "
+                     "quantisation errors correlated along the cam)")}
 
 
 # --------------------------------------------------------------------------------------------

@@ -32,6 +32,14 @@ First-bounce method (:func:`restitution_at_speed` with ``method="first-bounce"``
 
 Encoder quantisation: counts are floors of the angle, so half a count is added before use (the
 quantisation error then has zero mean; :func:`impactid.rigs.flat.encoders.read_counter`).
+
+The pipeline's own error of a point (:data:`RESTITUTION_SYSTEMATIC`): where the impact falls between
+samples and counts repeats with the period-1 motion, so every first impact of a recording carries
+nearly the same error of ``r`` (5e-3 RMS with the default encoders, up to 2.4e-2), which the scatter over its
+revolutions does not show (a revolution of a whole number of samples gives identical impacts and a
+standard error of 1e-8). Each point carries that floor (:attr:`RestitutionAtSpeed.systematic`), and
+the speed law is weighted by, and checked against, ``sqrt(stderr^2 + systematic^2)``
+(:func:`fit_speed_law`).
 """
 
 from __future__ import annotations
@@ -42,7 +50,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
-from scipy import optimize
+from scipy import optimize, stats
 
 from impactid.engine import (
     Free,
@@ -61,10 +69,11 @@ from impactid.results import FitResult
 from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
 from impactid.rigs.flat.encoders import CounterReading, read_counter
 
-__all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "METHODS", "SMOOTHING_S",
-           "EncoderImpactError", "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed",
-           "SpeedLawResult", "align_profile", "first_impacts", "fit_speed_law", "refine_offset",
-           "relative_motion", "restitution_at_speed", "simulated_first_bounce"]
+__all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "LAWS", "METHODS",
+           "RESTITUTION_SYSTEMATIC", "SMOOTHING_S", "SYSTEMATIC_FOLLOWER_STEP", "EncoderImpactError",
+           "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed", "SpeedLawResult", "align_profile",
+           "first_impacts", "fit_speed_law", "refine_offset", "relative_motion", "restitution_at_speed",
+           "simulated_first_bounce", "systematic_error"]
 
 #: Joint-fit window on each side of a first impact [s]: long enough for hundreds of samples, short
 #: enough that a cubic describes the smooth free flight (and the cam's motion) to far below a count.
@@ -78,6 +87,20 @@ FLIGHT_THRESHOLD_COUNTS = 3.0
 #: Moving-average length that smooths the quantisation sawtooth before flights are located [s]
 #: (detection only: the fits use the raw samples).
 SMOOTHING_S = 0.002
+#: The pipeline's own error of one point's ``r`` [-], a standard deviation: the error common to the
+#: first impacts of a noise-free recording (module doc), which their scatter need not show. Measured
+#: with ``synth_flat_impacting`` (4 s, 20 kHz, encoders 5000/10 000 ppr, cam zero 0.5 + rpm/77 rad) and
+#: ``restitution_at_speed`` at r = 0.40, 0.45, ..., 0.70 and 128, 130, ..., 152 rpm: over the 78
+#: period-1 points (8 first impacts or more) error RMS 4.4e-3, median 1.4e-3, 8 points above 6e-3,
+#: largest 2.4e-2 (150 rpm, r 0.50: a revolution of exactly 8000 samples, every impact sampled alike,
+#: standard error 6e-9); without quantisation (exact angles) still up to 3.5e-3 (145 rpm, r 0.65:
+#: where the impact falls between samples). About 1.1 times that RMS. Command:
+#: ``python benchmarks/validate_rig_f.py`` (section "The pipeline's own error of r").
+RESTITUTION_SYSTEMATIC = 5.0e-3
+#: The follower count [rad] at which :data:`RESTITUTION_SYSTEMATIC` was measured (10 000 ppr). With
+#: 4000 ppr (2.5 times coarser) points of the same grid erred up to 6 times more (3.1e-2 at 145 rpm,
+#: r 0.57): a coarser encoder's floor grows with the square of its count (:func:`systematic_error`).
+SYSTEMATIC_FOLLOWER_STEP = 2.0 * math.pi / 10_000
 
 
 class EncoderImpactError(ImpactidError, ValueError):
@@ -381,6 +404,8 @@ class RestitutionAtSpeed:
     impacts : per-impact table (:func:`first_impacts`)
     source : recording
     warnings : doubts about this value
+    systematic : the pipeline's own error of ``restitution`` [-] (:func:`systematic_error`), common to
+        its impacts and so not in ``stderr``; NaN: :data:`RESTITUTION_SYSTEMATIC`
     """
 
     cam_speed_hz: float
@@ -392,15 +417,31 @@ class RestitutionAtSpeed:
     impacts: object = field(repr=False)
     source: str = ""
     warnings: tuple[str, ...] = ()
+    systematic: float = math.nan
 
     @property
     def cam_speed_rpm(self) -> float:
         return self.cam_speed_hz * 60.0
 
+    @property
+    def measurement_error(self) -> float:
+        """The point's whole standard error [-]: ``sqrt(stderr^2 + systematic^2)`` (NaN when ``stderr`` is)."""
+        floor = self.systematic if math.isfinite(self.systematic) else RESTITUTION_SYSTEMATIC
+        return math.hypot(self.stderr, floor) if math.isfinite(self.stderr) else math.nan
+
     def to_dict(self) -> dict:
         return {"source": self.source, "cam_speed_hz": self.cam_speed_hz, "cam_speed_rpm": self.cam_speed_rpm,
                 "method": self.method, "restitution": self.restitution, "stderr": self.stderr,
+                "systematic": self.systematic if math.isfinite(self.systematic) else RESTITUTION_SYSTEMATIC,
                 "n_impacts": self.n_impacts, "bounce_height_rad": self.bounce_height, "warnings": list(self.warnings)}
+
+
+def systematic_error(follower_step: float) -> float:
+    """The pipeline's own error of a point's ``r`` [-] with a follower encoder of count ``follower_step``
+    [rad]: :data:`RESTITUTION_SYSTEMATIC`, times ``(follower_step / SYSTEMATIC_FOLLOWER_STEP)^2`` for a
+    coarser encoder (never less; 0 or NaN: an unquantised channel, the measured floor)."""
+    ratio = follower_step / SYSTEMATIC_FOLLOWER_STEP if math.isfinite(follower_step) and follower_step > 0 else 0.0
+    return RESTITUTION_SYSTEMATIC * max(1.0, ratio) ** 2
 
 
 def simulated_first_bounce(rig: FlatFollowerRig, cam_speed_hz: float, restitution: float,
@@ -496,7 +537,8 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
         warnings.warn(f"{where}: {note}", EncoderImpactWarning, stacklevel=2)
     return RestitutionAtSpeed(cam_speed_hz=motion.cam_speed_hz, restitution=r, stderr=se, method=method,
                               n_impacts=len(table), bounce_height=bounce, impacts=table,
-                              source=recording.source or "", warnings=tuple(notes))
+                              source=recording.source or "", warnings=tuple(notes),
+                              systematic=systematic_error(motion.follower_step))
 
 
 @dataclass(frozen=True)
@@ -504,13 +546,14 @@ class SpeedLawResult(FitResult):
     """The speed-dependent restitution law ``r = a + b omega`` fitted over cam speeds (:func:`fit_speed_law`).
 
     ``params``: ``a`` [-] and ``b`` [s/rad] (per rad/s of cam speed; ``b`` is fixed at 0 when every
-    point is at one cam speed). ``tables["points"]``: one row per cam speed (the columns of
-    :meth:`RestitutionAtSpeed.to_dict`, ``notes`` joined). ``details``: ``method`` (of the points),
-    ``law`` (the law with its
-    slope per rad/s and per rpm), ``stderr_b_per_rpm``, ``covariance`` (how the standard errors were
-    made), ``correlation`` (of ``a`` and ``b``). ``statistics``: those of the engine
-    (:func:`impactid.engine.uncertainty`), ``speeds``, ``residual_rms`` [-] and the model check
-    against the points' own standard errors (``noise_sd``, ``residual_over_noise``).
+    point is at one cam speed or the constant law is fitted). ``tables["points"]``: one row per cam speed
+    (the columns of :meth:`RestitutionAtSpeed.to_dict`, ``measurement_error``, ``notes`` joined).
+    ``details``: ``method`` (of the points), ``fitted_law`` (``linear`` or ``constant``), ``law`` (the
+    law with its slope per rad/s and per rpm), ``stderr_b_per_rpm``, ``covariance`` (how the standard
+    errors were made), ``point_errors`` (each point's ``sqrt(stderr^2 + systematic^2)``), ``correlation``
+    (of ``a`` and ``b``). ``statistics``: those of the engine (:func:`impactid.engine.uncertainty`),
+    ``speeds``, ``residual_rms`` [-] and the check against the points' errors (``noise_sd``,
+    ``residual_over_noise``).
 
     Attributes
     ----------
@@ -546,47 +589,57 @@ class SpeedLawResult(FitResult):
         return float(self.statistics["residual_rms"])
 
 
-def fit_speed_law(points, *, confidence: float = 0.95) -> SpeedLawResult:
-    """Least squares of ``r = a + b omega`` (omega the cam speed [rad/s]) through the identification engine.
+LAWS = ("linear", "constant")
 
-    With more speeds than parameters: ordinary least squares, the standard errors from the
-    residual scatter (the reduced chi-square, lmfit's ``scale_covar``): the per-speed standard
-    errors reflect only the scatter between revolutions, not systematic errors (profile,
-    quantisation), and weighting by them would hand the fit to the most repeatable speed. With two
-    speeds the line is exact: it is fitted with the residuals weighted by the points' own standard
-    errors (known scale), which propagates them to ``a`` and ``b``. One cam speed: ``r`` is a
+
+def fit_speed_law(points, *, confidence: float = 0.95, law: str = "linear") -> SpeedLawResult:
+    """Weighted least squares of ``r = a + b omega`` (omega the cam speed [rad/s]) through the identification engine.
+
+    Each point is weighted by its whole error, ``sigma_i = sqrt(stderr_i^2 + systematic_i^2)``
+    (:attr:`RestitutionAtSpeed.measurement_error`): the scatter over its revolutions and the
+    pipeline's own error :data:`RESTITUTION_SYSTEMATIC`, common to its impacts (module doc). That
+    error is known, so the covariance is not rescaled by the residual (a known scale): the standard
+    errors are those of the points propagated, and the model check (:func:`impactid.engine.check_model`,
+    the cam speed as the per-point covariate) tests the residual against ``sigma_i``: a law that misses
+    the points by more than their error is a lack of fit, and the engine's rule widens (or withholds)
+    the intervals. Without a standard error for every point (a point of one impact): ordinary least
+    squares scaled by the residual scatter (lmfit's ``scale_covar``) with three speeds or more, the law
+    undetermined with two, and the model not checked against a noise. One cam speed: ``r`` is a
     constant (``b`` fixed at 0; noted in the result).
 
-    The model is checked against the points' own noise (their standard errors,
-    :func:`impactid.engine.residual_against_noise`): a line that misses the points by more than
-    their repeatability is noted as a lack of fit. The engine's whole check
-    (:func:`impactid.engine.check_model`, the cam speed as the per-point covariate: a trend of the
-    residual with it, and persistence along the speeds, from :data:`~impactid.engine.checks.MIN_STRUCTURE_DATA`
-    speeds on) widens the intervals by its rule where it finds the model wanting; with the
-    covariance scaled by the residual scatter (ordinary least squares) the misfit's variance is
-    already in it. The identifiability block (:func:`impactid.engine.identifiability`: the line is
-    linear, so the quadratic profiles are exact) compares, with three speeds or more, the constant
-    ``r`` with the line (AIC, BIC, likelihood-ratio test).
+    Parameters
+    ----------
+    points : :class:`RestitutionAtSpeed` measurements (non-finite ``restitution`` left out).
+    confidence : coverage of the intervals.
+    law : ``"linear"`` (``r = a + b omega``) or ``"constant"`` (``b`` fixed at 0: the law of a rig whose
+        restitution does not depend on the cam speed; the check then tests that).
+
+    The identifiability block (:func:`impactid.engine.identifiability`: the law is linear, so the
+    quadratic profiles are exact) compares, with three speeds or more, the constant ``r`` with the
+    line (AIC, BIC, likelihood-ratio test, with the points' known errors).
 
     Raises
     ------
-    EncoderImpactError : no finite restitution estimate.
+    EncoderImpactError : no finite restitution estimate. ValueError : unknown ``law``.
     """
+    if law not in LAWS:
+        raise ValueError(f"unknown restitution law {law!r}; valid: {', '.join(LAWS)}")
     pts = tuple(p for p in points if math.isfinite(p.restitution))
     if not pts:
         raise EncoderImpactError("no finite restitution estimate to fit")
     omega = np.array([2.0 * math.pi * p.cam_speed_hz for p in pts])
     r = np.array([p.restitution for p in pts])
-    se = np.array([p.stderr for p in pts])
+    sigma = np.array([p.measurement_error for p in pts])
     notes = [f"{p.source or 'recording'}: {note}" for p in pts for note in p.warnings]
     one_speed = len(pts) == 1 or float(np.ptp(omega)) < 1e-9
-    if one_speed:
+    if one_speed and law == "linear":
         notes.append("one cam speed only: r is fitted as a constant (b fixed at 0)")
+    constant_law = one_speed or law == "constant"
     free = (Free("a", float(np.mean(r)), unit=""),
-            Free("b", 0.0, vary=not one_speed, unit="s/rad"))
-    exact = len(pts) == (1 if one_speed else 2)
-    known = exact and bool(np.all(np.isfinite(se)) and np.all(se > 0.0))
-    weight = 1.0 / se if known else np.ones_like(r)
+            Free("b", 0.0, vary=not constant_law, unit="s/rad"))
+    n_params = 1 if constant_law else 2
+    known = bool(np.all(np.isfinite(sigma)) and np.all(sigma > 0.0))
+    weight = 1.0 / sigma if known else np.ones_like(r)
 
     def residual(u):
         return (r - (u[0] + u[1] * omega)) * weight
@@ -595,56 +648,77 @@ def fit_speed_law(points, *, confidence: float = 0.95) -> SpeedLawResult:
         return -np.column_stack((np.ones_like(omega), omega)) * weight[:, None]
 
     found = search(residual, free, jacobian=jacobian)
-    if exact:
-        fit = uncertainty(found, confidence=confidence, scale=1.0)  # weighted by the points' own errors
-        if not known:
-            fit = _undetermined(fit, "the standard errors of the points are not known: those of the law are not")
-        how = "the points' own standard errors propagated (as many speeds as parameters: the law is exact)"
-    else:
+    floors = sorted({float(f"{math.sqrt(max(p.measurement_error ** 2 - p.stderr ** 2, 0.0)):.2g}") for p in pts}
+                    if known else set())
+    floor_text = "/".join(f"{f:.2g}" for f in floors)
+    if known:
+        fit = _normal_intervals(uncertainty(found, confidence=confidence, scale=1.0))
+        how = ("weighted by each point's standard error and the pipeline's own error of r "
+               f"({floor_text}), known scale")
+    elif len(pts) > n_params:
         fit = uncertainty(found, confidence=confidence)
         how = "ordinary least squares, scaled by the residual scatter (reduced chi-square)"
+    else:
+        fit = _undetermined(uncertainty(found, confidence=confidence, scale=1.0),
+                            "the standard errors of the points are not known: those of the law are not")
+        how = "as many speeds as parameters, the points' standard errors unknown"
     values = found.values()
     resid = r - (values["a"] + values["b"] * omega)
     check_stats, check_notes = ({}, ())
-    noise_known = bool(np.all(np.isfinite(se)) and np.all(se > 0.0))
-    if noise_known:
-        check_stats, check_notes = residual_against_noise(resid, se, what="restitution")
+    if known:
+        check_stats, check_notes = residual_against_noise(resid, sigma, what="restitution")
     else:
         notes.append("the points' standard errors are not all known: the law is not checked against them")
     order = np.argsort(omega, kind="stable")
-    checked = check_model(resid[order], se[order] if noise_known else None,
-                          noise_reference="each cam speed's standard error (the scatter over its revolutions)",
-                          what="restitution", n_params=len(found.varying), covariate=omega[order],
-                          covariate_name="cam speed [rad/s]",
-                          assumed_over_noise=1.0 if exact else None,
-                          assumed_sd=math.sqrt(fit.scale) if not exact and math.isfinite(fit.scale) else None)
+    checked = check_model(resid[order], sigma[order] if known else None,
+                          noise_reference=("each cam speed's standard error (the scatter over its revolutions) and "
+                                           f"the pipeline's own error of r ({floor_text})"),
+                          what="restitution", n_params=n_params, covariate=omega[order],
+                          covariate_name="cam speed [rad/s]", assumed_over_noise=1.0 if known else None,
+                          assumed_sd=None if known or not math.isfinite(fit.scale) else math.sqrt(fit.scale))
     parameters = checked.widen(fit.parameters)
     comparison = None
     if not one_speed and len(pts) > 2:
-        constant = r - np.mean(r)
+        w2 = weight * weight
+        constant = (r - float(np.sum(w2 * r) / np.sum(w2))) * weight
+        line_coef = np.linalg.lstsq(np.column_stack((np.ones_like(omega), omega)) * weight[:, None], r * weight,
+                                    rcond=None)[0]
+        line = (r - (line_coef[0] + line_coef[1] * omega)) * weight
         comparison = compare_models([{"name": "constant r", "n_params": 1, "n_data": len(pts),
                                       "rss": float(constant @ constant)},
                                      {"name": "a + b omega", "n_params": 2, "n_data": len(pts),
-                                      "rss": float(resid @ resid)}],
-                                    nested=[("constant r", "a + b omega")], choice="constant r or r = a + b omega")
+                                      "rss": float(line @ line)}],
+                                    nested=[("constant r", "a + b omega")], choice="constant r or r = a + b omega",
+                                    known_scale=known)
     described = identifiability(found, fit, comparison=comparison, describes_data=checked.describes_data,
                                 quadratic_reason="the law is linear: the quadratic profile is exact")
     statistics = {**fit.statistics, "speeds": len(pts), "residual_rms": float(np.sqrt(np.mean(resid**2))),
                   **{k: v for k, v in check_stats.items() if k != "residual_rms"}}
     b = values["b"]
     rpm = 2.0 * math.pi / 60.0
-    stderr_b = parameters[1].stderr if not one_speed else math.nan
-    details = {"method": ", ".join(sorted({p.method for p in pts})),
-               "law": {"a": values["a"], "b_per_rad_s": b, "b_per_rpm": b * rpm},
+    stderr_b = parameters[1].stderr if not constant_law else math.nan
+    details = {"method": ", ".join(sorted({p.method for p in pts})), "fitted_law": "constant" if constant_law
+               else "linear", "law": {"a": values["a"], "b_per_rad_s": b, "b_per_rpm": b * rpm},
                "stderr_b_per_rpm": stderr_b * rpm, "covariance": how,
+               "point_errors": [float(v) for v in sigma],
                "correlation": {"names": list(fit.names), "matrix": fit.correlation}}
     table = pd.DataFrame([{**{k: v for k, v in p.to_dict().items() if k != "warnings"},
-                           "notes": "; ".join(p.warnings)} for p in pts])
+                           "measurement_error": p.measurement_error, "notes": "; ".join(p.warnings)} for p in pts])
     return SpeedLawResult(params=parameters, statistics=statistics,
                           notes=(*notes, *fit.notes, *check_notes, *checked.further_notes),
                           tables={"points": table}, details=details, points=pts,
                           provenance=(f"impactid.rigs.flat.encoder_impacts.fit_speed_law: {len(pts)} cam speed(s), "
-                                      f"{how}",), model_check=combine_checks([checked]), identifiability=described)
+                                      f"{'constant' if constant_law else 'linear'} law, {how}",),
+                          model_check=combine_checks([checked]), identifiability=described)
+
+
+def _normal_intervals(fit: Uncertainty) -> Uncertainty:
+    """``fit`` with the normal quantile in its intervals: the scale is known (the points' errors), so the
+    Student-t of the engine's default (a scale estimated from ``dof`` residuals) does not apply."""
+    q = float(stats.norm.ppf(0.5 + 0.5 * fit.confidence))
+    parameters = tuple(p if p.fixed or not math.isfinite(p.stderr) else replace(
+        p, interval=(p.value - q * p.stderr, p.value + q * p.stderr)) for p in fit.parameters)
+    return replace(fit, parameters=parameters)
 
 
 def _undetermined(fit: Uncertainty, reason: str) -> Uncertainty:

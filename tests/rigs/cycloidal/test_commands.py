@@ -44,6 +44,7 @@ def test_simulate_text_files_and_level_b(tmp_path, capsys):
     assert d["converged"] and not d["jump"] and len(d["per_step"]["h_m"]) == 500
     assert sorted(p.name for p in plots.iterdir()) == ["entraining.png", "film.png", "hertz.png", "kinematics.png",
                                                       "load.png", "squeeze.png"]
+    assert sorted(d["plots"]) == sorted(str(p) for p in plots.iterdir())  # the figures written, not []
 
 
 def test_rig_file_and_operating_speed(tmp_path, capsys):
@@ -58,6 +59,19 @@ def test_jump_speed_json(capsys):
     assert d["rigid_jump_speed_rpm"] == pytest.approx(3239.5, abs=0.1)
     d = _json(capsys, ["valvetrain", "jump-speed", "--rig", RIG, "--level", "rigid", "--json"])
     assert d["jump_speed_rpm"] == pytest.approx(3239.5, abs=0.1)
+
+
+def test_jump_speed_out_lists_its_figures_and_only_with_plots(tmp_path, capsys):
+    """``--out`` JSON: ``plots`` names the figures written with ``--plots`` (not an empty list written
+    before them) and is absent without it, as in the other commands."""
+    argv = ["valvetrain", "jump-speed", "--rig", RIG, "--level", "rigid"]
+    bare, out, plots = tmp_path / "bare.json", tmp_path / "jump.json", tmp_path / "figs"
+    assert main([*argv, "--out", str(bare)]) == 0
+    assert "plots" not in json.loads(bare.read_text())
+    assert main([*argv, "--out", str(out), "--plots", str(plots)]) == 0
+    capsys.readouterr()
+    assert json.loads(out.read_text())["plots"] == [str(plots / "jump_speed.png")]
+    assert (plots / "jump_speed.png").is_file()
 
 
 @pytest.mark.slow

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from impactid.cli import main
+from impactid.engine import compare_models
 from impactid.engine.covariance import CONDITION_LIMIT
 from impactid.errors import ImpactidError
 from impactid.io import CHANNEL_UNITS, Recording, write_hdf5
@@ -34,6 +35,7 @@ from impactid.rigs.flat.camprofile import (
     CamProfileError,
     CamProfileResult,
     GaussianSumProfile,
+    _chosen_order,
     compare_profiles,
     fit_cam_profile,
     gaussian_sum,
@@ -245,6 +247,22 @@ def test_auto_order_selection_reports_the_table(rec110):
     assert table["rms"][table["terms"] == fit.terms].item() < 1.1 * table["rms"].min()
     assert int(table.loc[table["aic"].idxmin(), "terms"]) >= fit.terms
     assert compare_profiles(fit.profile, _analytic, directions=(1,)).rms <= PROFILE_RMS
+    # the report's preferred order is the order fitted (the tests' own preference kept beside it, with why)
+    comparison = fit.identifiability["model_comparison"]
+    assert comparison["preferred"] == f"{fit.terms} terms" and f"preferred {fit.terms} terms" in fit.report()
+    other = comparison.get("preferred_by_likelihood_ratio")
+    assert other is None or (other != comparison["preferred"] and any(other in n for n in fit.notes))
+
+
+def test_chosen_order_replaces_the_tests_preference():
+    rows = [{"name": f"{k} terms", "n_params": 3 * k, "n_data": 1000, "rss": rss}
+            for k, rss in ((3, 2.0), (4, 1.0), (5, 0.9999))]
+    comparison = compare_models(rows, nested=[("3 terms", "4 terms"), ("4 terms", "5 terms")])
+    assert comparison["preferred"] == "4 terms"
+    assert _chosen_order(comparison, 4, "bic") is comparison  # agreeing: unchanged
+    changed = _chosen_order(comparison, 3, "bic")
+    assert changed["preferred"] == "3 terms" and changed["preferred_by_likelihood_ratio"] == "4 terms"
+    assert "BIC" in changed["rule"] and comparison["preferred"] == "4 terms"
 
 
 # ---- data selection ------------------------------------------------------------------------------

@@ -7,6 +7,7 @@ are made with a known linear law; the target is r(omega) within 2 %.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,12 +15,15 @@ import pytest
 from impactid.results import FitResult
 from impactid.rigs.flat import ALZATE2007 as RIG
 from impactid.rigs.flat.encoder_impacts import (
+    RESTITUTION_SYSTEMATIC,
+    SYSTEMATIC_FOLLOWER_STEP,
     EncoderImpactError,
     RestitutionAtSpeed,
     SpeedLawResult,
     fit_speed_law,
     relative_motion,
     restitution_at_speed,
+    systematic_error,
 )
 from impactid.rigs.flat.simulate import SpeedRestitution
 from impactid.rigs.flat.synth import synth_flat_encoders
@@ -107,36 +111,96 @@ def _point(rpm, r, se, source="x.h5"):
                               bounce_height=1e-3, impacts=None, source=source)
 
 
-def test_speed_law_on_the_engine_ordinary_and_exact():
-    """Three speeds: ordinary least squares with the covariance from the residual scatter (the
-    textbook formulas); two speeds: the exact line with the points' own errors propagated; one
-    speed: a constant, b fixed. No recording needed."""
+def test_speed_law_weighted_by_the_points_whole_errors():
+    """Each point weighs by sqrt(stderr^2 + floor^2), the pipeline's own error of r included, with a
+    known scale (normal quantile): the textbook weighted least squares. Two speeds: the exact line with
+    those errors propagated; one speed: a constant, b fixed. No recording needed."""
     rpm = np.array([130.0, 140.0, 150.0])
-    r = np.array([0.65, 0.62, 0.57])
-    fit = fit_speed_law([_point(v, ri, 1e-3) for v, ri in zip(rpm, r, strict=True)])
+    r = np.array([0.65, 0.612, 0.57])
+    se = np.array([1e-3, 2e-3, 1e-8])
+    fit = fit_speed_law([_point(v, ri, s) for v, ri, s in zip(rpm, r, se, strict=True)])
+    sigma = np.hypot(se, RESTITUTION_SYSTEMATIC)
     omega = 2 * math.pi * rpm / 60
-    X = np.column_stack((np.ones(3), omega))
-    coef, *_ = np.linalg.lstsq(X, r, rcond=None)
-    resid = r - X @ coef
-    cov = np.linalg.inv(X.T @ X) * (resid @ resid) / 1
-    assert fit.value("a") == pytest.approx(coef[0], rel=1e-10) and fit.value("b") == pytest.approx(coef[1], rel=1e-9)
+    X = np.column_stack((np.ones(3), omega)) / sigma[:, None]
+    coef, *_ = np.linalg.lstsq(X, r / sigma, rcond=None)
+    cov = np.linalg.inv(X.T @ X)
+    assert fit.value("a") == pytest.approx(coef[0], rel=1e-9) and fit.value("b") == pytest.approx(coef[1], rel=1e-8)
     assert fit.stderr_a == pytest.approx(math.sqrt(cov[0, 0]), rel=1e-6)
     assert fit.stderr_b == pytest.approx(math.sqrt(cov[1, 1]), rel=1e-6)
-    assert fit.details["correlation"]["matrix"][0][1] == pytest.approx(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]),
-                                                                       rel=1e-6)
-    # the line misses the middle point by 6.7 times its standard error (0.01 * 2 / 3): the check says so
-    assert fit.statistics["residual_over_noise"] > 1.5 and any("lack of fit" in n for n in fit.notes)
+    assert fit["b"].interval[1] - fit.value("b") == pytest.approx(1.959964 * fit.stderr_b, rel=1e-5)
+    assert fit.details["point_errors"] == pytest.approx(sigma.tolist(), rel=1e-12)
+    assert fit.model_check["verdict"] == "consistent" and fit.model_check["inflation"] == 1.0
+
+    # the middle point 6 floors off the line: a lack of fit, the intervals widened by it
+    bent = fit_speed_law([_point(v, ri, 1e-3) for v, ri in zip(rpm, (0.65, 0.64, 0.57), strict=True)])
+    assert bent.model_check["verdict"] == "lack of fit" and bent.statistics["residual_over_noise"] > 1.5
+    assert bent.model_check["inflation"] > 2.0 and any("lack of fit" in n for n in bent.notes)
 
     two = fit_speed_law([_point(130.0, 0.65, 2e-3), _point(150.0, 0.57, 1e-3)])
     w1, w2 = 2 * math.pi * 130 / 60, 2 * math.pi * 150 / 60
+    s1, s2 = math.hypot(2e-3, RESTITUTION_SYSTEMATIC), math.hypot(1e-3, RESTITUTION_SYSTEMATIC)
     assert two.value("b") == pytest.approx((0.57 - 0.65) / (w2 - w1), rel=1e-10)
-    assert two.stderr_b == pytest.approx(math.hypot(2e-3, 1e-3) / (w2 - w1), rel=1e-9)
-    assert two.stderr_a == pytest.approx(math.hypot(2e-3 * w2, 1e-3 * w1) / (w2 - w1), rel=1e-9)
+    assert two.stderr_b == pytest.approx(math.hypot(s1, s2) / (w2 - w1), rel=1e-9)
+    assert two.stderr_a == pytest.approx(math.hypot(s1 * w2, s2 * w1) / (w2 - w1), rel=1e-9)
     assert two.residual_rms < 1e-12 and not two.notes
 
     one = fit_speed_law([_point(140.0, 0.61, 1e-3, "only.h5")])
-    assert one["b"].fixed and one.value("a") == pytest.approx(0.61) and one.stderr_a == pytest.approx(1e-3)
+    assert one["b"].fixed and one.value("a") == pytest.approx(0.61)
+    assert one.stderr_a == pytest.approx(math.hypot(1e-3, RESTITUTION_SYSTEMATIC))
     assert math.isnan(one.stderr_b) and any("one cam speed" in n for n in one.notes)
+
+    # unknown scatter (one impact): ordinary least squares on the residual, not checked against a noise
+    unknown = fit_speed_law([_point(v, ri, math.nan) for v, ri in zip(rpm, r, strict=True)])
+    assert unknown.model_check["checks"][0]["noise_reference"].startswith("none")
+    with pytest.raises(ValueError, match="linear, constant"):
+        fit_speed_law([_point(140.0, 0.61, 1e-3)], law="quadratic")
+
+
+def test_systematic_error_grows_with_a_coarser_follower_count():
+    assert systematic_error(SYSTEMATIC_FOLLOWER_STEP) == RESTITUTION_SYSTEMATIC
+    assert systematic_error(SYSTEMATIC_FOLLOWER_STEP / 4) == RESTITUTION_SYSTEMATIC  # finer: the measured floor
+    assert systematic_error(0.0) == RESTITUTION_SYSTEMATIC
+    assert systematic_error(2.5 * SYSTEMATIC_FOLLOWER_STEP) == pytest.approx(6.25 * RESTITUTION_SYSTEMATIC)
+    point = replace(_point(140.0, 0.61, 1e-3), systematic=0.01)
+    assert point.measurement_error == pytest.approx(math.hypot(1e-3, 0.01))
+    assert point.to_dict()["systematic"] == 0.01
+
+
+@pytest.mark.slow
+def test_noise_free_right_law_is_consistent_and_covers(impact_law_points):
+    """Noise-free recordings of the right (linear) law: the check finds nothing, the intervals as
+    computed cover the truth and are not absurd (the notebook's case once gave x 4e3)."""
+    fit = fit_speed_law(impact_law_points.values())
+    assert all(p.systematic == RESTITUTION_SYSTEMATIC for p in fit.points)  # 10 000-count follower encoder
+    assert fit.model_check["verdict"] == "consistent" and fit.model_check["action"] == "none"
+    for name, truth in (("a", LAW.a), ("b", LAW.b)):
+        low, high = fit[name].interval
+        assert low <= truth <= high
+        assert high - low < 0.5 * abs(truth)  # +-17 % for b from three speeds 10 rpm apart
+
+
+@pytest.mark.slow
+def test_wrong_law_is_warned(impact_law_points):
+    """A speed-dependent r fitted as a constant: lack of fit, intervals widened, not separable; the
+    constant law on the same points, and the line on points of a curved law, likewise."""
+    fit = fit_speed_law(impact_law_points.values(), law="constant")
+    assert fit["b"].fixed and fit.details["fitted_law"] == "constant"
+    assert fit.model_check["verdict"] == "lack of fit" and fit.model_check["action"] in ("widened", "withheld")
+    assert fit.model_check["describes_data"] is False
+    assert fit.identifiability["model_comparison"]["preferred"] == "a + b omega"
+
+
+@pytest.mark.slow
+def test_line_through_a_curved_law_is_warned():
+    """r(omega) curved (each recording at one cam speed with its own r: 0.65, 0.58, 0.65 at 130, 140 and
+    150 rpm): the line misses the middle point by 14 floors."""
+    points = []
+    for rpm, r in ((130.0, 0.65), (140.0, 0.58), (150.0, 0.65)):
+        s = synth_flat_impacting(RIG, rpm / 60.0, 4.0, restitution=r, cam_zero_offset=0.4 + rpm / 90.0)
+        points.append(restitution_at_speed(s.recording, warn=False))
+    fit = fit_speed_law(points)
+    assert fit.model_check["verdict"] == "lack of fit" and fit.model_check["inflation"] > 3.0
+    assert fit.model_check["describes_data"] is False
 
 
 def test_permanent_contact_has_no_impacts():
