@@ -348,10 +348,10 @@ ONSET_FIT_SPAN = 46
 #: ``least_squares`` per event (:func:`_fit_onset`; 5 ms each, 5 s for a 60 s recording), or
 #: ``"batched"``, one Levenberg–Marquardt iteration over all events (:func:`_fit_onsets`; 50 to 100 times
 #: faster, and at the minimum, where SciPy stops within its ``xtol`` of 1e-8 of ``k0``: the onsets differ
-#: by 1e-5 to 2e-3 samples, more where SciPy stopped on a bound at a worse minimum). "scipy" stays the
-#: default while the golden example (tests/golden/estimate_example_fix_n.json, whose tolerances assume
-#: SciPy's stopping point) is not regenerated: "batched" moves its beta by 1e-5 relative.
-ONSET_FIT = "scipy"
+#: by 1e-5 to 2e-3 samples, more where SciPy stopped on a bound at a worse minimum). "batched" is the
+#: default: it moved the old golden example's beta by 1e-5 relative, and the golden example
+#: (tests/golden/estimate_example_fix_n.json) is made with it.
+ONSET_FIT = "batched"
 ONSET_FITS = ("scipy", "batched")
 #: The onset fit's Levenberg–Marquardt iterations at most, and its stop: the scaled step below this
 #: [-] (the parameters in units of their scales: ``c`` of its guess, ``t0`` of 1 sample, ``p`` of 0.5).

@@ -432,7 +432,8 @@ def test_campaign_on_a_local_cluster_survives_a_worker_death(tmp_path, recording
     assert "local cluster" in result.where
     assert list(result.table["status"]) == list(serial["status"])
     assert list(result.table["key"]) == list(serial["key"])
-    assert np.array_equal(result.table["beta"].to_numpy(), serial["beta"].to_numpy(), equal_nan=True)
+    assert np.array_equal(result.table["beta"].to_numpy(), serial["beta"].to_numpy(), equal_nan=True), (
+        result.table[["key", "beta"]], serial[["key", "beta"]])
 
 
 def test_a_joint_fit_with_a_recording_that_cannot_be_prepared_fits_the_others(tmp_path, recordings):

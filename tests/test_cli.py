@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 
 import pytest
 
@@ -111,14 +112,56 @@ def test_synth_s3_and_rig_f(tmp_path, capsys):
 
 def test_example_recording_is_cached_and_readable(tmp_path, monkeypatch):
     monkeypatch.setenv("IMPACTID_CACHE_DIR", str(tmp_path))
-    from impactid.rigs.pivoted.example import example_recording, example_recording_path
+    from impactid.rigs.pivoted.example import EXAMPLE_POINTS, EXAMPLE_RECIPE, example_recording, example_recording_path
 
     path = example_recording_path()
     assert path.parent == tmp_path
     mtime = path.stat().st_mtime_ns
     rec = example_recording()
-    assert rec.n_samples == 204_800 and rec.cam_speed_hz == 16.0 and rec.rig.e_over_rc == pytest.approx(0.05)
+    (ratio, speed), recipe = EXAMPLE_POINTS[0], EXAMPLE_RECIPE
+    assert rec.n_samples == round(recipe["duration"] * recipe["sample_rate_hz"])
+    assert rec.cam_speed_hz == speed and rec.rig.e_over_rc == pytest.approx(ratio)
     assert example_recording_path().stat().st_mtime_ns == mtime  # cached, not regenerated
+
+
+def test_example_truth_comes_from_the_recipe_for_the_example_files_only(tmp_path):
+    """The truth printed beside the example's estimates is the recipe's, named by the example's file names
+    (no file is read); other recordings, or only some of the example's, get none."""
+    from impactid.rigs.pivoted.example import EXAMPLE_POINTS, EXAMPLE_RECIPE, _example_name, example_truth
+
+    names = [tmp_path / _example_name(k) for k in range(len(EXAMPLE_POINTS))]
+    truth = example_truth(names)
+    assert truth["beta"] == EXAMPLE_RECIPE["beta"] and truth["n"] == EXAMPLE_RECIPE["n"]
+    assert example_truth(names[:1]) is None and example_truth([tmp_path / "op1.h5", tmp_path / "op2.h5"]) is None
+
+
+def _interval_line(out: str, name: str) -> tuple[float, float, float, float]:
+    """(estimate, low, high, truth) of ``name``'s line of ``impactid estimate --example``'s summary."""
+    line = next(line for line in out.splitlines() if line.strip().startswith(f"{name} "))
+    match = re.search(r"= (\S+) .*95 % interval \[(\S+), (\S+)\]\s+example made with (\S+)", line)
+    assert match, line
+    return tuple(float(v) for v in match.groups())
+
+
+@pytest.mark.slow
+def test_estimate_example_prints_the_truth_inside_its_intervals(capsys):
+    """``impactid estimate --example`` (README line 1): the recipe's law beside each estimate, inside the 95 %
+    intervals, beta's interval within a factor 1.2 (n determined to about +-0.005), no warning but the
+    restitution law's, which the summary says to expect."""
+    from impactid.rigs.pivoted.example import EXAMPLE_RECIPE
+    assert main(["estimate", "--example"]) == 0
+    out = capsys.readouterr().out
+    for name in ("beta", "n", "c_ref"):
+        value, low, high, truth = _interval_line(out, name)
+        assert low <= value <= high and low <= truth <= high, (name, out)
+    _, beta_low, beta_high, _ = _interval_line(out, "beta")
+    assert beta_high <= 1.2 * beta_low, out
+    assert _interval_line(out, "beta")[3] == EXAMPLE_RECIPE["beta"]
+    assert _interval_line(out, "n")[3] == EXAMPLE_RECIPE["n"]
+    assert "95 % confidence intervals" in out and "second model of the same impacts" in out
+    warned = [line for line in out.splitlines() if line.strip().startswith("warning:")]
+    assert all("'xi about" in line for line in warned), warned
+    assert not warned or "expected to find structure" in out
 
 
 def _tables_as_records(data: dict) -> dict:
@@ -133,6 +176,7 @@ def _tables_as_records(data: dict) -> dict:
 def test_estimate_example_fixed_n_writes_the_format_keys(tmp_path, capsys):
     from impactid.results import FitResult
     from impactid.rigs.pivoted.estimate_results import PivotedEstimateResult
+    from impactid.rigs.pivoted.example import EXAMPLE_RECIPE
 
     out = tmp_path / "result.json"
     assert main(["estimate", "--example", "--fix-n", "1.5", "--out", str(out), "--plots", str(tmp_path / "fig")]) == 0
@@ -146,6 +190,11 @@ def test_estimate_example_fixed_n_writes_the_format_keys(tmp_path, capsys):
     # the example was made with beta = 24.7e9: the interval must hold it (the estimate lies inside by construction)
     assert params["beta"]["interval"][0] <= 24.7e9 <= params["beta"]["interval"][1]
     assert params["beta"]["min"] < params["beta"]["value"] < params["beta"]["max"]
+    # the law the example was made with, from its recipe, beside the estimate (not read from the files)
+    truth = data["details"]["truth"]
+    assert truth["beta"] == EXAMPLE_RECIPE["beta"] and truth["n"] == 1.5 and "recipe" in truth["source"]
+    c_lo, c_hi = data["details"]["contact_damping"]["c_ref_interval"]
+    assert c_lo <= data["details"]["contact_damping"]["c_ref"] <= c_hi and c_lo <= truth["c_ref"] <= c_hi
     again = FitResult.from_json(out)
     assert type(again) is PivotedEstimateResult and again.to_dict() == {k: v for k, v in data.items()
                                                                          if k not in ("recordings_read", "plots")}

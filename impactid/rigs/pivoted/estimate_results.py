@@ -125,25 +125,34 @@ class DampingEstimate:
     #: block, with rig P's contact-duration check) and the identifiability block (empty: not made)
     model_check: Mapping[str, Any] = field(default_factory=dict)
     identifiability: Mapping[str, Any] = field(default_factory=dict)
+    #: 95 % interval of ``c = beta delta_ref^n`` [N s/m] (:func:`~impactid.rigs.pivoted.estimation.fit`: with
+    #: ``n`` fixed, beta's interval times ``delta_ref^n``; with ``n`` estimated, beta's interval of the fit
+    #: repeated with ``n`` held at its estimate times ``delta_ref^n``, widened by the change of ``c`` along the
+    #: valley over ``n``'s interval); NaN where not made (``beta, n`` not separable, interval withheld)
+    c_interval: tuple[float, float] = (math.nan, math.nan)
 
     @property
     def damping_at_reference(self) -> float:
-        """``c = beta delta_ref^n`` [N s/m]."""
+        """``c = beta delta_ref^n`` [N s/m]: the damping coefficient at the reference indentation (the
+        median measured peak indentation), the search's coordinate; its unit does not change with ``n``."""
         return self.beta * self.delta_ref ** self.n
 
     def to_result(self) -> ContactDampingResult:
         """The estimate as a shared :class:`~impactid.results.FitResult` (report, JSON round trip, tables)."""
         unit = f"N s m^-({self.n:.4g}+1)"
         why = "" if self.separable in (None, True) else "beta and n are not separable from these data"
-        params = [Parameter("beta", self.beta, interval=self.beta_interval, unit=unit, note=why),
-                  Parameter("n", self.n, stderr=0.0 if self.fixed_n else math.nan,
+        no_stderr = f"no standard error from the {self.method} method: the interval is the uncertainty"
+        params = [Parameter("beta", self.beta, stderr=self.beta_stderr, interval=self.beta_interval, unit=unit,
+                            note=why or ("" if math.isfinite(self.beta_stderr) else no_stderr)),
+                  Parameter("n", self.n, stderr=0.0 if self.fixed_n else self.n_stderr,
                             interval=(self.n, self.n) if self.fixed_n else self.n_interval, fixed=self.fixed_n,
-                            note=why)]
+                            note=why or ("" if self.fixed_n or math.isfinite(self.n_stderr) else no_stderr))]
         statistics = {"residual": self.residual, "objective": self.objective, "indifference": self.indifference,
                       "events": int(np.isfinite(self.per_event["residual"]).sum()), "simulations": self.n_simulations,
                       "failed_simulations": self.n_failed_simulations, "seconds": self.seconds}
         details = {"method": self.method, "separable": self.separable, "delta_ref": self.delta_ref,
-                   "c_ref": self.damping_at_reference, "beta_bootstrap_95": list(self.beta_bootstrap_interval),
+                   "c_ref": self.damping_at_reference, "c_ref_interval": list(self.c_interval),
+                   "beta_bootstrap_95": list(self.beta_bootstrap_interval),
                    "n_bootstrap_95": list(self.n_bootstrap_interval)}
         return ContactDampingResult(params=params, statistics=statistics, notes=self.warnings,
                                     tables={"per_event": self.per_event, "valley": self.valley}, details=details,
@@ -226,16 +235,34 @@ class Estimate:
     pipeline: dict = field(default_factory=dict)
 
     def report(self) -> str:
-        """lmfit-style reports of the damping and the restitution fits, with the recordings and notes."""
-        parts = [self.damping.to_result().report()]
-        parts.append(self.restitution.to_result().report() if self.restitution is not None
-                     else "[[restitution]]\n    not estimated (see the notes)")
-        parts.append("[[Recordings]]\n" + "\n".join(
-            f"    {s}: {op['events']} events at e/r_c {op['e_over_rc']:.4g}, {op['cam_speed_hz']:.4g} Hz"
-            for s, op in zip(self.sources, self.operating_points)))
-        if self.warnings:
-            parts.append("[[Notes]]\n" + "\n".join(f"    - {w}" for w in self.warnings))
-        return "\n".join(parts)
+        """An lmfit-style fit report of the whole estimate (:meth:`to_result`'s, :meth:`FitResult.report
+        <impactid.results.FitResult.report>`): one table of the parameters (the contact damping ``beta, n``
+        and, as a second model of the same impacts, the restitution laws), then the damping at the reference
+        indentation (a unit that does not change with ``n``), what the restitution rows are, the recordings,
+        the model check, the identifiability block and the notes, each note once."""
+        lines = self.to_result(per_impact=False).report().splitlines()
+        d, r = self.damping, self.restitution
+        c_lo, c_hi = d.c_interval
+        c_interval = (f"[{c_lo:.5g}, {c_hi:.5g}]" if math.isfinite(c_lo) and math.isfinite(c_hi)
+                      else "n/a (no interval of beta; see the notes)")
+        extra = ["[[Damping at the reference indentation]]",
+                 f"    c_ref = beta delta_ref^n = {d.damping_at_reference:.5g} N s/m, 95 % interval {c_interval}",
+                 f"    (delta_ref = {d.delta_ref * 1e6:.4g} µm, the median measured peak indentation; the unit "
+                 "of c_ref does not change with n)"]
+        if r is not None:
+            extra += ["[[Restitution]]",
+                      "    gamma, r_constant, intercept, slope: the restitution laws xi = 1 - gamma v_a, xi = r and "
+                      "xi = a - b v_a",
+                      f"    (xi = v_s / v_a over {r.impacts_used} impacts), a second model of the same impacts (rigid "
+                      "impacts), not an estimate of beta",
+                      f"    (1.5 gamma k_H = {r.beta_equivalent:.4g} N s m^-2.5 equals beta at n = 1.5 only for xi "
+                      f"near 1; mean xi here {r.xi_mean:.3g})"]
+        extra.append("[[Recordings]]")
+        extra += [f"    {s}: {op['events']} events at e/r_c {op['e_over_rc']:.4g}, {op['cam_speed_hz']:.4g} Hz"
+                  for s, op in zip(self.sources, self.operating_points)]
+        blocks = ("[[Model Check]]", "[[Identifiability]]", "[[Notes]]")
+        at = next((i for i, line in enumerate(lines) if line in blocks), len(lines))
+        return "\n".join(lines[:at] + extra + lines[at:])
 
     def to_result(self, per_impact: bool = True) -> PivotedEstimateResult:
         """The whole estimate as one shared :class:`~impactid.results.FitResult` (``pivoted-estimate``).
@@ -307,7 +334,8 @@ class Estimate:
             "uncertainty": {"beta_bootstrap_95": list(d.beta_bootstrap_interval),
                             "n_bootstrap_95": list(d.n_bootstrap_interval), "beta_sd_from_cam_phase": d.phase_beta_sd,
                             "n_sd_from_cam_phase": d.phase_n_sd},
-            "contact_damping": {"method": d.method, "delta_ref": d.delta_ref, "c_ref": d.damping_at_reference},
+            "contact_damping": {"method": d.method, "delta_ref": d.delta_ref, "c_ref": d.damping_at_reference,
+                                "c_ref_interval": list(d.c_interval)},
             "restitution": None if r is None else {"beta_equivalent": r.beta_equivalent},
             "pipeline": options,
         }

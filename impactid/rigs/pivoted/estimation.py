@@ -38,12 +38,14 @@ from impactid.rigs.pivoted.estimates import (
     METHODS,
     N_BOUNDS,
     SEPARABILITY_WIDTH,
+    DampingEstimate,
     Estimate,
     EstimationWarning,
     Progress,
     fit_contact_damping,
     fit_restitution,
 )
+from impactid.rigs.pivoted.example import example_truth
 from impactid.rigs.pivoted.reconstruct import Reconstruction, reconstruct
 from impactid.rigs.pivoted.residuals import EventSet, residual_name
 
@@ -185,11 +187,14 @@ def fit(prepared: Sequence[PreparedRecording], options: Mapping[str, Any],
     damping = fit_contact_damping(sets, options["residual"], **fit_options, progress=progress, warn=False)
     collected += damping.warnings
     calibration: list[dict] = []
+    systematic = 0.0
     if _calibrated(options):
         first = damping
-        damping, sets, calibration = _calibrate(damping, [d.sampling for d in data], sets, fit_options,
-                                                integration=options["integration"], anchor=options["anchor"])
+        damping, sets, calibration, systematic = _calibrate(damping, [d.sampling for d in data], sets, fit_options,
+                                                            integration=options["integration"],
+                                                            anchor=options["anchor"])
         collected += damping.warnings if damping is not first else ()
+    damping = _with_reference_interval(damping, sets, fit_options, systematic)
     # a part of the job that cannot be done does not take the others with it: without a
     # determined xi the restitution law is missing from the result, with the reason
     try:
@@ -240,7 +245,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
     record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
     applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
     if not any(applied):
-        return damping, sets, record
+        return damping, sets, record, 0.0
     corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
     systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
     again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
@@ -252,7 +257,44 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
               "widened by half the correction plus two standard errors")
     again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
                     seconds=again.seconds + damping.seconds)
-    return again, corrected, record
+    return again, corrected, record, systematic
+
+
+def _with_reference_interval(damping, sets, fit_options: dict, systematic: float):
+    """The damping estimate with the 95 % interval of ``c = beta delta_ref^n`` [N s/m] (``c_interval``).
+
+    With ``n`` fixed, ``c`` is beta times a constant: beta's interval times ``delta_ref^n``. With ``n``
+    estimated, beta's interval spans mostly the valley (a change ``dn`` moves beta by ``delta_ref^-dn``)
+    along which ``c`` barely changes: the fit is repeated with ``n`` held at its estimate (the same
+    event sets, options and systematic error, so the same statistical, cam-phase and systematic terms)
+    and its beta interval, times ``delta_ref^n``, widened on each side by the largest relative change of
+    ``c`` along the valley within ``n``'s interval, is ``c``'s. Not made (NaN) where beta and n are not
+    separable or the model check withholds the intervals: then no interval of ``c`` is stated either.
+    """
+    scale = damping.delta_ref ** damping.n
+    withheld = (damping.model_check or {}).get("action") == "withheld"
+    if withheld or not all(math.isfinite(v) for v in damping.beta_interval):
+        return damping
+    if damping.fixed_n:
+        return replace(damping, c_interval=(damping.beta_interval[0] * scale, damping.beta_interval[1] * scale))
+    if not damping.separable:
+        return damping
+    held = fit_contact_damping(sets, damping.residual, **dict(fit_options, fix_n=damping.n, landscape=False),
+                               systematic=systematic, warn=False)
+    if (held.model_check or {}).get("action") == "withheld" or not all(map(math.isfinite, held.beta_interval)):
+        return damping
+    c_hat = damping.damping_at_reference
+    lo, hi = held.beta_interval[0] * scale, held.beta_interval[1] * scale
+    valley = damping.valley
+    inside = valley[(valley["n"] >= damping.n_interval[0]) & (valley["n"] <= damping.n_interval[1])]
+    if len(inside):
+        c_valley = inside["beta"].to_numpy(float) * damping.delta_ref ** inside["n"].to_numpy(float)
+        c_valley = c_valley[np.isfinite(c_valley)]
+        if c_valley.size:
+            lo *= min(1.0, float(c_valley.min()) / c_hat)
+            hi *= max(1.0, float(c_valley.max()) / c_hat)
+    return replace(damping, c_interval=(min(lo, c_hat), max(hi, c_hat)),
+                   n_simulations=damping.n_simulations + held.n_simulations, seconds=damping.seconds + held.seconds)
 
 
 # ---- delivery: JSON, the printed summary, the figures -----------------------------------------------
@@ -261,37 +303,113 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
 def to_dict(result: Estimate) -> dict:
     """The estimate as JSON-ready data: the :class:`~impactid.results.FitResult` document of
     :meth:`~impactid.rigs.pivoted.estimate_results.Estimate.to_result` (``pivoted-estimate``,
-    docs/formats.md); ``impactid estimate`` adds ``recordings_read``."""
-    return result.to_result().to_dict()
+    docs/formats.md); ``impactid estimate`` adds ``recordings_read``. On the built-in example's
+    recordings, ``details.truth`` holds the law the example was made with (:func:`example_truth`, from
+    its recipe) and its ``c_ref`` at the estimate's reference indentation."""
+    data = result.to_result().to_dict()
+    truth = example_truth(result.sources)
+    if truth is not None:
+        data["details"]["truth"] = {**truth, "c_ref": _true_reference_damping(result, truth),
+                                    "source": "the built-in example's recipe (impactid.rigs.pivoted.example."
+                                              "EXAMPLE_RECIPE), not the recordings' /truth"}
+    return data
+
+
+def _true_reference_damping(result: Estimate, truth: Mapping[str, Any]) -> float:
+    """``c`` [N s/m] of the true law at the estimate's reference indentation."""
+    return float(truth["beta"]) * result.damping.delta_ref ** float(truth["n"])
+
+
+#: What the printed intervals are (one sentence, under the contact law's lines).
+INTERVALS = ("95 % confidence intervals of the contact law's parameters from these recordings: they hold the impacts' "
+             "scatter, each recording's cam-phase error and the pipeline's systematic error (docs/estimation.md)")
+
+#: What each residual compares (docs/estimation.md, "Residuals"), for the summary's first line.
+RESIDUAL_MEANING = {"lambda1": "the relative error of the maximum follower angle after each impact",
+                    "lambda2": "the relative misfit of each contact-force history",
+                    "lambda3": "the relative error of each hysteresis loop's area"}
+
+
+#: Below this mean ``xi`` the restitution law's Hunt-Crossley equivalent is said not to be comparable with beta.
+XI_NEAR_ONE = 0.9
+
+
+def _interval(low: float, high: float, fmt: str, why: str) -> str:
+    """``95 % interval [low, high]``, or ``95 % interval n/a (why)`` when either end is undetermined: never
+    "undetermined" beside a value that exists."""
+    if low is not None and high is not None and math.isfinite(low) and math.isfinite(high):
+        return f"95 % interval [{low:{fmt}}, {high:{fmt}}]"
+    return f"95 % interval n/a ({why})"
+
+
+def _why_no_interval(damping: DampingEstimate) -> str:
+    """Why the contact law's intervals are missing (for :func:`summary`)."""
+    if (damping.model_check or {}).get("action") == "withheld":
+        return "WITHHELD: the model check rejects the law; see the warnings"
+    if damping.separable is False:
+        return "beta and n are not separable from these data; see the warnings"
+    return "not determined by these data; see the warnings"
 
 
 def summary(result: Estimate) -> list[str]:
-    """The lines ``impactid estimate`` prints for an estimate."""
+    """The lines ``impactid estimate`` prints for an estimate: the Hunt-Crossley law with 95 % intervals
+    (and, on the built-in example's recordings, the values it was made with beside them), the damping
+    ``c`` at the reference indentation (a unit that does not change with ``n``), then the restitution
+    law as a second model of the same impacts, then the warnings, each once. An interval the data do not
+    give is ``n/a`` with its reason, never "undetermined" beside a value that exists."""
     d, r = result.damping, result.restitution
+    truth = example_truth(result.sources)
     used = int(np.isfinite(d.per_event["residual"]).sum())
-    lines = [f"impactid estimate: {len(result.sources)} recording(s), {used} impacts, residual "
-             f"{d.residual}, "
-             f"method {d.method} ({d.n_simulations} S1 simulations, {d.seconds:.2f} s)",
-             f"  beta  = {num(d.beta)} N s m^-{d.n + 1:.3g}   interval [{num(d.beta_interval[0])}, "
-             f"{num(d.beta_interval[1])}]"]
-    withheld = (d.model_check or {}).get("action") == "withheld"
-    if withheld:  # the intervals are missing because the model check rejects the law, not for want of data
-        lines[-1] += "   WITHHELD: the model check rejects the law (see warnings)"
+    why = _why_no_interval(d)
+
+    def made_with(value: float, fmt: str) -> str:
+        return "" if truth is None else f"   example made with {value:{fmt}}"
+
+    meaning = RESIDUAL_MEANING.get(d.residual, "")
+    lines = [f"impactid estimate: {len(result.sources)} recording(s), {used} impacts; contact law fitted (method "
+             f"{d.method}) on the residual {d.residual}" + (f" ({meaning})" if meaning else "")
+             + f"; {d.n_simulations} simulated impacts (S1), {d.seconds:.2f} s",
+             f"  beta  = {num(d.beta, '.4g')} N s m^-(n+1)   {_interval(*d.beta_interval, '.4g', why)}"
+             + made_with(truth["beta"] if truth else 0.0, ".4g")]
     if d.fixed_n:
-        lines.append(f"  n     = {d.n:.4g} (fixed)")
+        lines.append(f"  n     = {d.n:.5g} (fixed)" + made_with(truth["n"] if truth else 0.0, ".5g"))
     else:
-        tag = ("" if d.separable or withheld else "   NOT SEPARABLE from beta (see warnings)")
-        lines.append(f"  n     = {num(d.n, '.4g')}   interval [{num(d.n_interval[0], '.4g')}, "
-                     f"{num(d.n_interval[1], '.4g')}]{tag}")
-    lines.append(f"  objective (mean {d.residual}) = {num(d.objective, '.4g')}")
+        stated = all(math.isfinite(v) for v in d.n_interval)
+        withheld = (d.model_check or {}).get("action") == "withheld"
+        tag = "" if d.separable or withheld or not stated else "   NOT SEPARABLE from beta (see the warnings)"
+        lines.append(f"  n     = {num(d.n, '.5g')}   {_interval(*d.n_interval, '.5g', why)}{tag}"
+                     + made_with(truth["n"] if truth else 0.0, ".5g"))
+    lines.append(f"  c_ref = {num(d.damping_at_reference, '.5g')} N s/m   {_interval(*d.c_interval, '.5g', why)}"
+                 + made_with(_true_reference_damping(result, truth) if truth else 0.0, ".5g"))
+    lines.append("  (Hunt-Crossley law F = k_H delta^1.5 - beta delta^n d(delta)/dt; c_ref = beta delta_ref^n is the "
+                 f"damping at delta_ref = {d.delta_ref * 1e6:.4g} µm, the median measured peak indentation: its unit, "
+                 "N s/m, does not change with n;")
+    lines.append(f"   {INTERVALS})")
+    lines.append(f"  objective (mean |{d.residual}| at the estimate) = {num(d.objective, '.4g')}")
     if r is None:
-        lines.append("  restitution law: undetermined (see warnings)")
+        reason = next((w for w in result.warnings if w.startswith("restitution law not estimated")),
+                      "see the warnings")
+        lines.append("  second model of the same impacts, the restitution law xi = 1 - gamma v_a: not estimated "
+                     f"({reason})")
     else:
-        lines.append(f"  gamma = {num(r.gamma)} +- {num(r.gamma_stderr, '.2g')} s/m  (xi = 1 - gamma v_a; HC "
-                     f"equivalent beta {num(r.beta_equivalent, '.4g')} N s m^-2.5)")
-        lines.append(f"  xi_mean = {num(r.xi_mean)}, va_mean = {num(r.va_mean)} m/s, constant r = "
-                     f"{num(r.r_constant)}")
-    lines += [f"  warning: {message}" for message in result.warnings]
+        lines.append("  second model of the same impacts: the restitution law xi = 1 - gamma v_a (xi = v_s / v_a, "
+                     "separation over approach speed; rigid impacts, docs/estimation.md). It is not an estimate of "
+                     "beta:")
+        half = 1.96 * r.gamma_stderr
+        gamma_why = (r.warnings[0] if r.warnings else "the restitution data do not determine its standard error")
+        lines.append(f"    gamma = {num(r.gamma)} s/m   "
+                     f"{_interval(r.gamma - half, r.gamma + half, '.5g', gamma_why)}")
+        lines.append(f"    constant r = {num(r.r_constant)} (the mean xi over the impacts; mean approach speed "
+                     f"{num(r.va_mean)} m/s)")
+        far = math.isfinite(r.xi_mean) and r.xi_mean < XI_NEAR_ONE
+        lines.append(f"    (1.5 gamma k_H = {num(r.beta_equivalent, '.4g')} N s m^-2.5 equals Hunt-Crossley's beta at "
+                     f"n = 1.5 only for impacts with xi near 1; the mean xi here is {num(r.xi_mean, '.3g')}"
+                     + (", so it is not comparable with beta above)" if far else ")"))
+        if truth is not None and any(w.startswith("the residual of 'xi about") for w in result.warnings):
+            lines.append("    (its model check is expected to find structure here (the warnings below): the example "
+                         "was made with the Hunt-Crossley law, whose xi is not linear in the approach speed at these "
+                         "dampings)")
+    lines += [f"  warning: {message}" for message in dict.fromkeys(result.warnings)]
     return lines
 
 
