@@ -30,6 +30,8 @@ PLUGINS: dict[str, tuple[str, bool]] = {
     "finger-follower-hla": ("impactid.rigs.finger_follower", True),
     "cycloidal-flat-follower-ehl": ("impactid.rigs.cycloidal", True),
     "drop-impact": ("impactid.rigs.drop", True),
+    "tracked-ball": ("impactid.rigs.tracks", False),
+    "planar-impact": ("impactid.rigs.planar", True),
 }
 
 #: The rig whose built-in example recordings the commands' ``--example`` reads.
