@@ -59,7 +59,7 @@ from impactid.rigs.ball.laws import (
     variance_model,
 )
 from impactid.rigs.ball.parameters import Ball
-from impactid.rigs.ball.readers import BounceFileError, BounceRecording, read_bounces
+from impactid.rigs.ball.readers import BounceFileError, BounceRecording, read_drops
 from impactid.rigs.ball.sequence import CleanedSequence, clean_sequence
 
 __all__ = ["BounceAnalysis", "BounceAnalysisError", "analyse_bounces", "impacts_from_sequence"]
@@ -306,12 +306,14 @@ def _check_distinct_drops(recordings: Sequence[BounceRecording]) -> None:
         by_size.setdefault(rec.times.size, []).append(rec)
 
 
-def _as_recording(source) -> BounceRecording:
+def _as_recordings(source) -> list[BounceRecording]:
+    """The drops of one source: a recording, a file (several for a table of trials:
+    :func:`~impactid.rigs.ball.readers.read_drops`) or an array of event times [s]."""
     if isinstance(source, BounceRecording):
-        return source
+        return [source]
     if isinstance(source, (str, os.PathLike)):
-        return read_bounces(source)
-    return BounceRecording.from_times(source)
+        return read_drops(source)
+    return [BounceRecording.from_times(source)]
 
 
 def _segments(seq: CleanedSequence, name: str) -> list[dict]:
@@ -476,8 +478,8 @@ def _check_options(law: str, criterion: str) -> None:
 
 
 def _read_drops(sources: Sequence) -> list[BounceRecording]:
-    """Every source read (one drop each), none given twice."""
-    recordings = [_as_recording(s) for s in sources]
+    """Every source read (one drop each, or one per trial of a table of several drops), none given twice."""
+    recordings = [r for s in sources for r in _as_recordings(s)]
     if not recordings:
         raise BounceAnalysisError("no drops given")
     _check_distinct_drops(recordings)
@@ -672,7 +674,8 @@ def _statistics(drops: Sequence[Drop], impacts: Impacts, law_fits: LawFits, sele
     range [m/s], the variance model and the flight model."""
     table, used = impacts.table, impacts.used
     refused = sum(1 for d in drops if d.refused)
-    statistics = {"files": len(drops), "drops_analysed": len(drops) - refused, "drops_refused": refused,
+    files = len({d.recording.source or f"(array {d.index})" for d in drops})  # a table of trials is one file
+    statistics = {"files": files, "drops_analysed": len(drops) - refused, "drops_refused": refused,
                   "intervals": len(table),
                   "intervals_rejected": int((~table["flag"].isin(["ok", "first", "anomalous"])).sum()),
                   "impacts_used": len(used), "selected": selection.law, "criterion": selection.criterion,

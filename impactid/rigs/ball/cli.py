@@ -14,14 +14,14 @@ import math
 from pathlib import Path
 
 from impactid._files import StagedFiles, check_output
-from impactid.commandline import UsageError, figure_format
+from impactid.commandline import UsageError, check_report, figure_format, say_report, write_report
 from impactid.commandline import json_text as _json_text
 from impactid.commandline import print_json as _print_json
 from impactid.rigs.ball.analysis import analyse_bounces
 from impactid.rigs.ball.figures import figure_names, write_figures
 from impactid.rigs.ball.flight import flight_constants
 from impactid.rigs.ball.parameters import AIR_DENSITY, STANDARD_GRAVITY, Ball, BallParameterError, ball_preset
-from impactid.rigs.ball.readers import check_files, read_bounces
+from impactid.rigs.ball.readers import check_files, read_drops
 
 __all__ = ["run"]
 
@@ -83,7 +83,10 @@ def run(args) -> int:
         check_output(args.out, option="--out", inputs=inputs)
     if args.plots:
         check_output(args.plots, option="--plots", inputs=inputs, directory=True)
-    recordings = [read_bounces(f) for f in args.files]
+    check_report(args, inputs, others={"--out": args.out})
+    channel = getattr(args, "audio_channel", "mix")
+    onset_options = None if channel == "mix" else {"channel": channel}
+    recordings = [r for f in args.files for r in read_drops(f, onset_options=onset_options)]
     result = analyse_bounces(recordings, ball=ball, drag=not args.no_drag, gravity=args.gravity, law=args.law,
                              criterion=args.criterion, chained=not args.no_chained)
     data = _document(result, args, ball)
@@ -95,14 +98,28 @@ def run(args) -> int:
     if args.plots:
         with StagedFiles(protect=inputs) as staged:
             write_figures(result, args.plots, staged, recordings, fmt=figure_format(args))
+    write_report(args, data, inputs, ((), lambda staged: write_figures(result, args.plots, staged, recordings,
+                                                                         fmt=figure_format(args))))
     if args.json:
         _print_json(data)
         return 0
-    _print_report(result, args)
+    _print_report(result, args, recordings)
     return 0
 
 
-def _print_report(result, args) -> None:
+def _print_trials(result) -> None:
+    """One line per drop (the trials of a table of several drops are drops of their own)."""
+    table = result.bounces
+    for name in dict.fromkeys(table["file"].tolist()):
+        rows = table[table["file"] == name]
+        used = rows[rows["used"].astype(bool)]
+        flagged = rows[~rows["flag"].isin(["ok", "first"])]
+        mean = float(used["e"].astype(float).mean()) if len(used) else math.nan
+        print(f"  drop {name}: {len(used)} coefficients used, mean e {_num(mean, '.4f')}, "
+              f"{len(flagged)} of {len(rows)} intervals flagged")
+
+
+def _print_report(result, args, recordings=()) -> None:
     s = result.statistics
     fits = result.law_fits
     print(f"impactid bounces: {s['files']} file(s), {s['drops_analysed']} drop(s) analysed, "
@@ -117,10 +134,13 @@ def _print_report(result, args) -> None:
     print(f"  impact speeds {_num(s['speed_min_m_s'], '.3g')}-{_num(s['speed_max_m_s'], '.3g')} m/s; "
           f"scatter of e {_num(s['intrinsic_scatter'], '.2g')}, "
           f"timing noise {_num(1e3 * s['timing_sigma_s'], '.2g')} ms")
+    if any(getattr(r, "trial", "") for r in recordings):
+        _print_trials(result)
     for note in result.notes:
         print(f"  note: {note}")
     if args.out:
         print(f"  result written to {args.out}")
     if args.plots:
         print(f"  figures written to {args.plots}")
+    say_report(args)
 

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from impactid.commandline import (
     FIGURE_FORMAT,
+    REPORT,
     SEED,
     SYNTH_OUT,
     UsageError,
@@ -53,6 +54,14 @@ def _ball_name(text: str) -> str:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _audio_channel(text: str) -> str | int:
+    if text.strip().lower() == "mix":
+        return "mix"
+    if not text.strip().isdigit():
+        raise argparse.ArgumentTypeError(f"must be 'mix' or a channel number (0 = the first), got {text!r}")
+    return int(text)
+
+
 def _drag_coefficient(text: str) -> float:
     value = nonnegative(text)
     if value > 10.0:
@@ -77,6 +86,8 @@ def _arguments() -> tuple[Argument, ...]:
                                       help="gravitational acceleration [m/s^2] (default 9.80665)")),
         Argument(("--no-drag",), dict(action="store_true",
                                       help="analyse the flights without air even for a known ball")),
+        Argument(("--audio-channel",), dict(type=_audio_channel, default="mix", metavar="mix|N",
+                                            help="WAV: mix the channels (default) or use channel N (0 = first)")),
         Argument(("--law",), dict(choices=["auto", *LAWS], default="auto",
                                   help="law to report: auto (selected by --criterion) or one by name")),
         Argument(("--criterion",), dict(choices=["bic", "aic"], default="bic",
@@ -85,6 +96,7 @@ def _arguments() -> tuple[Argument, ...]:
         Argument(("--out",), dict(metavar="RESULT.json", help="write the result as JSON (atomically)")),
         Argument(("--plots",), dict(metavar="DIR", help="write figures (restitution, intervals, audio onsets)")),
         FIGURE_FORMAT,
+        REPORT,
         Argument(("--json",), dict(action="store_true", help="print the result as JSON")),
     )
 

@@ -6,7 +6,8 @@ through pyplot, so that nothing global is touched), in the package's style
   law with its confidence band;
 * :func:`plot_intervals`: the intervals of every drop (one colour per drop) against their number,
   rejected ones marked by their flag;
-* :func:`plot_onsets`: for audio, the envelope with the threshold and the detected onsets.
+* :func:`plot_onsets`: for audio, the waveform with the accepted onsets and the rejected clicks
+  (by reason), and the envelope with the sliding threshold.
 
 :func:`write_figures` saves them (PNG at 200 dpi, or SVG or PDF) through a
 :class:`~impactid._files.StagedFiles` transaction.
@@ -170,36 +171,65 @@ def plot_intervals(result, ax=None, max_drops: int = 40):
     return fig if fig is not None else ax.figure
 
 
+#: How the rejected clicks of audio are marked, by reason (marker, colour).
+_REJECTED_STYLE = {"contact": ("v", OKABE_ITO["orange"]), "echo": ("^", OKABE_ITO["reddish purple"]),
+                   "ringing": ("x", OKABE_ITO["sky blue"])}
+#: The rejection reasons in words (legend).
+_REJECTED_WORDS = {"contact": "further click of the same contact", "echo": "echo (recurring delay)",
+                   "ringing": "ringing (much weaker, within the ringing time)"}
+
+
 @styled
 def plot_onsets(recording, ax=None):
-    """The envelope of an audio recording with the threshold, the onsets (coloured by confidence)
-    and the suppressed triggers."""
+    """The waveform of an audio recording with the accepted onsets and the rejected clicks (marked by
+    the reason they were rejected), and below it the envelope with the sliding threshold. ``ax``:
+    two axes (waveform, envelope), or None for a new figure."""
     onsets = recording.onsets
     if onsets is None:
         raise ValueError(f"{recording.name}: not an audio recording (no onsets)")
     fig = None
     if ax is None:
-        fig = _new_figure((8.0, 3.8))
-        ax = fig.add_subplot()
+        fig = _new_figure((8.5, 5.5))
+        ax = fig.subplots(2, 1, sharex=True, height_ratios=(3, 2))
+    top, bottom = ax
+    rate = onsets.envelope_rate
+    wave = np.asarray(onsets.waveform)
+    if wave.size:
+        tw = np.arange(wave.shape[0]) / rate
+        top.fill_between(tw, wave[:, 0], wave[:, 1], color=OKABE_ITO["blue"], lw=0, alpha=0.7,
+                         label="waveform (lowest and highest sample per "
+                               f"{1e3 / rate:.2g} ms{', channels averaged' if onsets.channel == 'mix' else ''})")
+    height = float(np.max(np.abs(wave))) if wave.size else 1.0
+    for k, time in enumerate(onsets.times):
+        top.axvline(time, color=OKABE_ITO["green"], lw=0.9, label=f"{onsets.times.size} impacts (onsets)" if k == 0
+                    else None)
+    reasons = np.array(onsets.rejected_reasons, dtype=object)
+    for reason, (marker, colour) in _REJECTED_STYLE.items():
+        sel = reasons == reason
+        if np.any(sel):
+            top.plot(onsets.rejected[sel], np.full(int(sel.sum()), 1.05 * height), marker, color=colour, ms=5,
+                     ls="none", label=f"rejected: {_REJECTED_WORDS[reason]} ({int(sel.sum())})")
+    top.set_ylabel(axis_label("sound pressure", "full scale"))
+    top.set_ylim(-1.15 * height, 1.2 * height)
+    top.legend(fontsize=7, loc="lower right", ncol=2)
     env = np.asarray(onsets.envelope)
-    t = np.arange(env.size) / onsets.envelope_rate
-    ax.semilogy(t, np.maximum(env, onsets.noise_floor * 1e-2), color=OKABE_ITO["blue"], lw=0.6,
-                label="envelope (RMS, band-passed)")
-    ax.axhline(onsets.threshold, color=OKABE_ITO["vermillion"], ls="--", lw=1,
-               label=f"threshold {onsets.threshold:.2g}")
-    ax.axhline(max(onsets.noise_floor, 1e-12), color="0.45", ls=":", lw=1, label="noise floor (median)")
-    for time, conf in zip(onsets.times, onsets.confidence):
-        ax.axvline(time, color=OKABE_ITO["green"], lw=0.8, alpha=0.25 + 0.75 * float(np.clip(conf, 0.0, 1.0)))
-    if onsets.suppressed.size:
-        ax.plot(onsets.suppressed, np.full(onsets.suppressed.size, onsets.threshold), "v",
-                color=OKABE_ITO["reddish purple"], ms=5,
-                label=f"suppressed (ring-down or echo): {onsets.suppressed.size}")
-    ax.plot([], [], color=OKABE_ITO["green"], lw=0.8, label=f"{onsets.times.size} onsets (opacity: confidence)")
-    ax.set_xlabel(axis_label("time", "s", "t"))
-    ax.set_ylabel(axis_label("envelope", "full scale"))
-    ax.set_title(f"{recording.name}: refractory time {1e3 * onsets.refractory:.3g} ms")
-    ax.legend(fontsize=7, loc="upper right")
-    return fig if fig is not None else ax.figure
+    t = np.arange(env.size) / rate
+    bottom.semilogy(t, np.maximum(env, onsets.noise_floor * 1e-2), color=OKABE_ITO["blue"], lw=0.6,
+                    label="envelope (RMS, band-passed)")
+    curve = np.asarray(onsets.threshold_curve)
+    if curve.size:
+        bottom.plot(np.arange(curve.size) / rate, curve, color=OKABE_ITO["vermillion"], ls="--", lw=1,
+                    label="threshold (sliding median + k MAD)")
+    else:
+        bottom.axhline(onsets.threshold, color=OKABE_ITO["vermillion"], ls="--", lw=1, label="threshold")
+    bottom.plot(onsets.times, np.asarray(onsets.peak), "o", color=OKABE_ITO["green"], ms=3, label="impact peaks")
+    bottom.set_xlabel(axis_label("time", "s", "t"))
+    bottom.set_ylabel(axis_label("envelope", "full scale"))
+    bottom.legend(fontsize=7, loc="upper right")
+    echoes = ", ".join(f"{1e3 * d:.3g}" for d in onsets.echo_delays)
+    top.set_title(f"{recording.name}: refractory time {1e3 * onsets.refractory:.3g} ms, ringing time "
+                  f"{1e3 * onsets.ring_down:.3g} ms" + (f", echoes at {echoes} ms" if echoes else ""))
+    return fig if fig is not None else top.figure
 
 
 def _safe(name: str) -> str:

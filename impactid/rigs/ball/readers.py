@@ -70,7 +70,7 @@ from impactid.units import UnitError, si_factor
 __all__ = ["Audio", "BounceFileError", "BounceRecording", "MAX_EVENTS", "MAX_EVENT_SPAN", "MAX_MEMORY",
            "MAX_TABLE_BYTES", "MAX_TIME_MAGNITUDE", "MAX_TYPICAL_FLIGHT", "MIN_EVENTS", "MIN_TYPICAL_FLIGHT",
            "check_file", "check_files", "memory_budget", "read_audio", "read_bounces", "read_event_csv", "read_many",
-           "read_phyphox", "read_wav", "time_resolution"]
+           "read_drops", "read_phyphox", "read_wav", "time_resolution"]
 
 #: Fewest events a file must hold: three impacts give two flights, i.e. one coefficient of restitution.
 MIN_EVENTS = 3
@@ -196,6 +196,8 @@ class BounceRecording:
     provenance : what was read and done, oldest first.
     notes : what qualifies the data (a disagreeing interval column, clipped clicks, ...).
     onsets : for audio, the :class:`~impactid.rigs.ball.onsets.Onsets` found (with the envelope).
+    trial : for one trial of a table of several drops (:func:`read_drops`), its name (the column's
+        header, the sheet's name, or ``column <j>``); "" for a file of one drop.
     """
 
     source: str
@@ -205,6 +207,7 @@ class BounceRecording:
     provenance: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     onsets: object | None = field(default=None, repr=False)
+    trial: str = ""
 
     def __post_init__(self) -> None:
         times = np.array(self.times, dtype=float)
@@ -215,8 +218,9 @@ class BounceRecording:
 
     @property
     def name(self) -> str:
-        """The file name (without folders)."""
-        return Path(self.source).name if self.source else "(array)"
+        """The file name (without folders), and the trial in brackets for a table of several drops."""
+        name = Path(self.source).name if self.source else "(array)"
+        return f"{name} [{self.trial}]" if self.trial else name
 
     @property
     def intervals(self) -> np.ndarray:
@@ -830,6 +834,176 @@ def time_resolution(times: np.ndarray) -> float:
     return math.nan
 
 
+# ---- tables of several drops --------------------------------------------------------------------
+
+#: Headers of a column that numbers the bounces rather than timing them (skipped in a table of trials).
+_INDEX_WORDS = ("n", "#", "no", "no.", "nr", "index", "bounce", "bounces", "impact", "impacts", "number", "k", "i")
+
+
+def read_drops(path: str | os.PathLike[str], *, onset_options: dict | None = None) -> list[BounceRecording]:
+    """The drops of one file: several for a table of trials, else the one :func:`read_bounces` reads.
+
+    A table of trials is a workbook without phyphox's ``All`` sheet, or a CSV, whose columns are the
+    bounce times of one trial each (one column per trial, or one sheet per trial; with or without a
+    header row naming the trials, a unit in it honoured as in :func:`read_event_csv`; shorter
+    columns end in blank cells). A first column that numbers the bounces (1, 2, 3, ... or a header
+    such as ``n`` or ``bounce``) is skipped. A CSV is a table of trials when every other column is
+    such a column of times, at least two of them (times that increase, with intervals that mostly
+    shrink, as a bouncing ball's do); a phyphox export or a CSV with one time column is one drop, as
+    before.
+
+    Raises
+    ------
+    BounceFileError
+        naming the file (and the sheet, column and row) and the problem.
+    """
+    path = Path(path)
+    head = _head(path)
+    if head.startswith(b"\xd0\xcf\x11\xe0") or (head.startswith(b"PK\x03\x04") and _is_workbook(path)):
+        fmt, sheets = _workbook(path)
+        if "All" in sheets:
+            return [read_phyphox(path)]
+        trials = []
+        for name, rows in sheets.items():
+            trials += _trials(path, rows, f"sheet {name!r}", name if len(sheets) > 1 else "", single_ok=True)
+        if not trials:
+            raise BounceFileError(f"{path}: no sheet 'All' (a phyphox export) and no sheet with columns of bounce "
+                                  f"times (sheets: {', '.join(sheets) or 'none'})")
+        return [replace(t, format=fmt) for t in trials]
+    if head.startswith(b"PK\x03\x04") or (head[:4] == b"RIFF") or _looks_binary(head):
+        return [read_bounces(path, onset_options=onset_options)]
+    try:
+        with open(path, "rb") as fh:
+            raw = fh.read(MAX_TABLE_BYTES + 1)
+    except OSError as exc:
+        raise BounceFileError(f"{path}: cannot read ({exc.strerror or exc})") from None
+    if len(raw) <= MAX_TABLE_BYTES:
+        rows = _csv_rows(_decode(raw, path))
+        if rows is not None:
+            trials = _trials(path, rows, "the CSV", "", single_ok=False)
+            if trials:
+                return trials
+    return [read_bounces(path, onset_options=onset_options)]
+
+
+def _is_workbook(path: Path) -> bool:
+    try:
+        with zipfile.ZipFile(path) as archive:
+            names = archive.namelist()
+    except (zipfile.BadZipFile, OSError, EOFError):
+        return False
+    return any(n.startswith("xl/") for n in names) or "[Content_Types].xml" in names
+
+
+def _workbook(path: Path) -> tuple[str, dict[str, list[list]]]:
+    """Every sheet of a workbook as rows of cells (``.xlsx`` through openpyxl, ``.xls`` through xlrd)."""
+    size = check_file(path).st_size
+    if _head(path).startswith(b"PK\x03\x04"):
+        try:
+            with zipfile.ZipFile(path) as archive:
+                unpacked = sum(info.file_size for info in archive.infolist())
+        except (zipfile.BadZipFile, OSError, EOFError):
+            raise BounceFileError(f"{path}: not a readable .xlsx workbook (damaged zip)") from None
+        if unpacked > MAX_TABLE_BYTES:
+            raise _too_large(path, unpacked, "a workbook that unpacks to a table")
+        try:
+            frames = pd.read_excel(path, sheet_name=None, header=None, dtype=object, engine="openpyxl")
+        except Exception as exc:  # openpyxl raises its own exception types on malformed XML
+            raise BounceFileError(f"{path}: not a readable .xlsx workbook ({_short(exc)})") from None
+        return "table-xlsx", {str(k): f.values.tolist() for k, f in frames.items()}
+    if size > MAX_TABLE_BYTES:
+        raise _too_large(path, size, "a workbook")
+    import xlrd
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            book = xlrd.open_workbook(str(path), on_demand=True, logfile=io.StringIO())
+        try:
+            sheets = {}
+            for name in book.sheet_names():
+                sheet = book.sheet_by_name(name)
+                sheets[str(name)] = [sheet.row_values(i) for i in range(sheet.nrows)]
+        finally:
+            book.release_resources()
+    except Exception as exc:  # xlrd raises XLRDError, CompDocError, struct.error, ... on damaged files
+        raise BounceFileError(f"{path}: not a readable .xls workbook ({_short(exc)})") from None
+    return "table-xls", sheets
+
+
+def _csv_rows(text: str) -> list[list] | None:
+    """The cells of a CSV (numbers parsed, a decimal comma accepted when the separator is not a
+    comma), or None when it is not a table of several columns."""
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if not lines or len(lines) > MAX_EVENTS + 1:
+        return None
+    separator = _sniff_separator(lines[:20])
+    if separator is None or max(ln.count(separator) for ln in lines) + 1 > MAX_COLUMNS:
+        return None
+    rows = _split(lines, separator)
+    decimal_comma = separator != "," and any("," in c for r in rows[1:50] for c in r)
+    return [[_parse_number(c.strip().strip('"'), decimal_comma) for c in r] for r in rows]
+
+
+def _trials(path: Path, rows: list[list], where: str, sheet: str, *, single_ok: bool) -> list[BounceRecording]:
+    """The trials of one table (rows of cells): every column of strictly increasing times that ends
+    in blank cells, named by its header, or ``column <j>``; [] when the table is not a table of
+    trials (any other column than a bounce number, or fewer than two trials unless ``single_ok``)."""
+    rows = [list(r) for r in rows if any(not _blank(c) for c in r)]
+    if not rows:
+        return []
+    width = max(len(r) for r in rows)
+    rows = [r + [math.nan] * (width - len(r)) for r in rows]
+    header = None
+    if any(isinstance(c, str) and not _blank(c) and isinstance(_parse_number(c, True), str) for c in rows[0]):
+        header = [_cell_text(c) for c in rows[0]]
+        rows = rows[1:]
+    first_row = 2 if header else 1
+    found = []
+    for j in range(width):
+        name = header[j] if header else ""
+        cells = [r[j] for r in rows]
+        while cells and _blank(cells[-1]):
+            cells.pop()
+        if not cells:
+            continue
+        values = [_as_float(c) for c in cells]
+        if not all(math.isfinite(v) for v in values):
+            return []  # text or a blank inside a column: not a table of trials
+        v = np.array(values)
+        if j == 0 and (name.strip().lower() in _INDEX_WORDS or (
+                v.size >= 2 and np.all(v == np.round(v)) and np.all(np.diff(v) == 1))):
+            continue  # the bounce numbers
+        factor = 1.0
+        match = re.match(r"^.*?[\(\[]\s*([^\)\]]*)\s*[\)\]]\s*$", name)
+        if match:
+            try:
+                factor = si_factor(match.group(1).strip() or "s", "time")
+            except UnitError:
+                return []
+        d = np.diff(v)
+        if v.size < MIN_EVENTS or np.any(d <= 0) or np.mean(d[1:] < d[:-1]) < 0.5:
+            return []  # not the times of a drop: they do not increase, or their intervals do not mostly shrink
+        found.append((j, name, v * factor, factor))
+    if len(found) < (1 if single_ok else 2):
+        return []
+    out = []
+    for j, name, times, factor in found:
+        label = name or f"column {j + 1}"
+        trial = "/".join(p for p in (sheet, label) if p) if (len(found) > 1 or not sheet) else sheet
+        times = _check_times(times, f"{path} [{trial}]",
+                             lambda i, label=label: f"{where}, column {label!r}, row {i + first_row}")
+        _check_scale(times, f"{path} [{trial}]", f"{where}, column {label!r}", factor=factor,
+                     base=_header_base(name) if name else "")
+        resolution = time_resolution(times)
+        unit = "" if factor == 1.0 else f" (x {factor:g} to s)"
+        step = (f"read {len(times)} event times of trial {trial!r} from {path.name}: {where}, column {label!r}{unit} "
+                f"[table of {len(found)} trial(s)]")
+        out.append(BounceRecording(source=str(path), format="table-csv", times=times, resolution=resolution,
+                                   provenance=(step,), trial=trial))
+    return out
+
+
 # ---- WAV ----------------------------------------------------------------------------------------
 
 
@@ -989,6 +1163,10 @@ def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
         raise BounceFileError(f"{path}: sampled at {audio.sample_rate:g} Hz; the click detector needs at least "
                               f"{math.floor(lowest) + 1} Hz ({why}); record at 8 kHz or more (phones record at 44.1 "
                               "or 48 kHz)")
+    channel = onset_options.get("channel", "mix")
+    if channel != "mix" and not (isinstance(channel, int) and 0 <= channel < audio.n_channels):
+        raise BounceFileError(f"{path}: has {audio.n_channels} channel(s) (0 to {audio.n_channels - 1}); channel "
+                              f"{channel!r} was asked for")
     steps = [f"read {path.name}: WAV, {audio.n_frames} samples x {audio.n_channels} channel(s), "
              f"{audio.sample_rate:g} Hz, {audio.encoding}"]
     onsets = detect_onsets(audio.samples, audio.sample_rate, quantum=audio.quantum, scale=audio.scale,

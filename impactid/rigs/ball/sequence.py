@@ -381,6 +381,7 @@ def clean_sequence(times, *, resolution: float = math.nan, z_reject: float = 4.0
         sigma = max(float(np.quantile(np.abs(resid), 0.25)) / 0.3186, floor)
         runs.append(_iterate(t, model, sigma, floor, z_reject, max_span, max_skip, max_iter))
     chain, model, sigma, iterations = runs[0]
+    scores = [0.0] * len(runs)
     if any(run[0] != chain for run in runs[1:]):
         # different labellings from the starts: keep the most probable one. Each is scored with its
         # own model and scatter, as -2 log-likelihood of a mixture in which a heard impact has a
@@ -393,7 +394,23 @@ def clean_sequence(times, *, resolution: float = math.nan, z_reject: float = 4.0
             flights = max(len(run_chain) - 2, 0)
             scores.append(cost + flights * 2.0 * math.log(run_sigma / reference))
         chain, model, sigma, iterations = runs[int(np.argmin(scores))]
-    return _result(t, chain or [], model, sigma, iterations, name)
+    result = _result(t, chain or [], model, sigma, iterations, name)
+    if result.refused:
+        # cleaning, not discarding: a labelling from another start that is a bouncing sequence beats
+        # the most probable one when that one is not (a few faults can pull a start astray)
+        usable = []
+        for k in np.argsort(scores, kind="stable"):
+            run_chain, run_model, run_sigma, run_iterations = runs[int(k)]
+            if run_chain == chain:
+                continue
+            other = _result(t, run_chain or [], run_model, run_sigma, run_iterations, name)
+            if not other.refused:
+                usable.append(other)
+                break
+        if usable:
+            return replace(usable[0], notes=usable[0].notes + (
+                "the most probable labelling was not a bouncing sequence; the most probable one that is was kept",))
+    return result
 
 
 def _iterate(t, model, sigma, floor, z_reject, max_span, max_skip, max_iter):

@@ -39,7 +39,7 @@ from impactid.rigs.ball.parameters import Ball
 
 __all__ = ["DEFAULT_BOUNCE_LAW", "DEFAULT_HEIGHT", "DROP_FORMATS", "STOPWATCH_FAULTS", "SynthDrop", "inject_faults",
            "java_scientific", "simulate_drop", "synth_audio", "synth_drop", "write_drop", "write_event_csv",
-           "write_phyphox_csv", "write_phyphox_xlsx", "write_wav"]
+           "write_phyphox_csv", "write_phyphox_xlsx", "write_wav", "ROOM_AUDIO"]
 
 #: Labels of events in a synthetic drop.
 EVENT_LABELS = ("impact", "release", "echo", "spurious", "displaced", "junk")
@@ -373,8 +373,11 @@ def synth_audio(impact_times: Sequence[float], impact_speeds: Sequence[float], *
                 modes: Sequence[tuple[float, float, float]] = CLICK_MODES, rise: float = 50e-6,
                 level: float = 0.3, echoes: Sequence[tuple[float, float]] = ((0.0041, 0.35), (0.0113, 0.2)),
                 noise_db: float = -40.0, hum: float = 0.0, clip: float | None = None, channels: int = 1,
-                extra_clicks: Sequence[tuple[float, float]] = ()) -> np.ndarray:
-    """Audio of a drop: one click per impact (and per ``extra_clicks`` entry ``(time, speed)``).
+                extra_clicks: Sequence[tuple[float, float]] = (), clicks_per_contact: tuple[int, int] = (1, 1),
+                click_spacing: tuple[float, float] = (0.4e-3, 2.5e-3),
+                click_amplitudes: tuple[float, float] = (0.25, 0.7),
+                ringing: tuple[float, float, float] | None = None) -> np.ndarray:
+    """Audio of a drop: one contact per impact (and per ``extra_clicks`` entry ``(time, speed)``).
 
     Parameters
     ----------
@@ -384,11 +387,19 @@ def synth_audio(impact_times: Sequence[float], impact_speeds: Sequence[float], *
     modes : the click's damped resonances (frequency [Hz], decay time [s], amplitude).
     rise : rise time of the click's envelope [s].
     level : peak amplitude of a click at the fastest impact [full scale], before clipping.
-    echoes : room echoes (delay [s], relative amplitude).
-    noise_db : white background noise RMS relative to ``level`` [dB].
+    echoes : room echoes (delay [s], relative amplitude): delayed attenuated copies of every contact.
+    noise_db : white background noise RMS relative to ``level`` [dB] (-20: a signal-to-noise ratio of
+        20 dB at the loudest click).
     hum : amplitude of a 50 Hz hum and its harmonics [full scale].
     clip : clip the signal at this amplitude (e.g. 1.0 after raising ``level``), None for no clipping.
     channels : 1 or 2; the second channel has 0.8 x the gain, a 0.1 ms delay and its own noise.
+    clicks_per_contact : (fewest, most) clicks of one contact (drawn uniformly per contact): the
+        first at the impact, the others ``click_spacing`` [s] apart (the ball rattling on the floor,
+        the shell's rebound), each weaker than the first by a factor drawn from ``click_amplitudes``.
+    click_spacing : (shortest, longest) time between two clicks of one contact [s].
+    click_amplitudes : (smallest, largest) amplitude of a later click relative to the first.
+    ringing : ``(frequency [Hz], decay time [s], amplitude relative to the click)``: the surface
+        ringing after every contact (a long decaying tone), None for none.
 
     Returns
     -------
@@ -402,31 +413,61 @@ def synth_audio(impact_times: Sequence[float], impact_speeds: Sequence[float], *
     n = int(round(total * fs))
     t = np.arange(n) / fs
     vmax = float(np.max(impact_speeds)) if len(impact_speeds) else 1.0
-    longest = max(tau for _, tau, _ in modes)
+    # the clicks of every contact: (time, amplitude relative to the contact's first click, its phases)
+    clicks: list[tuple[float, float, np.ndarray, float]] = []
+    lo, hi = int(clicks_per_contact[0]), int(clicks_per_contact[1])
+    if not 1 <= lo <= hi:
+        raise ValueError(f"clicks_per_contact must be (fewest, most), 1 <= fewest <= most: {clicks_per_contact}")
+    for t0, v in zip(times, speeds):
+        count = int(rng.integers(lo, hi + 1))
+        offset = 0.0
+        for c in range(count):
+            if c:
+                offset += float(rng.uniform(*click_spacing))
+            weight = 1.0 if c == 0 else float(rng.uniform(*click_amplitudes))
+            clicks.append((t0 + offset, weight * v / vmax, rng.uniform(0, 2 * np.pi, size=len(modes)), t0))
+    tones = [] if ringing is None else [(float(ringing[0]), float(ringing[1]), float(ringing[2]))]
+    longest = max([tau for _, tau, _ in modes] + [tau for _, tau, _ in tones])
     span = int(10 * longest * fs) + 1
-    phases = rng.uniform(0, 2 * np.pi, size=(times.size, len(modes)))
+    ring_phase = rng.uniform(0, 2 * np.pi, size=times.size)
     out = np.zeros((n, channels))
     for ch in range(channels):
         gain = 1.0 if ch == 0 else 0.8
         delay = 0.0 if ch == 0 else 1e-4
-        for i, (t0, v) in enumerate(zip(times, speeds)):
+        for tc, a_click, phases, _ in clicks:
             for d, a in ((0.0, 1.0),) + tuple(echoes):
-                start = t0 + delay + d
-                i0 = int(math.ceil(start * fs))
-                if i0 >= n:
-                    continue
-                seg = slice(max(i0, 0), min(i0 + span, n))
-                tau = t[seg] - start
-                shape = (1.0 - np.exp(-tau / rise)) * sum(
-                    w * np.exp(-tau / dec) * np.sin(2 * np.pi * f * tau + phases[i, m])
-                    for m, (f, dec, w) in enumerate(modes))
-                out[seg, ch] += gain * a * level * (v / vmax) * shape
+                _add_burst(out[:, ch], t, fs, tc + delay + d, gain * a * level * a_click, modes, phases, rise, span)
+        for k, (t0, v) in enumerate(zip(times, speeds)):
+            for f, dec, w in tones:
+                _add_burst(out[:, ch], t, fs, t0 + delay, gain * level * v / vmax, ((f, dec, w),),
+                           ring_phase[k:k + 1], 4 * rise, span)
         out[:, ch] += level * 10 ** (noise_db / 20.0) * rng.standard_normal(n)
         if hum:
             out[:, ch] += hum * (np.sin(2 * np.pi * 50 * t) + 0.3 * np.sin(2 * np.pi * 150 * t + 1.0))
     if clip is not None:
         out = np.clip(out, -clip, clip)
     return out[:, 0] if channels == 1 else out
+
+
+def _add_burst(out: np.ndarray, t: np.ndarray, fs: float, start: float, amplitude: float,
+               modes: Sequence[tuple[float, float, float]], phases: np.ndarray, rise: float, span: int) -> None:
+    """Add to ``out`` (samples at times ``t`` [s]) one burst of decaying sinusoids (``modes``:
+    frequency [Hz], decay time [s], weight) starting at ``start`` [s] with a rise time ``rise`` [s]."""
+    i0 = int(math.ceil(start * fs))
+    if i0 >= out.size:
+        return
+    seg = slice(max(i0, 0), min(i0 + span, out.size))
+    tau = t[seg] - start
+    shape = (1.0 - np.exp(-tau / rise)) * sum(
+        w * np.exp(-tau / dec) * np.sin(2 * np.pi * f * tau + phases[m]) for m, (f, dec, w) in enumerate(modes))
+    out[seg] += amplitude * shape
+
+
+#: A phone on a hard floor in a room (arguments of :func:`synth_audio`): two to four clicks per
+#: contact, two room echoes, the floor ringing at 2.3 kHz for tens of milliseconds, background noise
+#: 20 dB below the loudest click and its peaks clipped at full scale.
+ROOM_AUDIO = {"clicks_per_contact": (2, 4), "echoes": ((0.0041, 0.35), (0.0113, 0.2)),
+              "ringing": (2300.0, 0.03, 0.2), "noise_db": -20.0, "level": 1.1, "clip": 1.0}
 
 
 def write_wav(path: str | os.PathLike[str], samples: np.ndarray, sample_rate: float, encoding: str = "int16") -> Path:

@@ -94,7 +94,7 @@ def _xlsx_without_all(tmp_path):
 
     path = tmp_path / "noall.xlsx"
     with pd.ExcelWriter(path, engine="openpyxl") as writer:
-        pd.DataFrame({"Event time (s)": TIMES}).to_excel(writer, sheet_name="Simple", index=False)
+        pd.DataFrame({"Note": ["no", "times", "here"]}).to_excel(writer, sheet_name="Simple", index=False)
     return path
 
 
