@@ -1,8 +1,10 @@
 """Figures of the model check and the identifiability block, from real runs of impactid's public API.
 
     NUMBA_NUM_THREADS=1 python benchmarks/figures_identification.py [--out-dir docs/figures]
+        [--only model_check|identifiability]
 
-Writes two figures (PNG, 120 dpi), shown in docs/identifiability.md and docs/estimation.md:
+Writes two figures (PNG, 200 dpi; the second in the package's style, :func:`impactid.plotting.style`),
+shown in docs/identifiability.md and docs/estimation.md (``--only`` writes one of them):
 
 * ``model_check.png``: a finger-follower tappet fit (``fit_tappet_drag``) to one synthetic
   recording (900 rpm, 16 revolutions, the default sensors, seed 2: the case of
@@ -12,14 +14,14 @@ Writes two figures (PNG, 120 dpi), shown in docs/identifiability.md and docs/est
   band of that noise, and each fit's ``model_check`` (verdict, RMS over noise, chi-square,
   lag-1 autocorrelation, effective samples, inflation, action) and its ``alpha``, ``beta``.
 * ``identifiability.png``: rig P's ``estimate`` of ``(beta, n)`` (least squares) from the first
-  built-in example recording alone (one operating point, e/r_c 0.05 at 16 Hz) and from both
-  (with e/r_c 0.25 at 15 Hz): the profile of ``n`` from each result's ``identifiability`` block
-  (the rise of the sum of squares along the valley, in units of the residual variance) against
-  the 95 % threshold, with the reported interval of ``n``.
+  built-in example recording alone (one operating point, e/r_c 0.05 at 15 Hz) and from both
+  (with e/r_c 0.25 at 12 Hz; ``EXAMPLE_POINTS``): the profile of ``n`` from each result's
+  ``identifiability`` block (the rise of the sum of squares along the valley, in units of the
+  residual variance) against the 95 % threshold, with the reported interval of ``n``.
 
 Everything plotted is read from the results. The synthetic truth is used only to mark the true
 value: the tappet recording's ``truth`` (alpha, beta) and the example recordings' recipe
-(``EXAMPLE_RECIPE``: n = 1.5). Run time about 25 s after the simulators are compiled (the example
+(``EXAMPLE_RECIPE``: n = 1.5). Run time about 40 s after the simulators are compiled (the example
 recordings are generated on first use and cached, see ``impactid.rigs.pivoted.example``).
 """
 
@@ -40,12 +42,13 @@ from matplotlib.figure import Figure  # noqa: E402
 
 from impactid import estimate, read_recording  # noqa: E402
 from impactid._files import StagedFiles  # noqa: E402
+from impactid.plotting import OKABE_ITO, PNG_DPI, styled  # noqa: E402
 from impactid.rigs.finger_follower import KIM1990  # noqa: E402
 from impactid.rigs.finger_follower.identify import fit_tappet_drag  # noqa: E402
 from impactid.rigs.finger_follower.synth import synth_recording  # noqa: E402
 from impactid.rigs.pivoted.example import EXAMPLE_POINTS, EXAMPLE_RECIPE, example_recording_paths  # noqa: E402
 
-DPI = 120
+DPI = PNG_DPI
 PRELOAD_TRUE, PRELOAD_WRONG = 20.0, 30.0
 
 
@@ -119,6 +122,7 @@ def model_check_figure() -> tuple[Figure, list[str]]:
     return fig, log
 
 
+@styled
 def identifiability_figure() -> tuple[Figure, list[str]]:
     """Rig P: the profile of n from one operating point and from two."""
     recordings = [read_recording(p) for p in example_recording_paths()]
@@ -131,9 +135,8 @@ def identifiability_figure() -> tuple[Figure, list[str]]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # the not-separable warning is in the result, read below
             runs.append((label, estimate(selection).damping))
-    fig = Figure(figsize=(11, 6.0))
-    grid = fig.add_gridspec(2, 2, height_ratios=(3, 1.1), hspace=0.3, wspace=0.12, left=0.07, right=0.98,
-                            top=0.89, bottom=0.01)
+    fig = Figure(figsize=(11, 6.2))  # constrained layout (the package's style)
+    grid = fig.add_gridspec(2, 2, height_ratios=(3, 1.0))
     log = []
     first = None
     for col, (label, d) in enumerate(runs):
@@ -144,29 +147,31 @@ def identifiability_figure() -> tuple[Figure, list[str]]:
         ax = fig.add_subplot(grid[0, col], sharey=first)
         first = first or ax
         lo, hi = d.n_interval
-        ax.axvspan(lo, hi, color="tab:orange", alpha=0.18, lw=0, label="reported 95 % interval of n")
-        ax.plot(points[order, 0], points[order, 1], "o-", ms=3.5, color="tab:blue",
-                label="profile of n (log10 c refitted at each n)")
+        ax.axvspan(lo, hi, color=OKABE_ITO["orange"], alpha=0.25, lw=0, label="reported 95 % interval of $n$")
+        ax.plot(points[order, 0], points[order, 1], "o-", ms=3.5, color=OKABE_ITO["blue"],
+                label=r"profile of $n$ ($\log_{10} c$ refitted at each $n$)")
         ax.axhline(block["profile_threshold"], color="k", ls="--", lw=1,
                    label=f"95 % threshold ({block['profile_threshold']:.2f})")
-        ax.axvline(n_true, color="tab:green", lw=1.2, label=f"true n = {n_true:g} (generator's recipe)")
-        ax.plot([d.n], [0.0], "D", color="tab:red", ms=6, label=f"estimate n = {d.n:.4g}", zorder=5)
+        ax.axvline(n_true, color=OKABE_ITO["green"], lw=1.2, label=f"true $n$ = {n_true:g} (the example's recipe)")
+        ax.plot([d.n], [0.0], "D", color=OKABE_ITO["vermillion"], ms=6, label=f"estimate $n$ = {d.n:.4g}",
+                zorder=5)
         if col == 0:
             ax.set_xlim(0.45, 2.6)
             for bound in (0.5, 2.5):
                 ax.axvline(bound, color="0.4", lw=0.8, ls=":")
-            ax.text(2.49, 6.9, "search\nbound", ha="right", va="top", fontsize=7.5, color="0.3")
-            ax.set_ylabel("rise of the sum of squares / residual variance")
+            ax.text(2.49, 6.9, "search\nbound", ha="right", va="top", fontsize=7.5, color="0.3",
+                    bbox=dict(facecolor="white", edgecolor="none", alpha=0.85))
+            ax.set_ylabel("rise of the sum of squares / residual variance [-]")
         else:
             ax.set_xlim(lo - 0.2 * (hi - lo), hi + 0.2 * (hi - lo))
         ax.set_ylim(0, 7.2)
-        ax.set(xlabel="n", title=label)
+        ax.set(xlabel="exponent $n$ [-]", title=label)
         ax.title.set_fontsize(10)
-        ax.legend(loc="upper center" if col == 0 else "upper left", fontsize=7.5, framealpha=0.9)
+        ax.legend(loc="upper left", fontsize=7.5, framealpha=0.9)
         determined = block["determined"]
         ax.text(0.99, 0.02 if col == 0 else 0.97, f"profile: {profile['shape']}",
                 transform=ax.transAxes, ha="right", va="bottom" if col == 0 else "top",
-                fontsize=11, fontweight="bold", color="tab:green" if determined else "tab:red",
+                fontsize=11, fontweight="bold", color=OKABE_ITO["green"] if determined else OKABE_ITO["vermillion"],
                 bbox=dict(facecolor="white", edgecolor="none", alpha=0.85))
         corr = block["largest_correlation"]["value"]
         comparison = block.get("model_comparison") or {}
@@ -190,8 +195,8 @@ def identifiability_figure() -> tuple[Figure, list[str]]:
         log.append(f"identifiability {label}: shape {profile['shape']}, n {d.n:.5g} {d.n_interval}, beta {d.beta:.4g} "
                    f"{d.beta_interval}, corr {corr:.7f}, determined {determined}, separable {d.separable}, "
                    f"preferred {comparison.get('preferred')}")
-    fig.suptitle("Identifiability: rig P's contact-law exponent n from one operating point and from two "
-                 "(least squares, built-in example recordings)", fontsize=11, y=0.99)
+    fig.suptitle("Identifiability: rig P's contact-law exponent $n$ from one operating point and from two "
+                 "(least squares, built-in example recordings)")
     return fig, log
 
 
@@ -199,17 +204,23 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out-dir", type=Path, default=Path(__file__).resolve().parent.parent / "docs" / "figures",
                         help="folder of the figures (default docs/figures)")
+    parser.add_argument("--only", choices=("model_check", "identifiability"), default=None,
+                        help="write only this figure (default: both)")
     args = parser.parse_args(argv)
     start = time.perf_counter()
     log = []
+    figures = [(name, make) for name, make in (("model_check", model_check_figure),
+                                               ("identifiability", identifiability_figure))
+               if args.only in (None, name)]
     with StagedFiles() as staged:
-        for name, make in (("model_check.png", model_check_figure), ("identifiability.png", identifiability_figure)):
+        for name, make in figures:
             t = time.perf_counter()
             fig, lines = make()
-            staged.write_with(args.out_dir / name, lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=DPI))
-            log += lines + [f"{name}: {time.perf_counter() - t:.1f} s"]
+            staged.write_with(args.out_dir / f"{name}.png",
+                              lambda tmp, fig=fig: fig.savefig(tmp, format="png", dpi=DPI))
+            log += lines + [f"{name}.png: {time.perf_counter() - t:.1f} s"]
     print("\n".join(log))
-    print(f"written {args.out_dir / 'model_check.png'}, {args.out_dir / 'identifiability.png'} "
+    print(f"written {', '.join(str(args.out_dir / f'{name}.png') for name, _ in figures)} "
           f"in {time.perf_counter() - start:.0f} s")
     return 0
 

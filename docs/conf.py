@@ -13,10 +13,13 @@ Choices:
   default, has no navigation tree for a reference of this size.)
 * Notebooks: the tutorials are the notebooks of ``notebooks/``, copied into ``docs/tutorials/`` at
   each build (``_copy_notebooks`` below, which adds a note on how to run each one; the copies are
-  ignored by git). They are rendered without
-  executing them (``nb_execution_mode = "off"``): the test command already executes every notebook
-  (nbmake), and executing them again here would cost several minutes on the 2-core CI machine
-  (measured times are in docs/contributing.md).
+  ignored by git). They are rendered with the outputs stored in them, without executing them
+  (``nb_execution_mode = "off"``): ``tools/execute_notebooks.py`` executes them and stores their
+  outputs and figures (and the gallery's thumbnails, ``docs/tutorials_thumbnails/``), and the test
+  command executes every notebook (nbmake) without storing anything, so CI runs them once, not twice.
+* Math: myst's ``dollarmath`` turns ``$...$`` and ``$$...$$`` in the pages and in the notebooks'
+  Markdown cells (myst-nb reads them with the same settings) into math, which MathJax renders
+  (``sphinx.ext.mathjax``, Sphinx's default for HTML). ``attrs_inline`` sizes the gallery's images.
 """
 
 from __future__ import annotations
@@ -54,7 +57,7 @@ html_theme = "furo"
 html_title = f"impactid {release}"
 
 # ---- Markdown ----
-myst_enable_extensions = ["colon_fence", "deflist", "dollarmath"]
+myst_enable_extensions = ["attrs_inline", "colon_fence", "deflist", "dollarmath"]
 myst_heading_anchors = 3
 
 # ---- notebooks (myst-nb) ----
@@ -64,7 +67,7 @@ nb_merge_streams = True
 
 def _copy_notebooks() -> None:
     """Copy ``notebooks/*.ipynb`` into ``docs/tutorials/`` (only those that changed), each with a note
-    after its title cell saying that the page is rendered without outputs and how to run it."""
+    after its title cell saying where its outputs come from and how to run it."""
     target = HERE / "tutorials"
     target.mkdir(exist_ok=True)
     wanted = set()
@@ -84,10 +87,10 @@ def _copy_notebooks() -> None:
 
 
 NOTEBOOK_NOTE = """```{{note}}
-This page is the notebook `notebooks/{name}`, rendered **without outputs** (the documentation build
-does not execute notebooks; the test command does). Run it with `python -m pytest notebooks/{name}`
-(after `pip install ".[test]"`), or open it in Jupyter (`pip install ".[notebooks]"`) to see its
-outputs and figures.
+This page is the notebook `notebooks/{name}`, shown with the outputs stored in it (made by
+`python tools/execute_notebooks.py`; the documentation build does not execute notebooks). Run it
+yourself with `python -m pytest notebooks/{name}` (after `pip install ".[test]"`), or open it in
+Jupyter (`pip install ".[notebooks]"`).
 ```
 """
 
