@@ -125,11 +125,13 @@ def _synth_arguments() -> tuple[Argument, ...]:
                                         "tennis (or name it with --rig)")),
         Argument(("--height",), {"type": nonnegative, "default": None, "metavar": "M",
                                  "help": "drop height [m]: bouncing-ball: release height of the ball's bottom above "
-                                         "the floor (default 0.3); drop-impact: fall of the contact point to the "
-                                         "contact surface (default: the rig file's [operating] drop_height_m)"}),
+                                         "the floor (default 0.3); tracked-ball: the same (default 0.305); "
+                                         "drop-impact: fall of the contact point to the contact surface (default: "
+                                         "the rig file's [operating] drop_height_m)"}),
         Argument(("--bounce-law",), {"type": pair, "default": None, "metavar": "E0,GAMMA",
                                      "help": "bouncing-ball: restitution e = E0 - GAMMA v, v the impact speed [m/s] "
-                                             "(default 0.96,0.02)"}),
+                                             "(default 0.96,0.02); tracked-ball: the same, v the normal impact "
+                                             "speed (default 0.9,0)"}),
         Argument(("--jitter",), {"type": _jitter, "default": 0.0, "metavar": "S",
                                  "help": "bouncing-ball: standard deviation of the trigger times [s] (default 0; "
                                          "a phone's acoustic stopwatch: about 2e-4)"}),

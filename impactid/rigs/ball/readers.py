@@ -1,4 +1,4 @@
-"""Readers of bounce timings: phyphox "Acoustic stopwatch" exports, plain CSV event times, WAV audio.
+"""Readers of bounce timings: phyphox "Acoustic stopwatch" exports, plain CSV event times, audio.
 
 One entry point, :func:`read_bounces`, recognises a file by its content (the first bytes), not only
 its name, and returns a :class:`BounceRecording`: the event times [s], strictly increasing, with
@@ -23,22 +23,27 @@ Formats read
   ``time_s``, ...) or, without a header, the first. A unit in the header (``time (ms)``,
   ``t [s]``, ``time_ms``) is honoured (parsed by pint). A decimal comma is accepted when the
   separator is not a comma. Lines starting with ``#`` are comments.
-* **WAV audio** (mono or multichannel; 8-bit unsigned, 16-, 24- and 32-bit integer, 32- and 64-bit
-  float; any sample rate above :func:`~impactid.rigs.ball.onsets.min_sample_rate`, 1778 Hz; read
-  with :func:`scipy.io.wavfile.read`, memory-mapped, and scanned in blocks): the impact clicks are
-  found by :func:`impactid.rigs.ball.onsets.detect_onsets`.
+* **audio**: WAV (RIFF/WAVE, or RF64 beyond 4 GiB), FLAC, OGG (Vorbis, Opus); mono or
+  multichannel; 8-bit, 16-, 24- and 32-bit integer, 32- and 64-bit float; any sample rate above
+  :func:`~impactid.rigs.ball.onsets.min_sample_rate`, 1778 Hz. Read with :mod:`soundfile`
+  (libsndfile, bundled in its wheels): the header gives the frames, channels, rate and sample type
+  before a sample is read (the memory check), then the samples are read in their own width and
+  scanned in blocks. Where soundfile cannot be imported (a platform without its wheel and without a
+  system libsndfile), WAV is read by :func:`scipy.io.wavfile.read`, memory-mapped, and FLAC and OGG
+  are refused naming the package. The impact clicks are found by
+  :func:`impactid.rigs.ball.onsets.detect_onsets`.
 
 Every problem raises :class:`BounceFileError` with a one-line message that names the file and
 the problem: missing, a folder or a special file (a named pipe, device or socket is never opened:
-it could block forever), empty, not a spreadsheet/CSV/WAV, no ``All`` sheet, no time column,
+it could block forever), empty, not a spreadsheet/CSV/audio file, no ``All`` sheet, no time column,
 non-numeric or NaN times, times not strictly increasing, fewer than three events, more than
 :data:`~impactid.rigs.ball.sequence.MAX_EVENTS`, times that no drop can have (beyond
 :data:`MAX_TIME_MAGNITUDE` in magnitude or spanning more than :data:`MAX_EVENT_SPAN`), times in
 another unit than the one read (a median interval longer than :data:`MAX_TYPICAL_FLIGHT` or shorter
 than :data:`MIN_TYPICAL_FLIGHT`: the message names the column and the header that would say the
-unit), a table larger than :data:`MAX_TABLE_BYTES`, a WAV that needs more memory than
-:func:`memory_budget` allows, is sampled too slowly for the detector, is silent, clipped, too
-short, or holds fewer than three clicks. These checks come before any numerics.
+unit), a table larger than :data:`MAX_TABLE_BYTES`, audio that is truncated (shorter than its header
+says), needs more memory than :func:`memory_budget` allows, is sampled too slowly for the detector,
+is silent, clipped, too short, or holds fewer than three clicks. These checks come before any numerics.
 """
 
 from __future__ import annotations
@@ -67,10 +72,18 @@ from impactid.rigs.ball.onsets import DEFAULT_BAND, detect_onsets, memory_needed
 from impactid.rigs.ball.sequence import MAX_EVENTS
 from impactid.units import UnitError, si_factor
 
+try:  # libsndfile through soundfile (a dependency; its wheels bundle the library): WAV, FLAC, OGG
+    import soundfile
+except (ImportError, OSError) as _exc:  # OSError: its pure-Python wheel on a platform without a libsndfile
+    soundfile = None
+    _SOUNDFILE_PROBLEM = f"{type(_exc).__name__}: {_exc}"
+else:
+    _SOUNDFILE_PROBLEM = ""
+
 __all__ = ["Audio", "BounceFileError", "BounceRecording", "MAX_EVENTS", "MAX_EVENT_SPAN", "MAX_MEMORY",
            "MAX_TABLE_BYTES", "MAX_TIME_MAGNITUDE", "MAX_TYPICAL_FLIGHT", "MIN_EVENTS", "MIN_TYPICAL_FLIGHT",
            "check_file", "check_files", "memory_budget", "read_audio", "read_bounces", "read_event_csv", "read_many",
-           "read_drops", "read_phyphox", "read_wav", "time_resolution"]
+           "read_drops", "read_phyphox", "read_wav", "time_resolution", "audio_kind", "AUDIO_KINDS"]
 
 #: Fewest events a file must hold: three impacts give two flights, i.e. one coefficient of restitution.
 MIN_EVENTS = 3
@@ -124,18 +137,23 @@ class BounceFileError(ImpactidError, ValueError):
 
 @dataclass(frozen=True)
 class Audio:
-    """Audio samples as read from a WAV file, never copied whole.
+    """Audio samples as read from an audio file, in their own width (never converted whole).
 
     Attributes
     ----------
-    samples : (n_samples, n_channels) array as stored: floats at full scale 1, or the file's
-        integers, usually a memory map of the file; a sample at full scale is
-        ``(stored - offset) * scale`` (:meth:`block` does the conversion a block at a time).
+    samples : (n_samples, n_channels) array: floats at full scale 1, or integers (16-bit samples
+        as int16, 24- and 32-bit ones as int32; a memory map of a WAV file when read by
+        :mod:`scipy.io.wavfile`); a sample at full scale is ``(stored - offset) * scale``
+        (:meth:`block` does the conversion a block at a time).
     sample_rate : [Hz].
-    encoding : ``"int16"``, ``"int24"``, ``"int32"``, ``"uint8"``, ``"float32"``, ``"float64"``.
+    encoding : the file's samples: ``"uint8"``, ``"int8"``, ``"int16"``, ``"int24"``, ``"int32"``,
+        ``"float32"``, ``"float64"``, or the lossy codec's name (``"vorbis"``, ``"opus"``), decoded to
+        float32.
     source : the file read ("" if made in memory).
-    scale : full-scale value of one stored unit (``2**-15`` for 16-bit integers, 1 for floats).
-    offset : stored value of silence (128 for 8-bit WAV, else 0).
+    scale : full-scale value of one stored unit (``2**-15`` for int16, ``2**-31`` for int32, 1 for floats).
+    offset : stored value of silence (128 for 8-bit WAV read by scipy, else 0).
+    format : the container, ``"WAV"``, ``"FLAC"`` or ``"OGG"`` ("" if made in memory).
+    reader : the library that read the samples, with its version.
     """
 
     samples: np.ndarray
@@ -144,6 +162,8 @@ class Audio:
     source: str = ""
     scale: float = 1.0
     offset: float = 0.0
+    format: str = ""
+    reader: str = ""
 
     def __post_init__(self) -> None:
         samples = self.samples if getattr(self.samples, "ndim", 0) else np.asarray(self.samples)
@@ -166,8 +186,8 @@ class Audio:
     @property
     def quantum(self) -> float:
         """Smallest step of the encoding, full scale = 1."""
-        return {"uint8": 2.0 ** -7, "int16": 2.0 ** -15, "int24": 2.0 ** -23, "int32": 2.0 ** -31,
-                "float32": 2.0 ** -24}.get(self.encoding, 2.0 ** -53)
+        return {"uint8": 2.0 ** -7, "int8": 2.0 ** -7, "int16": 2.0 ** -15, "int24": 2.0 ** -23,
+                "int32": 2.0 ** -31, "float64": 2.0 ** -53}.get(self.encoding, 2.0 ** -24)
 
     def block(self, start: int = 0, stop: int | None = None) -> np.ndarray:
         """Frames ``start:stop`` as a (frames, channels) float array at full scale 1."""
@@ -190,7 +210,8 @@ class BounceRecording:
     Attributes
     ----------
     source : the file read.
-    format : ``"phyphox-xlsx"``, ``"phyphox-xls"``, ``"phyphox-csv"``, ``"times-csv"``, ``"wav"``, ``"array"``.
+    format : ``"phyphox-xlsx"``, ``"phyphox-xls"``, ``"phyphox-csv"``, ``"times-csv"``, ``"table-csv"``,
+        ``"table-xlsx"``, ``"table-xls"``, ``"wav"``, ``"flac"``, ``"ogg"``, ``"array"``.
     times : event times [s], strictly increasing.
     resolution : time step of the times [s] (e.g. 1/48000 s for phyphox), NaN when unknown.
     provenance : what was read and done, oldest first.
@@ -245,12 +266,12 @@ class BounceRecording:
 
 
 def read_bounces(path: str | os.PathLike[str], *, onset_options: dict | None = None) -> BounceRecording:
-    """Read the impact times of one drop from a phyphox export, a CSV of times or a WAV file.
+    """Read the impact times of one drop from a phyphox export, a CSV of times or audio (WAV, FLAC, OGG).
 
     Parameters
     ----------
-    path : the file; its kind is recognised from its content (zip, OLE2, RIFF/WAVE or text).
-    onset_options : keyword arguments for :func:`~impactid.rigs.ball.onsets.detect_onsets` (WAV only).
+    path : the file; its kind is recognised from its content (zip, OLE2, RIFF/WAVE, FLAC, Ogg or text).
+    onset_options : keyword arguments for :func:`~impactid.rigs.ball.onsets.detect_onsets` (audio only).
 
     Raises
     ------
@@ -264,14 +285,16 @@ def read_bounces(path: str | os.PathLike[str], *, onset_options: dict | None = N
         return _read_zip(path)
     if head.startswith(b"\xd0\xcf\x11\xe0"):
         return read_phyphox(path)
-    if head[:4] == b"RIFF" and head[8:12] == b"WAVE":
+    if audio_kind(head) is not None:
         return read_wav(path, **(onset_options or {}))
     if head[:4] in (b"RIFF", b"RIFX", b"RF64"):
-        raise BounceFileError(f"{path}: a RIFF file that is not a WAV audio file (or an unsupported RIFX/RF64 one)")
-    if suffix in (".xlsx", ".xls", ".zip", ".wav"):
-        raise BounceFileError(f"{path}: not a {suffix[1:].upper()} file (its content is not one)")
+        raise BounceFileError(f"{path}: a RIFF file that is not a WAV audio file (or an unsupported big-endian RIFX "
+                              "one)")
+    if suffix in (".xlsx", ".xls", ".zip") or suffix in _AUDIO_SUFFIXES:
+        what = _AUDIO_SUFFIXES.get(suffix, suffix[1:].upper())
+        raise BounceFileError(f"{path}: not a {what} file (its content is not one)")
     if _looks_binary(head):
-        raise BounceFileError(f"{path}: not a spreadsheet, CSV or WAV file (binary content of unknown kind)")
+        raise BounceFileError(f"{path}: not a spreadsheet, CSV or audio file (binary content of unknown kind)")
     return read_event_csv(path)
 
 
@@ -870,7 +893,7 @@ def read_drops(path: str | os.PathLike[str], *, onset_options: dict | None = Non
             raise BounceFileError(f"{path}: no sheet 'All' (a phyphox export) and no sheet with columns of bounce "
                                   f"times (sheets: {', '.join(sheets) or 'none'})")
         return [replace(t, format=fmt) for t in trials]
-    if head.startswith(b"PK\x03\x04") or (head[:4] == b"RIFF") or _looks_binary(head):
+    if head.startswith(b"PK\x03\x04") or head[:4] in (b"RIFF", b"RF64") or audio_kind(head) or _looks_binary(head):
         return [read_bounces(path, onset_options=onset_options)]
     try:
         with open(path, "rb") as fh:
@@ -1004,55 +1027,143 @@ def _trials(path: Path, rows: list[list], where: str, sheet: str, *, single_ok: 
     return out
 
 
-# ---- WAV ----------------------------------------------------------------------------------------
+# ---- audio --------------------------------------------------------------------------------------
+
+#: The audio containers read, by the first bytes of the file: name and the format's word in messages.
+AUDIO_KINDS = ("WAV", "FLAC", "OGG")
+_AUDIO_SUFFIXES = {".wav": "WAV", ".wave": "WAV", ".flac": "FLAC", ".ogg": "OGG", ".oga": "OGG", ".opus": "OGG"}
+#: libsndfile subtype -> (dtype the samples are read as, encoding of :class:`Audio`); other subtypes
+#: (Vorbis, Opus, A-law, ADPCM, ...) are decoded to 32-bit floats.
+_SUBTYPES = {"PCM_U8": ("int16", "uint8"), "PCM_S8": ("int16", "int8"), "PCM_16": ("int16", "int16"),
+             "PCM_24": ("int32", "int24"), "PCM_32": ("int32", "int32"), "FLOAT": ("float32", "float32"),
+             "DOUBLE": ("float64", "float64")}
+#: Full-scale value of one stored unit of each dtype samples are held as.
+_DTYPE_SCALE = {"int16": 2.0 ** -15, "int32": 2.0 ** -31, "int64": 2.0 ** -63, "float32": 1.0, "float64": 1.0}
+#: Most positive sample of each encoding [full scale]: samples at or above it are clipped.
+_FULL_SCALE = {"uint8": 127 / 128, "int8": 127 / 128, "int16": 32767 / 32768, "int24": (2 ** 23 - 1) / 2 ** 23,
+               "int32": (2 ** 31 - 1) / 2 ** 31}
+#: RIFF sizes that streaming writers leave when they do not know the length.
+_UNKNOWN_RIFF_SIZES = (0, 0xFFFFFFFF)
 
 
-@dataclass(frozen=True)
-class _WavHeader:
-    """What the ``fmt `` and ``data`` chunk headers of a WAV file say (zeros where not found)."""
+def audio_kind(head: bytes) -> str | None:
+    """The audio container that the first bytes of a file announce: ``"WAV"`` (RIFF/WAVE, or RF64
+    for WAV files over 4 GiB), ``"FLAC"`` or ``"OGG"`` (Vorbis, Opus or FLAC in an Ogg stream); None
+    for anything else."""
+    if head[8:12] == b"WAVE" and head[:4] in (b"RIFF", b"RF64"):
+        return "WAV"
+    if head.startswith(b"fLaC"):
+        return "FLAC"
+    if head.startswith(b"OggS"):
+        return "OGG"
+    return None
 
-    tag: int = 0
-    bits: int = 0
-    channels: int = 0
-    rate: int = 0
-    block_align: int = 0
-    data_offset: int = 0
-    data_size: int = 0
+
+def _check_complete_riff(path: Path, head: bytes, size: int) -> None:
+    """Refuse a RIFF/WAVE file shorter than the size its RIFF header announces (bytes 4-7 of the
+    file): a copy or a recording cut short, which the readers would otherwise analyse in part without
+    a word (libsndfile reads the frames that are there)."""
+    if head[:4] != b"RIFF":
+        return
+    announced = int.from_bytes(head[4:8], "little") + 8
+    if announced - 8 in _UNKNOWN_RIFF_SIZES or announced <= size + 1:  # + 1: a missing pad byte
+        return
+    raise BounceFileError(f"{path}: truncated WAV file: its header announces {announced:,} bytes, the file holds "
+                          f"{size:,} ({100 * size / announced:.0f} %; a copy or a recording cut short; re-save what "
+                          "is there with an audio editor to analyse it)")
 
 
-def _wav_header(path: Path) -> _WavHeader:
-    """The format and the data chunk of a RIFF/WAVE file, from its chunk headers (without reading
-    the samples)."""
-    fields: dict = {}
+def _audio_steps(frames: int, channels: int, rate: float) -> str:
+    return (f"analysing its {frames / max(rate, 1):,.0f} s of audio ({frames:,} frames x {channels} channel(s) at "
+            f"{rate:g} Hz)")
+
+
+def _read_soundfile(path: Path, kind: str) -> Audio:
+    """Samples and format through libsndfile (:mod:`soundfile`): the header first (frames, channels,
+    rate, sample type) for the memory check, then the samples in their own width (16-bit samples
+    as int16, 24- and 32-bit ones as int32, floats as they are; lossy formats decoded to float32)."""
     try:
-        size = check_file(path).st_size
-        with open(path, "rb") as fh:
-            pos = 12
-            while pos + 8 <= size and ("data_offset" not in fields or "tag" not in fields):
-                fh.seek(pos)
-                chunk = fh.read(8)
-                if len(chunk) < 8:
-                    break
-                cid, length = chunk[:4], struct.unpack("<I", chunk[4:])[0]
-                if cid == b"fmt ":
-                    body = fh.read(min(length, 40))
-                    if len(body) >= 16:
-                        tag, channels, rate, _, block_align, bits = struct.unpack("<HHIIHH", body[:16])
-                        if tag == 0xFFFE and len(body) >= 26:
-                            tag = struct.unpack("<H", body[24:26])[0]
-                        fields.update(tag=tag, bits=bits, channels=channels, rate=rate, block_align=block_align)
-                elif cid == b"data":
-                    fields.update(data_offset=pos + 8, data_size=length)
-                pos += 8 + length + (length & 1)
-    except (OSError, struct.error):
-        pass
-    return _WavHeader(**fields)
+        info = soundfile.info(str(path))
+    except (RuntimeError, OSError, ValueError, TypeError) as exc:  # soundfile.LibsndfileError is a RuntimeError
+        raise BounceFileError(f"{path}: not a readable {kind} file ({_short(exc)})") from None
+    frames, channels, rate = int(info.frames), int(info.channels), float(info.samplerate)
+    if channels <= 0 or rate <= 0:
+        raise BounceFileError(f"{path}: {kind} header gives {channels} channel(s) at {rate:g} Hz")
+    dtype, encoding = _SUBTYPES.get(info.subtype, ("float32", str(info.subtype).lower()))
+    itemsize = np.dtype(dtype).itemsize
+    _check_memory(path, frames * channels * itemsize + memory_needed(frames, channels, itemsize),
+                  _audio_steps(frames, channels, rate))
+    try:
+        data, _ = soundfile.read(str(path), dtype=dtype, always_2d=True)
+    except (RuntimeError, OSError, ValueError, TypeError, MemoryError) as exc:
+        raise BounceFileError(f"{path}: not a readable {kind} file, damaged or cut short ({_short(exc)})") from None
+    if data.shape[0] < frames:
+        raise BounceFileError(f"{path}: truncated {kind} file: its header announces {frames:,} frames, "
+                              f"{data.shape[0]:,} could be read (a copy or a recording cut short)")
+    reader = f"soundfile {soundfile.__version__} (libsndfile {soundfile.__libsndfile_version__})"
+    return Audio(samples=data, sample_rate=rate, encoding=encoding, source=str(path), scale=_DTYPE_SCALE[dtype],
+                 format=kind, reader=reader)
+
+
+def _wavfile_read(path: Path, mmap: bool) -> tuple[int, np.ndarray]:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # unknown chunks, a streamed length: read what can be read
+        return wavfile.read(path, mmap=mmap)
+
+
+def _read_scipy_wav(path: Path, size: int) -> Audio:
+    """Samples of a WAV file through :func:`scipy.io.wavfile.read`, for when :mod:`soundfile` cannot
+    be imported: memory-mapped (nothing read before the memory check, which takes the shape from the
+    map), or, for 3-byte samples (which cannot be mapped), read whole after a check of the most
+    memory a file of its size can need."""
+    errors = (ValueError, EOFError, struct.error, OSError, MemoryError, IndexError, TypeError)
+    three_bytes = False
+    try:
+        rate, data = _wavfile_read(path, mmap=True)
+        mapped = True
+    except errors as exc:
+        three_bytes = "3-byte" in str(exc)
+        mapped = False
+    if mapped:
+        frames, channels = data.shape[0], (data.shape[1] if data.ndim == 2 else 1)
+        _check_memory(path, memory_needed(frames, channels, data.dtype.itemsize),
+                      _audio_steps(frames, channels, rate))
+    else:
+        # the samples are read whole (3-byte ones twice: bytes, then 4-byte integers): at most this many
+        samples = size // (3 if three_bytes else 1)
+        _check_memory(path, size + 4 * samples + memory_needed(samples, 1, 4),
+                      f"reading its {size / 2 ** 20:,.1f} MiB of audio whole (without soundfile, at most)")
+        try:
+            rate, data = _wavfile_read(path, mmap=False)
+        except errors as exc:
+            raise BounceFileError(f"{path}: not a readable WAV file ({_short(exc)})") from None
+    if data.ndim == 1:
+        data = data.reshape(-1, 1)
+    if data.ndim != 2 or data.shape[1] == 0:
+        raise BounceFileError(f"{path}: WAV data of unexpected shape {data.shape}")
+    if rate <= 0:
+        raise BounceFileError(f"{path}: WAV sample rate {rate} Hz is not positive")
+    kind = data.dtype
+    if kind == np.uint8:
+        scale, offset, encoding = 1.0 / 128.0, 128.0, "uint8"
+    elif kind.kind in "if" and kind.name in _DTYPE_SCALE:
+        scale, offset, encoding = _DTYPE_SCALE[kind.name], 0.0, kind.name
+        encoding = "int24" if three_bytes else encoding
+    else:
+        raise BounceFileError(f"{path}: unsupported WAV sample type {kind}")
+    reader = f"scipy.io.wavfile{' (memory-mapped)' if mapped else ''}"
+    return Audio(samples=data, sample_rate=float(rate), encoding=encoding, source=str(path), scale=scale,
+                 offset=offset, format="WAV", reader=reader)
 
 
 def read_audio(path: str | os.PathLike[str]) -> Audio:
-    """Read a WAV file into an :class:`Audio` (memory-mapped when its samples are 1, 2, 4 or 8
-    bytes wide), checking that it is usable: analysable within :func:`memory_budget`, not too short,
-    finite, not silent, not clipped (scanned block by block).
+    """Read an audio file (WAV, FLAC or OGG) into an :class:`Audio`, checking that it is usable:
+    complete, analysable within :func:`memory_budget` (from its header, before a sample is read),
+    not too short, finite, not silent, not clipped (scanned block by block).
+
+    The samples are read by :mod:`soundfile` (libsndfile). Where soundfile cannot be imported (a
+    platform without its wheel and without a system libsndfile), WAV files are read by
+    :func:`scipy.io.wavfile.read` (memory-mapped) and FLAC and OGG are refused naming the package.
 
     Raises
     ------
@@ -1061,73 +1172,39 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
     """
     path = Path(path)
     head = _head(path, 12)
-    if not (head[:4] == b"RIFF" and head[8:12] == b"WAVE"):
-        raise BounceFileError(f"{path}: not a WAV file (no RIFF/WAVE header)")
-    header = _wav_header(path)
-    file_size = check_file(path).st_size
-    mapped = True
-    if header.channels > 0 and header.block_align >= header.channels and header.data_offset:
-        # the memory the job needs, from the header, before a sample is read
-        container = header.block_align // header.channels
-        present = max(file_size - header.data_offset, 0)
-        if header.data_size > present + header.block_align and header.data_size != 0xFFFFFFFF:
-            # a copy or a recording cut short: refused rather than analysed in part without a word
-            # (0xFFFFFFFF is the size streaming writers leave when they do not know it)
-            announced = header.data_size / max(header.block_align * max(header.rate, 1), 1)
-            held = present / max(header.block_align * max(header.rate, 1), 1)
-            raise BounceFileError(f"{path}: truncated WAV file: its header announces {announced:.3g} s of audio, the "
-                                  f"file holds {held:.3g} s (a copy or a recording cut short; re-save what is there "
-                                  "with an audio editor to analyse it)")
-        stored = min(header.data_size, present)
-        frames = stored // header.block_align
-        mapped = container in (1, 2, 4, 8) and header.data_size <= file_size - header.data_offset
-        itemsize = 4 if container == 3 else container
-        # without a memory map the samples are read whole (3-byte ones twice: bytes, then 4-byte integers)
-        resident = 0 if mapped else frames * header.channels * (itemsize + (container if container == 3 else 0))
-        need = resident + memory_needed(frames, header.channels, itemsize)
-        what = (f"analysing its {frames / max(header.rate, 1):,.0f} s of audio ({frames:,} frames x {header.channels} "
-                f"channel(s) at {header.rate} Hz)")
-        _check_memory(path, need, what)
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # unknown chunks: read what can be read
-            rate, data = wavfile.read(path, mmap=mapped)
-    except (ValueError, EOFError, struct.error, OSError, MemoryError, IndexError, TypeError) as exc:
-        raise BounceFileError(f"{path}: not a readable WAV file ({_short(exc)})") from None
-    if data.ndim == 1:
-        data = data.reshape(-1, 1)
-    if data.ndim != 2 or data.shape[1] == 0:
-        raise BounceFileError(f"{path}: WAV data of unexpected shape {data.shape}")
-    if rate <= 0:
-        raise BounceFileError(f"{path}: WAV sample rate {rate} Hz is not positive")
-    kind = data.dtype
-    bits = header.bits
-    if kind == np.uint8:
-        scale, offset, encoding, full = 1.0 / 128.0, 128.0, "uint8", 127.0 / 128.0
-    elif kind == np.int16:
-        scale, offset, encoding, full = 2.0 ** -15, 0.0, "int16", 32767.0 / 32768.0
-    elif kind == np.int32:
-        scale, offset = 2.0 ** -31, 0.0
-        encoding = "int24" if bits == 24 else "int32"
-        full = (2.0 ** 23 - 1) / 2.0 ** 23 if bits == 24 else (2.0 ** 31 - 1) / 2.0 ** 31
-    elif kind in (np.float32, np.float64):
-        scale, offset, encoding, full = 1.0, 0.0, str(kind), 1.0
-    elif kind == np.int64:
-        scale, offset, encoding, full = 2.0 ** -63, 0.0, "int64", 1.0
+    kind = audio_kind(head)
+    if kind is None:
+        raise BounceFileError(f"{path}: not an audio file of a kind read here ({', '.join(AUDIO_KINDS)})")
+    size = check_file(path).st_size
+    if kind == "WAV":
+        _check_complete_riff(path, head, size)
+    if soundfile is not None:
+        audio = _read_soundfile(path, kind)
+    elif kind == "WAV" and head[:4] == b"RIFF":
+        audio = _read_scipy_wav(path, size)
     else:
-        raise BounceFileError(f"{path}: unsupported WAV sample type {kind}")
-    audio = Audio(samples=data, sample_rate=float(rate), encoding=encoding, source=str(path), scale=scale,
-                  offset=offset)
-    n = audio.n_frames
+        what = "RF64 WAV" if kind == "WAV" else kind
+        raise BounceFileError(f"{path}: reading {what} audio needs the soundfile package, which could not be "
+                              f"imported ({_SOUNDFILE_PROBLEM}); `pip install soundfile` brings it with libsndfile "
+                              "(a plain WAV file is read without it)")
+    _check_samples(path, audio)
+    return audio
+
+
+def _check_samples(path: Path, audio: Audio) -> None:
+    """Refuse audio too short for a drop, with NaN or infinite samples, silent, or clipped."""
+    n, rate = audio.n_frames, audio.sample_rate
     if n < 64 or n / rate < MIN_WAV_SECONDS:
         raise BounceFileError(f"{path}: too short ({n} samples, {n / rate:.3g} s); a drop needs at least "
                               f"{MIN_WAV_SECONDS:g} s of audio")
+    floats = audio.samples.dtype.kind == "f"
+    full = _FULL_SCALE.get(audio.encoding, 1.0)
     first = audio.block(0, 1)
     silent = True
     at_full = 0
     for x in audio.blocks():
-        if kind.kind == "f" and not np.all(np.isfinite(x)):
-            raise BounceFileError(f"{path}: WAV holds NaN or infinite samples")
+        if floats and not np.all(np.isfinite(x)):
+            raise BounceFileError(f"{path}: {audio.format or 'audio'} holds NaN or infinite samples")
         silent = silent and bool(np.all(x == first))
         at_full += int(np.count_nonzero(np.any(np.abs(x) >= full * (1.0 - 1e-9), axis=1)))
     if silent:
@@ -1136,15 +1213,14 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
     if fraction > MAX_CLIPPED_FRACTION:
         raise BounceFileError(f"{path}: clipped: {100 * fraction:.2g} % of the samples are at full scale "
                               f"(more than {100 * MAX_CLIPPED_FRACTION:g} %); record again with a lower input gain")
-    return audio
 
 
 def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
-    """Read a WAV recording of a drop and find its impact clicks.
+    """Read an audio recording of a drop (WAV, FLAC or OGG: :func:`read_audio`) and find its impact clicks.
 
     Parameters
     ----------
-    path : the WAV file.
+    path : the audio file.
     **onset_options : passed to :func:`~impactid.rigs.ball.onsets.detect_onsets`.
 
     Raises
@@ -1167,8 +1243,8 @@ def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
     if channel != "mix" and not (isinstance(channel, int) and 0 <= channel < audio.n_channels):
         raise BounceFileError(f"{path}: has {audio.n_channels} channel(s) (0 to {audio.n_channels - 1}); channel "
                               f"{channel!r} was asked for")
-    steps = [f"read {path.name}: WAV, {audio.n_frames} samples x {audio.n_channels} channel(s), "
-             f"{audio.sample_rate:g} Hz, {audio.encoding}"]
+    steps = [f"read {path.name}: {audio.format}, {audio.n_frames} samples x {audio.n_channels} channel(s), "
+             f"{audio.sample_rate:g} Hz, {audio.encoding}, by {audio.reader}"]
     onsets = detect_onsets(audio.samples, audio.sample_rate, quantum=audio.quantum, scale=audio.scale,
                            offset=audio.offset, **onset_options)
     if onsets.times.size < MIN_EVENTS:
@@ -1183,5 +1259,5 @@ def read_wav(path: str | os.PathLike[str], **onset_options) -> BounceRecording:
     if clipped:
         notes.append(f"{path.name}: {clipped} samples at full scale (clipped click peaks); onset times come from "
                      "the rising edge of each click and are not affected")
-    return BounceRecording(source=str(path), format="wav", times=onsets.times, resolution=math.nan,
+    return BounceRecording(source=str(path), format=audio.format.lower(), times=onsets.times, resolution=math.nan,
                            provenance=tuple(steps), notes=tuple(notes), onsets=onsets)

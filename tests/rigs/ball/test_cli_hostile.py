@@ -26,7 +26,14 @@ import pytest
 from impactid._files import DuplicateInputError
 from impactid.cli import main
 from impactid.errors import ImpactidError
-from impactid.rigs.ball import TABLE_TENNIS, BounceAnalysisError, BounceFileError, BounceRecording, analyse_bounces
+from impactid.rigs.ball import (
+    TABLE_TENNIS,
+    BounceAnalysisError,
+    BounceFileError,
+    BounceRecording,
+    analyse_bounces,
+    readers,
+)
 from impactid.rigs.ball.onsets import BLOCK_FRAMES, envelope, memory_needed, min_sample_rate
 from impactid.rigs.ball.readers import MAX_EVENTS, MAX_MEMORY, check_file, read_bounces
 from impactid.rigs.ball.sequence import _fit_ratio, clean_sequence
@@ -41,6 +48,18 @@ def _run(argv, capsys) -> tuple[int, str, str]:
     code = main([str(a) for a in argv])
     captured = capsys.readouterr()
     return code, captured.out, captured.err
+
+
+@pytest.fixture(params=["soundfile", "scipy"])
+def audio_reader(request, monkeypatch):
+    """Each audio test twice: samples read by soundfile (libsndfile), and by scipy.io.wavfile as
+    where soundfile cannot be imported."""
+    if request.param == "soundfile":
+        if readers.soundfile is None:
+            pytest.skip("soundfile cannot be imported here")
+    else:
+        monkeypatch.setattr(readers, "soundfile", None)
+    return request.param
 
 
 def _one_error_line(err: str) -> str:
@@ -231,19 +250,21 @@ def _wav_header(channels: int, rate: int, bits: int, data_bytes: int) -> bytes:
             + struct.pack("<I", len(fmt)) + fmt + b"data" + struct.pack("<I", data_bytes))
 
 
-def test_wav_beyond_the_memory_budget_is_refused_from_its_header(tmp_path, capsys):
+def test_wav_beyond_the_memory_budget_is_refused_from_its_header(tmp_path, capsys, audio_reader):
     """A (sparse) WAV of 4 GB of stereo audio, about 6 hours: refused with the memory it needs and
-    the limit, before a sample is read."""
+    the limit, before a sample is read (soundfile holds the samples in memory, scipy maps them)."""
     path = tmp_path / "long.wav"
     data_bytes = 0xFFFF_0000
     with open(path, "wb") as fh:
         fh.write(_wav_header(2, 48000, 16, data_bytes))
         fh.truncate(44 + data_bytes)  # a hole: no disk space is used
-    need = memory_needed(data_bytes // 4, 2, 2)
+    need = memory_needed(data_bytes // 4, 2, 2) + (data_bytes if audio_reader == "soundfile" else 0)
     assert need > MAX_MEMORY
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     code, _, err = _run(["bounces", path], capsys)
     line = _one_error_line(err)
     assert code == 2 and str(path) in line and "MiB of memory" in line and f"{need / 2 ** 20:,.0f} MiB" in line
+    assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 100_000  # kB: nothing read
 
 
 def test_blockwise_envelope_is_the_single_pass_one():
@@ -323,7 +344,7 @@ def test_the_same_recording_twice_is_refused(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("rate", [1000, 1777])
-def test_wav_below_the_detector_rate_is_refused(tmp_path, capsys, rate):
+def test_wav_below_the_detector_rate_is_refused(tmp_path, capsys, rate, audio_reader):
     rng = np.random.default_rng(rate)
     x = rng.normal(0.0, 0.01, 2 * rate)
     x[:: rate // 3] += 0.5
@@ -372,11 +393,16 @@ def test_a_line_of_millions_of_fields_is_refused_before_it_is_split(tmp_path, ca
     assert resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - before < 500_000  # kB: far below the gigabytes
 
 
-def test_a_truncated_wav_is_refused_naming_the_file_and_what_is_missing(tmp_path, capsys):
+@pytest.mark.parametrize("encoding", ["int16", "int24", "float32"])
+def test_a_truncated_wav_is_refused_naming_the_file_and_what_is_missing(tmp_path, capsys, audio_reader, encoding):
     times = np.cumsum(0.5 * 0.9 ** np.arange(12))
-    full = write_wav(tmp_path / "full.wav", synth_audio(times, 3.0 * 0.9 ** np.arange(12), sample_rate=44100), 44100)
+    full = write_wav(tmp_path / "full.wav", synth_audio(times, 3.0 * 0.9 ** np.arange(12), sample_rate=44100), 44100,
+                     encoding)
     cut = tmp_path / "cut.wav"
-    cut.write_bytes(full.read_bytes()[: full.stat().st_size // 3])
+    size = full.stat().st_size
+    cut.write_bytes(full.read_bytes()[: size // 3])
     code, out, err = _run(["bounces", cut], capsys)
     line = _one_error_line(err)
-    assert code == 2 and "cut.wav" in line and "truncated" in line
+    assert code == 2 and "cut.wav" in line and "truncated" in line and f"announces {size:,} bytes" in line, line
+    assert out == ""
+    assert read_bounces(full).times.size >= 10  # the whole file is read

@@ -125,7 +125,7 @@ BAD_FILES = [
     ("missing", lambda p: p / "nope.xlsx", "file not found"),
     ("folder", lambda p: p, "is a directory"),
     ("empty", lambda p: _text(p / "e.csv", ""), "empty file"),
-    ("binary junk", lambda p: _bytes(p / "j.bin", bytes(range(256)) * 4), "not a spreadsheet, CSV or WAV"),
+    ("binary junk", lambda p: _bytes(p / "j.bin", bytes(range(256)) * 4), "not a spreadsheet, CSV or audio file"),
     ("xlsx that is text", lambda p: _text(p / "t.xlsx", "hello"), "not a XLSX file"),
     ("damaged xlsx", lambda p: _bytes(p / "d.xlsx", b"PK\x03\x04" + b"\x00" * 100), "zip"),
     ("damaged xls", lambda p: _bytes(p / "d.xls", b"\xd0\xcf\x11\xe0" + b"\x01" * 600), ".xls"),
