@@ -17,13 +17,15 @@ Relative motion
 Impact-law method (:func:`first_impacts`)
     Each cam revolution of impacting motion has one long flight (the follower leaves the cam,
     flies, lands); the landing is the *first impact*, followed by a first bounce and a chattering
-    sequence. The samples before and after the first impact are fitted jointly with
-    ``d = v- tau + A tau^2 / 2 + c- tau^3`` (``tau < 0``) and ``d = v+ tau + A tau^2 / 2 + c+ tau^3``
-    (``0 < tau`` < the bounce's end), ``tau = t - t_1``, by nonlinear least squares over
-    ``(t_1, v-, v+, A, c-, c+)``: the impact is on the profile (``d(t_1) = 0``) and the relative
-    acceleration ``A`` is continuous through it (the follower's angle is). Fitting whole flights
-    (hundreds of samples) instead of differencing quantised counts gives the rates to a fraction
-    of a percent; ``r = -v+ / v-``. The first bounce's height is the maximum of the fitted bounce.
+    sequence. The follower's angle before and after the first impact is fitted jointly with
+    ``theta_f = theta_1 + w- tau + A tau^2 / 2 + kappa w- tau^3 / 6`` (``tau < 0``) and the same with
+    ``w+`` (``0 < tau`` < the bounce's end), ``tau = t - t_1``, by nonlinear least squares over
+    ``(t_1, w-, w+, A, kappa)``: the impact is on the profile (``theta_1 = theta_hat(theta_c(t_1))``),
+    the acceleration ``A`` is continuous through it and the jerk of each side is ``kappa w-+`` (the free
+    flight is autonomous, ``theta_ddot = f(theta)``, so the jerk is ``f'(theta) theta_dot``); the relative
+    rates are ``v = w - omega theta_hat'``. Fitting 25 ms either side (the count crossings below)
+    instead of differencing quantised counts gives ``r = -v+ / v-`` to about 1e-3. The
+    first bounce's height is the maximum of the fitted bounce.
 
 First-bounce method (:func:`restitution_at_speed` with ``method="first-bounce"``)
     The seed's own method: ``r`` is the value for which the model's steady motion at that cam
@@ -33,13 +35,23 @@ First-bounce method (:func:`restitution_at_speed` with ``method="first-bounce"``
 Encoder quantisation: counts are floors of the angle, so half a count is added before use (the
 quantisation error then has zero mean; :func:`impactid.rigs.flat.encoders.read_counter`).
 
-The pipeline's own error of a point (:data:`RESTITUTION_SYSTEMATIC`): where the impact falls between
-samples and counts repeats with the period-1 motion, so every first impact of a recording carries
-nearly the same error of ``r`` (5e-3 RMS with the default encoders, up to 2.4e-2), which the scatter over its
-revolutions does not show (a revolution of a whole number of samples gives identical impacts and a
-standard error of 1e-8). Each point carries that floor (:attr:`RestitutionAtSpeed.systematic`), and
-the speed law is weighted by, and checked against, ``sqrt(stderr^2 + systematic^2)``
-(:func:`fit_speed_law`).
+Count crossings (:class:`_ImpactFit`): near an impact the follower often moves far less than one count
+per sample (about 1/85 count per sample after a 150 rpm impact with r = 0.5), so its samples are a
+staircase of two or three levels whose error is one slowly changing function of time, the same at
+every revolution of a period-1 motion, and a smooth fit through the samples errs alike at every impact
+(-2.45e-2 in r there). Where the follower moves less than a count per sample the fit uses the count
+changes instead: each is a crossing of a known level (the count boundary) within a known sample
+interval, fitted at the interval's middle with the error ``|theta_dot| dt / sqrt(12)``; samples are
+used where it moves faster. The jerk either side is ``kappa w-+`` (the free flight is autonomous, A-10).
+
+The pipeline's own error of a point (:data:`RESTITUTION_SYSTEMATIC`, :data:`RESTITUTION_SINGLE_IMPACT`):
+part of the error is common to a recording's first impacts, which the scatter over its revolutions does
+not show. The rest depends on where each impact falls between samples; it averages over revolutions
+when the impacts' sub-sample phases spread (:func:`phase_spread`), and not when a revolution is a whole
+number of samples (150 rpm at 20 kHz: 8000 samples, every impact at one phase, a standard error of
+1e-8). Each point carries the floor that applies (:attr:`RestitutionAtSpeed.systematic`: the averaged
+floor, or one impact's error when the phases do not spread; :func:`systematic_error`), and the speed law
+is weighted by, and checked against, ``sqrt(stderr^2 + systematic^2)`` (:func:`fit_speed_law`).
 """
 
 from __future__ import annotations
@@ -70,9 +82,10 @@ from impactid.rigs.flat import MODEL_NAME, FlatFollowerRig
 from impactid.rigs.flat.encoders import CounterReading, read_counter
 
 __all__ = ["BOUNCE_SEARCH", "FIT_WINDOW_S", "FLIGHT_THRESHOLD_COUNTS", "IMPACT_GUARD_SAMPLES", "LAWS", "METHODS",
-           "RESTITUTION_SYSTEMATIC", "SMOOTHING_S", "SYSTEMATIC_FOLLOWER_STEP", "EncoderImpactError",
-           "EncoderImpactWarning", "RelativeMotion", "RestitutionAtSpeed", "SpeedLawResult", "align_profile",
-           "first_impacts", "fit_speed_law", "refine_offset", "relative_motion", "restitution_at_speed",
+           "PHASE_SPREAD_MIN", "RESTITUTION_SINGLE_IMPACT", "RESTITUTION_SYSTEMATIC", "SMOOTHING_S",
+           "SYSTEMATIC_FOLLOWER_STEP", "SYSTEMATIC_SAMPLE_RATE_HZ", "EncoderImpactError", "EncoderImpactWarning",
+           "RelativeMotion", "RestitutionAtSpeed", "SpeedLawResult", "align_profile", "first_impacts",
+           "fit_speed_law", "phase_spread", "refine_offset", "relative_motion", "restitution_at_speed",
            "simulated_first_bounce", "systematic_error"]
 
 #: Joint-fit window on each side of a first impact [s]: long enough for hundreds of samples, short
@@ -87,19 +100,41 @@ FLIGHT_THRESHOLD_COUNTS = 3.0
 #: Moving-average length that smooths the quantisation sawtooth before flights are located [s]
 #: (detection only: the fits use the raw samples).
 SMOOTHING_S = 0.002
-#: The pipeline's own error of one point's ``r`` [-], a standard deviation: the error common to the
-#: first impacts of a noise-free recording (module doc), which their scatter need not show. Measured
-#: with ``synth_flat_impacting`` (4 s, 20 kHz, encoders 5000/10 000 ppr, cam zero 0.5 + rpm/77 rad) and
-#: ``restitution_at_speed`` at r = 0.40, 0.45, ..., 0.70 and 128, 130, ..., 152 rpm: over the 78
-#: period-1 points (8 first impacts or more) error RMS 4.4e-3, median 1.4e-3, 8 points above 6e-3,
-#: largest 2.4e-2 (150 rpm, r 0.50: a revolution of exactly 8000 samples, every impact sampled alike,
-#: standard error 6e-9); without quantisation (exact angles) still up to 3.5e-3 (145 rpm, r 0.65:
-#: where the impact falls between samples). About 1.1 times that RMS. Command:
-#: ``python benchmarks/validate_rig_f.py`` (section "The pipeline's own error of r").
-RESTITUTION_SYSTEMATIC = 5.0e-3
+#: The pipeline's own error of one point's ``r`` [-], a standard deviation, where the point's first impacts fall at
+#: sub-sample phases that spread (:func:`phase_spread` at least :data:`PHASE_SPREAD_MIN`): the error common to its
+#: impacts (module doc), which their scatter (the point's ``stderr``) does not show. Measured with the
+#: count-crossing fit (:func:`first_impacts`) on noise-free ``synth_flat_impacting`` recordings (4 s, 20 kHz,
+#: encoders 5000/10 000 ppr, cam zero 0.5 + rpm/77 rad), r = 0.40, 0.45, ..., 0.70 at 128, 130, ..., 152, 145 and
+#: 150 rpm and r = 0.42, 0.47, ..., 0.67 at 129, 131, 133.33, 135, 137, 139, 141.18, 143, 147, 149 and 150 rpm: over
+#: the 145 period-1 points (8 first impacts or more) (20 of them phase-locked) error RMS 1.0e-3, 95th percentile
+#: 1.7e-3, largest 7.1e-3 (150 rpm, r 0.65, stderr 2.9e-3), 5.2e-3 (149 rpm, r 0.62, stderr 1.2e-3) and 4.5e-3 (146
+#: rpm, r 0.65, stderr 1.1e-4): each within 1.9 of its point's error with this floor. The previous per-impact fit
+#: (samples, shared jerk) on the first grid: RMS 4.3e-3, largest 2.45e-2 (150 rpm, r 0.50). Measured by a loop of
+#: ``synth_flat_impacting`` and ``restitution_at_speed`` over those grids; ``python benchmarks/validate_rig_f.py``
+#: (section "The pipeline's own error of r") repeats it on its own grids at 10, 20 and 40 kHz and 2000/4000 ppr.
+RESTITUTION_SYSTEMATIC = 2.5e-3
+#: One first impact's error of ``r`` [-], the floor of a point whose impacts' sub-sample phases do not spread (a
+#: revolution of a whole number of samples: every impact errs alike, the scatter over revolutions is ~1e-8 and the
+#: error does not average). Measured on the impacts of the second grid above (571 first impacts at phases spread by
+#: the sampling, 20 kHz): ``|r_i - r|`` median 6.2e-4, 95th percentile 2.4e-3, 99th percentile 5.6e-3, largest
+#: 1.1e-2; this is the 99th percentile, so that one impact's error is covered without averaging (the 95th percentile
+#: alone is the averaged floor). The phase-locked points of those grids (150, 141.18 and 133.33 rpm: 8000, 8500 and
+#: 9000 samples a revolution) erred by at most 2.1e-3. On the validation page's own 20 kHz grid (91 points, 32 of
+#: them with phases that do not spread) the 95th percentile is 3.2e-3, and no point errs by more than 2 point
+#: errors. At 40 kHz (75 points) the 95th / 99th percentiles are 2.2e-3 / 4.7e-3, at 10 kHz 5.3e-3 / 9.8e-3: both
+#: floors grow as ``1 / sample rate`` below :data:`SYSTEMATIC_SAMPLE_RATE_HZ` and are kept above it
+#: (:func:`systematic_error`).
+RESTITUTION_SINGLE_IMPACT = 5.5e-3
+#: The impacts' sub-sample phases spread over at least this fraction of the sample interval
+#: (:func:`phase_spread`) for their errors to average (``n`` phases at random spread over ``1 - ln(n)/n``,
+#: 0.74 for 9 impacts; a recording locked to the samples over less than 1e-3).
+PHASE_SPREAD_MIN = 0.5
+#: The sample rate [Hz] at which the floors were measured.
+SYSTEMATIC_SAMPLE_RATE_HZ = 20_000.0
 #: The follower count [rad] at which :data:`RESTITUTION_SYSTEMATIC` was measured (10 000 ppr). With
-#: 4000 ppr (2.5 times coarser) points of the same grid erred up to 6 times more (3.1e-2 at 145 rpm,
-#: r 0.57): a coarser encoder's floor grows with the square of its count (:func:`systematic_error`).
+#: 4000 ppr (2.5 times coarser) the previous fit's points of the same grid erred up to 6 times more: a
+#: coarser encoder's floor grows with the square of its count (:func:`systematic_error`; the validation
+#: page measures it for this fit).
 SYSTEMATIC_FOLLOWER_STEP = 2.0 * math.pi / 10_000
 
 
@@ -205,35 +240,86 @@ def relative_motion(recording: Recording, profile=None, offset: float | None = N
 
 
 def _follower_model(x, tau_pre, tau_post):
-    """Free flight of the follower either side of the impact: shared angle at the impact (on the
-    profile), acceleration and jerk; rates ``w-`` before and ``w+`` after."""
-    theta1, wm, wp, acc, jerk = x
+    """Free flight of the follower either side of the impact, to third order in ``tau``: shared angle at
+    the impact (on the profile) and acceleration; rates ``w-`` before and ``w+`` after; the jerk of each
+    side ``kappa w-+`` with one shared ``kappa``."""
+    theta1, wm, wp, acc, kappa = x
     a, b = tau_pre, tau_post
-    return (theta1 + wm * a + 0.5 * acc * a * a + jerk * a**3,
-            theta1 + wp * b + 0.5 * acc * b * b + jerk * b**3)
+    return (theta1 + wm * a + 0.5 * acc * a * a + kappa * wm * a**3 / 6.0,
+            theta1 + wp * b + 0.5 * acc * b * b + kappa * wp * b**3 / 6.0)
+
+
+def _follower_rate(x, tau, after):
+    """The rate of :func:`_follower_model` [rad/s] at ``tau`` on one side of the impact."""
+    _, wm, wp, acc, kappa = x
+    w = wp if after else wm
+    return w + acc * tau + 0.5 * kappa * w * tau * tau
 
 
 class _ImpactFit:
     """Joint least-squares fit of the follower's free flight before and after one first impact.
 
     Unknowns: the impact time ``t_1``, the follower rates ``w-`` and ``w+`` [rad/s], its
-    acceleration and jerk (continuous through the impact: the follower's angle is, and its jerk
-    ``-M_s'(theta) theta_dot / J`` jumps by far less than the fit can see). The angle at ``t_1``
-    is not free: the impact is on the profile, ``theta_f(t_1) = theta_hat(theta_c(t_1))``. The
-    relative rates follow with the profile's analytic derivative, ``d_dot = w - omega theta_hat'``.
+    acceleration ``A`` and ``kappa`` [1/s^2]. The flight is autonomous (A-10: ``theta_ddot = f(theta)``,
+    no damping), so the follower's angle and acceleration are continuous through the impact and its
+    jerk on either side is ``f'(theta_1) w-+``: one unknown, ``kappa = f'(theta_1)``, gives the jerk
+    of both sides (the module doc's ``c-, c+`` without a free parameter each). The angle at ``t_1`` is
+    not free: the impact is on the profile, ``theta_f(t_1) = theta_hat(theta_c(t_1))``. The relative
+    rates follow with the profile's analytic derivative, ``d_dot = w - omega theta_hat'``.
+
+    Observations of a quantised follower (:meth:`observations`): where the follower moves less than
+    one count per sample, the samples' quantisation error is one slowly changing staircase, the same at
+    every revolution of a period-1 motion; the information is in the count changes instead, each a
+    crossing of a known level (the count boundary) within a known sample interval. Such a crossing is
+    fitted at the interval's middle (error ``|theta_dot| dt / sqrt(12)``), a sample (half a count
+    added) where the follower moves faster (error ``count / sqrt(12)``), each weighted by its error.
     """
 
-    def __init__(self, t, theta_f, cam_line, profile):
-        self.t, self.theta_f, self.cam_line, self.profile = t, theta_f, cam_line, profile
+    def __init__(self, t, theta_f, cam_line, profile, step):
+        self.t, self.theta_f, self.cam_line, self.profile, self.step = t, theta_f, cam_line, profile, step
+        self.dt = float(np.median(np.diff(t)))
+        if step > 0.0:
+            jump = np.rint(np.diff(theta_f) / step)
+            self.crossing = np.flatnonzero(np.abs(jump) == 1.0)
+            self.t_cross = 0.5 * (t[self.crossing] + t[self.crossing + 1])
+            self.level = 0.5 * (theta_f[self.crossing] + theta_f[self.crossing + 1])
+        else:
+            self.crossing, self.t_cross, self.level = (np.empty(0, dtype=int), np.empty(0), np.empty(0))
 
     def cam(self, time):
         return self.cam_line[0] + self.cam_line[1] * time
 
-    def residual(self, x, sel_pre, sel_post):
+    def observations(self, x, t_lo, t_hi):
+        """``(times, values, weights, after)`` of the observations between ``t_lo`` and ``t_hi`` (samples,
+        or count crossings where the fitted follower ``x`` moves less than a count per sample)."""
+        t1 = x[0]
+        in_span = (self.t > t_lo) & (self.t < t_hi)
+        if self.step <= 0.0:
+            times = self.t[in_span]
+            return times, self.theta_f[in_span], np.ones(times.size), times > t1
+        after = self.t > t1
+        rate = np.where(after, _follower_rate(x, self.t - t1, True), _follower_rate(x, self.t - t1, False))
+        fast = in_span & (np.abs(rate) * self.dt >= self.step)
+        tc = self.t_cross
+        crate = np.where(tc > t1, _follower_rate(x, tc - t1, True), _follower_rate(x, tc - t1, False))
+        slow = (tc - 0.5 * self.dt > t_lo) & (tc + 0.5 * self.dt < t_hi) & (np.abs(crate) * self.dt < self.step)
+        sd_cross = np.sqrt((crate[slow] * self.dt) ** 2 / 12.0 + (1e-3 * self.step) ** 2)
+        times = np.concatenate((self.t[fast], tc[slow]))
+        values = np.concatenate((self.theta_f[fast], self.level[slow]))
+        weights = np.concatenate((np.full(np.count_nonzero(fast), math.sqrt(12.0) / self.step), 1.0 / sd_cross))
+        return times, values, weights, times > t1
+
+    def model(self, x, times, after):
         t1 = x[0]
         theta1 = float(self.profile(self.cam(t1)))
-        pre, post = _follower_model((theta1, *x[1:]), self.t[sel_pre] - t1, self.t[sel_post] - t1)
-        return np.concatenate((self.theta_f[sel_pre] - pre, self.theta_f[sel_post] - post))
+        pre, post = _follower_model((theta1, *x[1:]), times[~after] - t1, times[after] - t1)
+        out = np.empty(times.size)
+        out[~after], out[after] = pre, post
+        return out
+
+    def residual(self, x, times, values, weights, after):
+        # the side of each observation is fixed for the pass (``after``), not moved with t_1
+        return (values - self.model(x, times, after)) * weights
 
     def bounce(self, x, span):
         """``(end, height)`` of the first bounce: where the fitted flight after the impact meets the
@@ -293,7 +379,7 @@ def first_impacts(motion: RelativeMotion, window_s: float = FIT_WINDOW_S,
         local = slice(max(0, i1 - int(window_s * fs)), min(t.size, i1 + int(window_s * fs)))
         # cam angle in the profile's convention, a local straight line (constant cam speed)
         cam_line = np.polyfit(t[local] - t[i1], motion.theta_c[local] + motion.offset, 1)[::-1]
-        fit = _ImpactFit(t - t[i1], motion.theta_f, cam_line, motion.profile)
+        fit = _ImpactFit(t - t[i1], motion.theta_f, cam_line, motion.profile, motion.follower_step)
         c2, c1, c0 = np.polyfit(fit.t[pre], motion.theta_f[pre], 2)
         probe = np.linspace(-0.002, 0.01, 1201)
         above = np.polyval([c2, c1, c0], probe) - motion.profile(fit.cam(probe))
@@ -308,19 +394,23 @@ def first_impacts(motion: RelativeMotion, window_s: float = FIT_WINDOW_S,
         # the bounce is looked for up to BOUNCE_SEARCH windows on; at most one window is fitted
         span_post = fit.bounce(x, BOUNCE_SEARCH * window_s)[0]
         ok = False
-        for _ in range(6):
-            sel_pre = (fit.t > x[0] - window_s) & (fit.t < x[0] - guard) & (fit.t >= fit.t[i0])
-            sel_post = (fit.t > x[0] + guard) & (fit.t < x[0] + min(span_post - guard, window_s))
-            if np.count_nonzero(sel_pre) < 10 or np.count_nonzero(sel_post) < 6:
+        for attempt in range(8):
+            # the observations (samples or count crossings) and their sides follow the fit: re-chosen
+            # each pass, at least twice
+            pre_obs = fit.observations(x, max(x[0] - window_s, fit.t[i0] - 0.5 * fit.dt), x[0] - guard)
+            post_obs = fit.observations(x, x[0] + guard, x[0] + min(span_post - guard, window_s))
+            n_pre, n_post = pre_obs[0].size, post_obs[0].size
+            if n_pre < 10 or n_post < 2:
                 ok = False
                 break
-            res = optimize.least_squares(fit.residual, x, args=(sel_pre, sel_post), method="lm", x_scale="jac")
+            obs = tuple(np.concatenate(pair) for pair in zip(pre_obs, post_obs, strict=True))
+            res = optimize.least_squares(fit.residual, x, args=obs, method="lm", x_scale="jac")
             x = res.x
             end, height = fit.bounce(x, BOUNCE_SEARCH * window_s)
             ok = math.isfinite(end) and res.success
             if not ok:
                 break
-            converged = abs(end - span_post) < guard
+            converged = abs(end - span_post) < guard and attempt > 0
             span_post = end
             if converged:
                 break
@@ -346,9 +436,9 @@ def first_impacts(motion: RelativeMotion, window_s: float = FIT_WINDOW_S,
             "restitution": -rate_after / rate_before,
             "bounce_height": height,
             "bounce_duration": span_post,
-            "rms_residual": float(np.sqrt(np.mean(res.fun**2))),
-            "n_before": int(np.count_nonzero(sel_pre)),
-            "n_after": int(np.count_nonzero(sel_post)),
+            "rms_residual": float(np.sqrt(np.mean((res.fun / obs[2]) ** 2))),
+            "n_before": n_pre,
+            "n_after": n_post,
         })
     return pd.DataFrame(rows, columns=["t_impact", "cam_angle", "flight_height", "rate_before", "rate_after",
                                        "restitution", "bounce_height", "bounce_duration", "rms_residual",
@@ -406,6 +496,7 @@ class RestitutionAtSpeed:
     warnings : doubts about this value
     systematic : the pipeline's own error of ``restitution`` [-] (:func:`systematic_error`), common to
         its impacts and so not in ``stderr``; NaN: :data:`RESTITUTION_SYSTEMATIC`
+    phase_spread : spread of the impacts' sub-sample phases [-] (:func:`phase_spread`; NaN: unknown)
     """
 
     cam_speed_hz: float
@@ -418,6 +509,7 @@ class RestitutionAtSpeed:
     source: str = ""
     warnings: tuple[str, ...] = ()
     systematic: float = math.nan
+    phase_spread: float = math.nan
 
     @property
     def cam_speed_rpm(self) -> float:
@@ -433,15 +525,40 @@ class RestitutionAtSpeed:
         return {"source": self.source, "cam_speed_hz": self.cam_speed_hz, "cam_speed_rpm": self.cam_speed_rpm,
                 "method": self.method, "restitution": self.restitution, "stderr": self.stderr,
                 "systematic": self.systematic if math.isfinite(self.systematic) else RESTITUTION_SYSTEMATIC,
-                "n_impacts": self.n_impacts, "bounce_height_rad": self.bounce_height, "warnings": list(self.warnings)}
+                "phase_spread": self.phase_spread, "n_impacts": self.n_impacts,
+                "bounce_height_rad": self.bounce_height, "warnings": list(self.warnings)}
 
 
-def systematic_error(follower_step: float) -> float:
+def phase_spread(t_impact, sample_rate_hz: float) -> float:
+    """How far the impacts' sub-sample phases spread over the sample interval [-]: one minus the largest
+    gap between the phases ``frac(t_impact * sample_rate_hz)`` taken round the unit circle (0: every
+    impact at one phase, as when a revolution is a whole number of samples; about ``1 - ln(n) / n`` for
+    ``n`` phases spread at random). NaN with fewer than two impacts."""
+    phases = np.sort(np.mod(np.asarray(t_impact, dtype=float) * sample_rate_hz, 1.0))
+    if phases.size < 2:
+        return math.nan
+    gaps = np.diff(np.concatenate((phases, phases[:1] + 1.0)))
+    return float(1.0 - gaps.max())
+
+
+def systematic_error(follower_step: float, spread: float = 1.0,
+                     sample_rate_hz: float = SYSTEMATIC_SAMPLE_RATE_HZ) -> float:
     """The pipeline's own error of a point's ``r`` [-] with a follower encoder of count ``follower_step``
-    [rad]: :data:`RESTITUTION_SYSTEMATIC`, times ``(follower_step / SYSTEMATIC_FOLLOWER_STEP)^2`` for a
-    coarser encoder (never less; 0 or NaN: an unquantised channel, the measured floor)."""
+    [rad], impacts whose sub-sample phases spread by ``spread`` (:func:`phase_spread`) and a sample rate
+    ``sample_rate_hz`` [Hz].
+
+    :data:`RESTITUTION_SYSTEMATIC` (impacts at phases that spread, their errors partly averaged) or, when
+    the phases spread over less than :data:`PHASE_SPREAD_MIN` of the sample interval (or are unknown,
+    NaN), :data:`RESTITUTION_SINGLE_IMPACT` (every impact errs alike: the point's error is one impact's);
+    times ``(follower_step / SYSTEMATIC_FOLLOWER_STEP)^2`` for a coarser encoder (0 or NaN: an
+    unquantised channel) and ``SYSTEMATIC_SAMPLE_RATE_HZ / sample_rate_hz`` for a slower sampling (each
+    factor never below 1: the measured floors are kept for finer encoders and faster sampling)."""
     ratio = follower_step / SYSTEMATIC_FOLLOWER_STEP if math.isfinite(follower_step) and follower_step > 0 else 0.0
-    return RESTITUTION_SYSTEMATIC * max(1.0, ratio) ** 2
+    rate_known = math.isfinite(sample_rate_hz) and sample_rate_hz > 0.0
+    slower = SYSTEMATIC_SAMPLE_RATE_HZ / sample_rate_hz if rate_known else 1.0
+    locked = not (math.isfinite(spread) and spread >= PHASE_SPREAD_MIN)
+    base = RESTITUTION_SINGLE_IMPACT if locked else RESTITUTION_SYSTEMATIC
+    return base * max(1.0, ratio) ** 2 * max(1.0, slower)
 
 
 def simulated_first_bounce(rig: FlatFollowerRig, cam_speed_hz: float, restitution: float,
@@ -502,6 +619,7 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
     if len(table) < 5:
         notes.append(f"only {len(table)} first impacts")
     bounce = float(np.median(table["bounce_height"]))
+    spread = phase_spread(table["t_impact"].to_numpy(), recording.sample_rate_hz)
     if method == "impact-law":
         values = table["restitution"].to_numpy()
         r = float(np.mean(values))
@@ -538,7 +656,8 @@ def restitution_at_speed(recording: Recording, profile=None, method: str = "impa
     return RestitutionAtSpeed(cam_speed_hz=motion.cam_speed_hz, restitution=r, stderr=se, method=method,
                               n_impacts=len(table), bounce_height=bounce, impacts=table,
                               source=recording.source or "", warnings=tuple(notes),
-                              systematic=systematic_error(motion.follower_step))
+                              systematic=systematic_error(motion.follower_step, spread, recording.sample_rate_hz),
+                              phase_spread=spread)
 
 
 @dataclass(frozen=True)
