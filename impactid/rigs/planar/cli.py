@@ -1,8 +1,10 @@
 """``impactid planar fit`` and ``impactid planar predict``: what the commands run.
 
 Thin: resolves the body, reads the table, calls :mod:`impactid.rigs.planar.identify`, prints and
-writes. Output paths are checked before anything is computed, outputs are written atomically, and
-every failure the user can cause is one line ``impactid: error: ...`` (exit status 2).
+writes. Also ``impactid synth --rig planar-impact`` (:func:`run_synth`), which writes a synthetic
+table of impacts (:mod:`impactid.rigs.planar.synth`). Output paths are checked before anything is
+computed, outputs are written atomically, and every failure the user can cause is one line
+``impactid: error: ...`` (exit status 2).
 """
 
 from __future__ import annotations
@@ -14,15 +16,43 @@ from pathlib import Path
 import numpy as np
 
 from impactid._files import StagedFiles, check_output
-from impactid.commandline import UsageError, check_report, json_text, print_json, say_report, write_report
+from impactid.commandline import (
+    UsageError,
+    check_outputs,
+    check_report,
+    json_text,
+    print_json,
+    refuse_other_rigs_options,
+    say_report,
+    write_report,
+)
 from impactid.errors import ImpactidError, RigParameterError
 from impactid.results import FitResult
+from impactid.rigs.base import argument_dests
+from impactid.rigs.planar.commands import SYNTH, SYNTH_SUFFIXES
 from impactid.rigs.planar.identify import PlanarFitError, PlanarLawFit, fit_planar, predict_planar, score_predictions
+from impactid.rigs.planar.laws import PlanarLaw
 from impactid.rigs.planar.parameters import MODEL_NAME, PRESETS, PlanarBody
+from impactid.rigs.planar.synth import (
+    DEFAULT_APPROACH_SPEEDS,
+    DEFAULT_NOISE,
+    DEFAULT_SEMI_AXES,
+    synth_impacts,
+    write_impacts,
+)
 from impactid.rigs.planar.table import read_impacts, read_pre_impact
 from impactid.rigs.registry import resolve_rig
 
-__all__ = ["body_from_arguments", "run_fit", "run_predict"]
+__all__ = ["body_from_arguments", "run_fit", "run_predict", "run_synth"]
+
+#: Defaults of ``impactid synth --rig planar-impact`` not in :mod:`~impactid.rigs.planar.synth`'s constants.
+SYNTH_DEFAULTS = {"restitution": 0.6, "mu": 0.3, "impact_rule": "newton", "impacts": 200}
+#: The options of other rigs' ``synth`` that mean something close here, and what to give instead.
+_SYNTH_HINTS = {"noise": " (the measured velocities' noise is --velocity-noise M/S)",
+                "restitution_law": " (a speed-dependent restitution is --restitution E0 --restitution-slope GAMMA)",
+                "bounce_law": " (a speed-dependent restitution is --restitution E0 --restitution-slope GAMMA)",
+                "law": " (the impact law is --impact-rule, --restitution, --restitution-slope, --mu and "
+                       "--tangential-restitution)"}
 
 
 def body_from_arguments(args, default: PlanarBody | None = None) -> PlanarBody:
@@ -98,6 +128,9 @@ def run_fit(args) -> int:
           f"({result.details.get('selection', 'given')}), target {s['target']}")
     for p in result.params.values():
         lo, hi = p.interval
+        if not math.isfinite(p.value) and math.isfinite(lo):  # a lower bound only (mu where every impact sticks)
+            print(f"  {p.name:<6} >= {_num(lo)} (lower bound: not determined) {p.unit}".rstrip())
+            continue
         print(f"  {p.name:<6} {_num(p.value, '.5g')} +/- {_num(p.stderr, '.2g')} [{_num(lo)}, {_num(hi)}] "
               f"{p.unit}".rstrip())
     if "median_relative_impulse_error" in s:
@@ -165,4 +198,60 @@ def run_predict(args) -> int:
         if key in summary:
             print(f"  {key.replace('_', ' ')}: {summary[key]:.4g}")
     print(f"  predictions written to {args.out}")
+    return 0
+
+
+def _synth_law(args) -> tuple[PlanarLaw, dict]:
+    """The law of ``impactid synth --rig planar-impact`` and its parameters, from the options."""
+    e = SYNTH_DEFAULTS["restitution"] if args.restitution is None else args.restitution
+    values = {"mu": SYNTH_DEFAULTS["mu"] if args.mu is None else args.mu}
+    if args.restitution_slope is None:
+        values["e"] = e
+    else:
+        values.update(e0=e, gamma=args.restitution_slope)
+    if args.tangential_restitution is not None:
+        values["e_t"] = args.tangential_restitution
+    law = PlanarLaw(args.impact_rule or SYNTH_DEFAULTS["impact_rule"],
+                    "constant" if args.restitution_slope is None else "linear", args.tangential_restitution is not None)
+    return law, values
+
+
+def run_synth(args) -> int:
+    """``impactid synth --rig planar-impact``: a synthetic table of planar impacts made by a known law (its
+    pre-impact states, contact Jacobians, post-impact states and impulses) for ``impactid planar fit``;
+    returns the exit code."""
+    refuse_other_rigs_options(args, argument_dests(SYNTH.arguments), command="synth", model_name=MODEL_NAME,
+                              hints=_SYNTH_HINTS)
+    suffix = Path(args.out).suffix.lower()
+    if suffix not in SYNTH_SUFFIXES:
+        raise UsageError(f"argument --out: a table of impacts is written as {', '.join(SYNTH_SUFFIXES)} (by the "
+                         f"file's suffix), got {args.out!r}")
+    body = args.resolved_rig.rig
+    law, values = _synth_law(args)
+    low, high = DEFAULT_APPROACH_SPEEDS if args.approach_speeds is None else args.approach_speeds
+    if not 0.0 < low <= high <= 100.0:
+        raise UsageError(f"argument --approach-speeds: needs 0 < LOW <= HIGH <= 100 m/s, got {low:g},{high:g}")
+    a, b = DEFAULT_SEMI_AXES if args.semi_axes is None else args.semi_axes
+    if not (0.0 < a <= 10.0 and 0.0 < b <= 10.0):
+        raise UsageError(f"argument --semi-axes: two lengths in (0, 10] m, got {a:g},{b:g}")
+    if law.restitution == "linear":
+        ends = [values["e0"] * (1.0 - values["gamma"] * u) for u in (low, high)]
+        if not all(0.0 <= e <= 1.0 for e in ends):
+            raise UsageError(f"argument --restitution-slope: e0 (1 - GAMMA u) = {ends[0]:.3g} to {ends[1]:.3g} over "
+                             f"the approach speeds {low:g}-{high:g} m/s; it must stay in [0, 1]")
+    noise = DEFAULT_NOISE if args.velocity_noise is None else args.velocity_noise
+    if noise > 10.0:
+        raise UsageError(f"argument --velocity-noise: at most 10 m/s, got {noise:g}")
+    check_outputs(args, [args.rig] if args.rig and Path(args.rig).suffix.lower() == ".toml" else [])
+    count = SYNTH_DEFAULTS["impacts"] if args.impacts is None else args.impacts
+    try:
+        impacts = synth_impacts(law, values, body=body, count=count, semi_axes=(a, b), approach_speeds=(low, high),
+                                noise=noise, seed=args.seed)
+    except ValueError as exc:
+        raise UsageError(f"arguments --mu/--restitution/--impact-rule: {exc}") from None
+    write_impacts(args.out, impacts)
+    described = ", ".join(f"{name} {value:g}" for name, value in impacts.values.items())
+    print(f"{args.out}: {len(impacts)} impacts of a {body.mass:g} kg body (k_g {body.radius_of_gyration:g} m) made by "
+          f"the {law.name} law ({described}), {100 * float(np.mean(impacts.exact.sticking)):.0f} % stick; velocity "
+          f"noise {noise:g} m/s")
     return 0

@@ -1,5 +1,7 @@
 """The commands the planar-impact rig contributes (``RigModel.commands`` names this module):
-``impactid planar fit`` and ``impactid planar predict`` (their arguments as data, their runs in
+``impactid planar fit``, ``impactid planar predict`` and its implementation of the shared ``impactid
+synth`` (``--rig planar-impact``, a body's preset name or a rig file), which writes a synthetic table
+of impacts that ``planar fit`` reads (their arguments as data, their runs in
 :mod:`impactid.rigs.planar.cli`).
 
 Light: building the command line imports this module only; the readers and the fits (NumPy, pandas,
@@ -11,10 +13,10 @@ from __future__ import annotations
 
 import argparse
 
-from impactid.commandline import REPORT, positive
+from impactid.commandline import REPORT, SEED, SYNTH_OUT, fraction, integer_in, nonnegative, number, pair, positive
 from impactid.rigs.base import Argument, CommandSpec
 
-__all__ = ["BODIES", "COMMANDS", "LAWS", "MODEL_NAME"]
+__all__ = ["BODIES", "COMMANDS", "LAWS", "MODEL_NAME", "RULES", "SYNTH", "SYNTH_SUFFIXES"]
 
 #: The rig's model name (``MODEL.name``).
 MODEL_NAME = "planar-impact"
@@ -23,6 +25,14 @@ MODEL_NAME = "planar-impact"
 LAWS = ("newton-constant-stick", "newton-constant-et", "newton-linear-stick", "newton-linear-et",
         "chatterjee-ruina-constant-stick", "chatterjee-ruina-constant-et", "chatterjee-ruina-linear-stick",
         "chatterjee-ruina-linear-et")
+
+#: The impact rules ``impactid synth --rig planar-impact --impact-rule`` names
+#: (:data:`impactid.rigs.planar.laws.RULES`).
+RULES = ("newton", "chatterjee-ruina")
+
+#: The suffixes ``impactid synth --rig planar-impact --out`` writes
+#: (:data:`impactid.rigs.planar.synth.TABLE_FORMATS`).
+SYNTH_SUFFIXES = (".csv", ".tsv")
 
 #: The named bodies ``--body`` takes (the keys of :data:`impactid.rigs.planar.parameters.PRESETS`).
 BODIES = ("mcube-ellipse",)
@@ -103,5 +113,54 @@ PREDICT = CommandSpec(
     ),
     run=run_predict)
 
+
+
+def _tangential_restitution(text: str) -> float:
+    value = number(text)
+    if not -1.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must lie in [-1, 1], got {text!r}")
+    return value
+
+
+def run_synth(args, model) -> int:
+    """Run ``impactid synth --rig planar-impact`` (:func:`impactid.rigs.planar.cli.run_synth`, imported now)."""
+    from impactid.rigs.planar.cli import run_synth as run
+
+    return run(args)
+
+
+SYNTH = CommandSpec(
+    group="", name="synth", help="write a synthetic table of planar impacts made by a known impact law (CSV, TSV)",
+    arguments=(
+        # shared with rig F's (--restitution) and rig P's (--mu) synth: their declarations come first
+        Argument(("--restitution",), {"type": fraction, "default": None,
+                                      "help": "planar-impact: restitution e (e0 of a speed-dependent law; "
+                                              "default 0.6)"}, exclusive="restitution"),
+        Argument(("--mu",), {"type": nonnegative, "default": None,
+                             "help": "planar-impact: Coulomb friction coefficient (default 0.3)"}),
+        Argument(("--restitution-slope",), {"type": number, "default": None, "metavar": "GAMMA",
+                                            "help": "planar-impact: a speed-dependent restitution e0 (1 - GAMMA u), "
+                                                    "e0 the --restitution, u the approach speed [m/s], GAMMA in s/m "
+                                                    "(default: constant)"}),
+        Argument(("--tangential-restitution",), {"type": _tangential_restitution, "default": None, "metavar": "ET",
+                                                 "help": "planar-impact: tangential restitution e_t in [-1, 1] "
+                                                         "(default: none, sliding stops when friction suffices)"}),
+        Argument(("--impact-rule",), {"choices": RULES, "default": None,
+                                      "help": "planar-impact: Newton's restitution with Coulomb friction (newton, "
+                                              "the default) or the impulse-space law of Chatterjee & Ruina 1998"}),
+        Argument(("--impacts",), {"type": integer_in(1, 1_000_000), "default": None, "metavar": "N",
+                                  "help": "planar-impact: number of impacts (default 200)"}),
+        Argument(("--velocity-noise",), {"type": nonnegative, "default": None, "metavar": "M/S",
+                                         "help": "planar-impact: standard deviation of the measured velocities "
+                                                 "before and after [m/s] (over k_g on omega [rad/s]; default 0.01)"}),
+        Argument(("--approach-speeds",), {"type": pair, "default": None, "metavar": "LOW,HIGH",
+                                          "help": "planar-impact: range of the contact point's approach speed [m/s] "
+                                                  "(default 1,3)"}),
+        Argument(("--semi-axes",), {"type": pair, "default": None, "metavar": "A,B",
+                                    "help": "planar-impact: semi-axes of the elliptical body [m] (default 0.035,0.025, "
+                                            "the MCube ellipse)"}),
+        SEED, SYNTH_OUT),
+    run=run_synth, rig_argument="resolve")
+
 #: The commands the planar-impact rig contributes.
-COMMANDS = (FIT, PREDICT)
+COMMANDS = (FIT, PREDICT, SYNTH)

@@ -3,8 +3,10 @@
 :func:`fit_planar_law` fits one law (:mod:`impactid.rigs.planar.laws`) to the measured impulses (or
 post-impact velocities) of a set of impacts through the identification engine every rig uses
 (:mod:`impactid.engine`): the search (trust-region reflective within the parameters' bounds, several
-starts from values read off the data), the uncertainty (covariance from the Jacobian scaled by the
-residual variance, Student-t intervals), the model check and the identifiability block.
+starts from values read off the data), the uncertainty (the covariance clustered by impact,
+:func:`impact_sandwich`, since the noise of each pre-impact state enters its prediction; Student-t
+intervals), the model check and the identifiability block; where every impact sticks, ``mu`` is
+reported undetermined with the lower bound the data give.
 :func:`fit_planar` fits every candidate law, compares them by AIC and BIC
 (:func:`impactid.engine.compare_models`) and returns the selected law's fit with the comparison.
 
@@ -27,24 +29,29 @@ from dataclasses import replace
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from impactid.engine import (
     NO_NOISE_REFERENCE,
+    Covariance,
     Free,
+    Search,
+    Uncertainty,
     check_model,
     combine_checks,
     compare_models,
+    covariance_from_jacobian,
     identifiability,
     search,
     uncertainty,
 )
-from impactid.results import FitResult
+from impactid.results import FitResult, Parameter
 from impactid.rigs.planar.laws import LAWS, PlanarLaw, get_law, outcome
 from impactid.rigs.planar.parameters import PlanarBody
 from impactid.rigs.planar.table import PlanarImpacts
 
-__all__ = ["MU_MAX", "PlanarFitError", "PlanarLawFit", "fit_planar", "fit_planar_law", "predict_planar",
-           "score_predictions"]
+__all__ = ["MU_MAX", "PlanarFitError", "PlanarLawFit", "fit_planar", "fit_planar_law", "impact_sandwich",
+           "predict_planar", "score_predictions"]
 
 #: Largest friction coefficient the search considers [-].
 MU_MAX = 2.0
@@ -160,8 +167,104 @@ def _residual_function(law: PlanarLaw, impacts: PlanarImpacts, body: PlanarBody,
 def _search(law, impacts, body, target):
     free = _free(law, impacts, body, target)
     residual = _residual_function(law, impacts, body, target, free)
-    found = search(residual, free, starts=_starts(law, free), differences="3-point", xtol=1e-10, ftol=1e-12)
+    # where every impact sticks the residual does not depend on mu: a zero column of the Jacobian, which
+    # the trust-region steps divide by (0/0); the search stays where it is along mu (fit_planar_law says why)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        found = search(residual, free, starts=_starts(law, free), differences="3-point", xtol=1e-10, ftol=1e-12)
     return found, residual
+
+
+def _friction_bound(params: Sequence[Parameter], table: pd.DataFrame) -> tuple[tuple[Parameter, ...], str]:
+    """Where every fitted impact sticks, ``mu`` is not determined: the data give only the lower bound
+    ``max |p_t| / p_n`` of the fitted impulses. Returns the parameters (``mu`` undetermined, its interval
+    ``[bound, undetermined]``) and the note saying so, or the parameters unchanged and ""."""
+    if not (len(table) and bool(table["sticking"].all())):
+        return tuple(params), ""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.abs(table["impulse_t_fit"].to_numpy()) / table["impulse_n_fit"].to_numpy()
+    bound = float(np.max(ratio[np.isfinite(ratio)])) if np.any(np.isfinite(ratio)) else 0.0
+    note = (f"mu is not determined: every impact sticks (its impulse lies inside the friction cone), so the data "
+            f"give only a lower bound, mu >= {bound:.4g} (the largest |p_t| / p_n of the fitted impulses)")
+    out = [replace(p, value=math.nan, stderr=math.nan, interval=(bound, math.nan),
+                   note=f"every impact sticks: only the lower bound mu >= {bound:.4g} is determined")
+           if p.name == "mu" and not p.fixed else p for p in params]
+    return tuple(out), note
+
+
+def impact_sandwich(found: Search, stated: Uncertainty, n_impacts: int) -> Uncertainty:
+    r"""The uncertainty of a planar fit with the covariance clustered by impact (a sandwich estimator).
+
+    The residual of an impact depends on its measured pre-impact state twice: through the measured
+    outcome and through the prediction (the approach speed, the sticking impulse), so its components
+    are correlated and their variance differs from impact to impact, by an amount no weighting known
+    in advance describes (the noise of a motion-capture system is not known, the real impulses are
+    not the velocity changes'). The covariance ``scale (J^T J)^-1`` of :func:`impactid.engine.uncertainty`
+    assumes independent residuals of one variance; here it is replaced by the covariance that holds for
+    any noise of the impacts' states and outcomes as long as the impacts are independent of each other,
+
+    .. math:: C = \frac{N - 1}{N} (J^T J)^{-1} \Big(\sum_i \tilde s_i \tilde s_i^T\Big) (J^T J)^{-1}, \qquad
+              \tilde s_i = J_i^T (I - H_{ii})^{-1} r_i,
+
+    (``N`` impacts, ``k`` parameters, ``J_i`` and ``r_i`` the rows of impact ``i``, ``H_ii = J_i (J^T J)^-1
+    J_i^T`` its block of the hat matrix): the linearised jackknife over impacts, which does not shrink
+    where a few impacts carry a parameter (the sliding ones for ``mu``). The intervals are Student-t
+    with ``N - k`` degrees of freedom. Parameters the model does not depend on stay undetermined as in
+    :func:`~impactid.engine.covariance_from_jacobian`.
+
+    Parameters
+    ----------
+    found : the search; its residual and Jacobian are ordered component by component, each
+        component over every impact (:func:`_residual_function`).
+    stated : the engine's uncertainty of the same search (the notes, bounds and statistics kept).
+    n_impacts : number of impacts ``N``.
+
+    Returns
+    -------
+    Uncertainty
+        with the clustered covariance, standard errors, correlations and intervals, and
+        ``statistics["covariance"]`` naming the estimator.
+    """
+    jacobian, residual = np.asarray(found.jacobian, float), np.asarray(found.residual, float)
+    k = jacobian.shape[1]
+    dof = n_impacts - k
+    bread = covariance_from_jacobian(jacobian, 1.0, names=stated.names)
+    if dof <= 0 or not np.any(np.isfinite(bread.stderr)):
+        return stated
+    components = residual.size // n_impacts
+    live = np.isfinite(bread.stderr)
+    b = bread.matrix[np.ix_(live, live)]
+    per_impact = jacobian[:, live].reshape(components, n_impacts, -1).transpose(1, 0, 2)  # (N, c, k)
+    r = residual.reshape(components, n_impacts).T  # (N, c)
+    leverage = np.einsum("icp,pq,idq->icd", per_impact, b, per_impact)  # the hat matrix's blocks
+    keep = np.eye(components) - leverage
+    adjusted = np.einsum("icd,id->ic", np.linalg.pinv(keep), r)  # an impact of leverage 1: no crash
+    scores = np.einsum("icp,ic->ip", per_impact, adjusted)
+    meat = scores.T @ scores * ((n_impacts - 1) / n_impacts)
+    matrix = np.full((k, k), math.nan)
+    matrix[np.ix_(live, live)] = b @ meat @ b
+    stderr = np.where(live, np.sqrt(np.clip(np.diag(matrix), 0.0, None)), math.nan)
+    covariance = Covariance(matrix, stderr, bread.condition, bread.reason)
+    q = float(stats.t.ppf(0.5 + 0.5 * stated.confidence, dof))
+    by_name = dict(zip(stated.names, range(k)))
+    free = {p.name: p for p in found.varying}
+    parameters = []
+    for p in stated.parameters:
+        j = by_name.get(p.name)
+        if p.fixed or j is None or not (math.isfinite(p.stderr) and math.isfinite(stderr[j])):
+            parameters.append(p)
+            continue
+        x = float(found.x[j])
+        if free[p.name].log:
+            interval = (math.exp(x - q * stderr[j]), math.exp(x + q * stderr[j]))
+            se = p.value * stderr[j]
+        else:
+            interval, se = (x - q * stderr[j], x + q * stderr[j]), float(stderr[j])
+        parameters.append(replace(p, stderr=float(se), interval=interval))
+    statistics = {**stated.statistics, "dof": dof, "model_based_stderr": dict(zip(stated.names,
+                                                                                 map(float, stated.covariance.stderr))),
+                  "covariance": "clustered by impact (sandwich with leverage correction: the linearised jackknife)"}
+    return replace(stated, covariance=covariance, dof=dof, parameters=tuple(parameters), statistics=statistics,
+                   correlation=covariance.correlation)
 
 
 def _impact_table(law: PlanarLaw, values, impacts: PlanarImpacts, body: PlanarBody) -> pd.DataFrame:
@@ -210,8 +313,8 @@ def fit_planar_law(impacts: PlanarImpacts, body: PlanarBody, law: str | PlanarLa
     if len(impacts) < MIN_IMPACTS:
         raise PlanarFitError(f"{impacts.source}: {len(impacts)} impact(s); a law needs at least {MIN_IMPACTS}")
     found, residual = _search(law, impacts, body, target)
-    stated = uncertainty(found, confidence=confidence)
     n = len(impacts)
+    stated = impact_sandwich(found, uncertainty(found, confidence=confidence), n)
     components = found.residual.size // n
     speed = -np.sum(impacts.jn * impacts.v_pre, axis=1)
     labels = ("tangential", "normal") if target == "impulse" else ("v_x", "v_y", "omega")
@@ -220,12 +323,14 @@ def fit_planar_law(impacts: PlanarImpacts, body: PlanarBody, law: str | PlanarLa
                           groups=np.repeat(np.arange(components), n), order=False,
                           covariate=np.tile(speed, components), covariate_name="approach speed [m/s]")
     params = checked.widen(stated.parameters)
-    described = identifiability(found, stated, residual=residual if profiles else None,
-                                search_options={"xtol": 1e-10, "ftol": 1e-12},
-                                quadratic_reason="" if profiles else "profiles not asked for",
-                                comparison=comparison, describes_data=checked.describes_data)
+    with np.errstate(divide="ignore", invalid="ignore"):  # the profiles' refits: as in _search
+        described = identifiability(found, stated, residual=residual if profiles else None,
+                                    search_options={"xtol": 1e-10, "ftol": 1e-12},
+                                    quadratic_reason="" if profiles else "profiles not asked for",
+                                    comparison=comparison, describes_data=checked.describes_data)
     values = found.values()
     table = _impact_table(law, values, impacts, body)
+    params, sticking_note = _friction_bound(params, table)
     rss = float(found.residual @ found.residual)
     k = len(found.varying)
     m = found.residual.size
@@ -236,6 +341,8 @@ def fit_planar_law(impacts: PlanarImpacts, body: PlanarBody, law: str | PlanarLa
     if "relative_impulse_error" in table:
         statistics["median_relative_impulse_error"] = float(np.median(table["relative_impulse_error"]))
     notes = list(stated.notes) + list(checked.further_notes)
+    if sticking_note:  # said once, in words, instead of the engine's "residuals do not depend on mu"
+        notes = [sticking_note] + [n for n in notes if not ("do not depend on" in n and "mu" in n)]
     if not found.success:
         notes.insert(0, f"the search stopped without converging: {found.message}")
     details = {"law": {"name": law.name, "rule": law.rule, "restitution": law.restitution,
