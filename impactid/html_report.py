@@ -36,13 +36,10 @@ import pandas as pd
 from impactid._version import __version__
 from impactid.results import (
     FitResult,
-    confidence_label,
     identifiability_lines,
-    interval_header,
     model_check_lines,
-    note_reference,
     numbered_notes,
-    parameter_cells,
+    parameter_rows,
 )
 
 __all__ = ["CAMPAIGN_SECTIONS", "FIT_SECTIONS", "MAX_TABLE_ROWS", "FigureCapture", "ReportFigure", "campaign_page",
@@ -238,14 +235,7 @@ def _parameters(result: FitResult, notes: Sequence[str]) -> str:
     params = list(result.params.values())
     if not params:
         return _section("parameters", "Parameters", _none("this fit has no parameters"))
-    header = interval_header(params)
-    rows = []
-    for p in params:
-        cells = parameter_cells(p)
-        interval = cells["interval"]
-        if header == "interval" and interval not in ("", "n/a"):
-            interval += f" ({confidence_label(p.confidence)})"
-        rows.append([p.name, cells["value"], cells["stderr"], interval, p.unit, note_reference(p, notes)])
+    header, rows = parameter_rows(params, notes)
     titles = ["name", "value", "standard error", header, "unit", "note"]
     if not any(row[-1] for row in rows):  # no note column when no parameter has a note
         titles, rows = titles[:-1], [row[:-1] for row in rows]

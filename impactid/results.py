@@ -38,7 +38,7 @@ from impactid._version import __version__
 
 __all__ = ["FitResult", "Parameter", "confidence_label", "identifiability_lines", "interval_header", "is_search_box",
            "json_ready", "model_check_lines", "note_reference", "numbered_notes", "parameter_cells",
-           "parameter_table_lines", "result_kinds", "strongest_correlations"]
+           "parameter_rows", "parameter_table_lines", "result_kinds", "strongest_correlations"]
 
 _KINDS: dict[str, type[FitResult]] = {}
 
@@ -413,10 +413,10 @@ def interval_header(params: Iterable[Parameter]) -> str:
     return f"{confidence_label(levels.pop())} interval" if len(levels) == 1 else "interval"
 
 
-def parameter_table_lines(params: Iterable[Parameter], notes: Sequence[str]) -> list[str]:
-    """The ``[[Variables]]`` block: a header and one aligned row per parameter (name, value, standard
-    error, interval, unit, note reference); the confidence level is in the header (or beside each
-    interval when they differ)."""
+def parameter_rows(params: Iterable[Parameter], notes: Sequence[str]) -> tuple[str, list[list[str]]]:
+    """The parameter table's interval column title and one row of text cells per parameter (name,
+    value, standard error, interval, unit, note reference), for the text report and the HTML page;
+    the confidence level is in the title (or beside each interval when they differ)."""
     params = list(params)
     header = interval_header(params)
     rows = []
@@ -426,6 +426,14 @@ def parameter_table_lines(params: Iterable[Parameter], notes: Sequence[str]) -> 
         if header == "interval" and interval not in ("", "n/a"):
             interval += f" ({confidence_label(p.confidence)})"
         rows.append([p.name, cells["value"], cells["stderr"], interval, p.unit, note_reference(p, notes)])
+    return header, rows
+
+
+def parameter_table_lines(params: Iterable[Parameter], notes: Sequence[str]) -> list[str]:
+    """The ``[[Variables]]`` block: a header and one aligned row per parameter (name, value, standard
+    error, interval, unit, note reference); the confidence level is in the header (or beside each
+    interval when they differ)."""
+    header, rows = parameter_rows(params, notes)
     titles = ["name", "value", "std. error", header, "unit", "note"]
     widths = [max(len(row[k]) for row in rows + [titles]) for k in range(len(titles))]
     if not any(row[5] for row in rows):  # no note column when no parameter has a note

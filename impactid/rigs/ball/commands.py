@@ -87,7 +87,7 @@ def _arguments() -> tuple[Argument, ...]:
         Argument(("--no-drag",), dict(action="store_true",
                                       help="analyse the flights without air even for a known ball")),
         Argument(("--audio-channel",), dict(type=_audio_channel, default="mix", metavar="mix|N",
-                                            help="WAV: mix the channels (default) or use channel N (0 = first)")),
+                                            help="audio: mix the channels (default) or use channel N (0 = first)")),
         Argument(("--law",), dict(choices=["auto", *LAWS], default="auto",
                                   help="law to report: auto (selected by --criterion) or one by name")),
         Argument(("--criterion",), dict(choices=["bic", "aic"], default="bic",
@@ -197,10 +197,10 @@ def command() -> CommandSpec:
     """``impactid bounces``: the command the bouncing-ball rig contributes to the command line."""
     return CommandSpec(
         group="", name="bounces",
-        help="restitution e(v) of a ball on a floor from bounce timings (phyphox exports, CSV, WAV)",
+        help="restitution e(v) of a ball on a floor from bounce timings (phyphox exports, CSV, audio: WAV, FLAC, Ogg)",
         description="Restitution of a ball on a floor from the times of its bounces: phyphox 'Acoustic "
-                    "stopwatch' exports (.xlsx, .xls, CSV, zip), a CSV of event times, or WAV audio. Several "
-                    "files are several drops of one ball on one surface.",
+                    "stopwatch' exports (.xlsx, .xls, CSV, zip), a CSV of event times, or audio (WAV, FLAC, "
+                    "Ogg). Several files are several drops of one ball on one surface.",
         arguments=_arguments(), run=run)
 
 
