@@ -276,7 +276,7 @@ def test_campaign_page_loads_in_chromium_without_console_errors(tmp_path):
 #: Every fit command and ``campaign``: each takes ``--report``.
 REPORT_COMMANDS = (("estimate",), ("campaign",), ("restitution",), ("cam-fit",), ("bounces",), ("drop", "fit"),
                    ("valvetrain", "fit-tappet"), ("valvetrain", "fit-lift"), ("valvetrain", "fit-damping"),
-                   ("valvetrain", "fit-surge"), ("planar", "fit"))
+                   ("valvetrain", "fit-surge"), ("planar", "fit"), ("tracks", "analyse"))
 
 
 def _subparser(parser, path):

@@ -17,6 +17,7 @@ are fast.
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import os
 import re
@@ -96,9 +97,10 @@ def _inputs(tokens: list[str]) -> list[str]:
 
 
 def _written_before(path: str, written: list[str]) -> bool:
-    """Whether ``path`` (a file, or a folder ``x/``) is one of ``written`` or holds one of them."""
+    """Whether ``path`` (a file, a folder ``x/`` or a shell pattern ``track*.csv``) is one of ``written``,
+    holds one of them or matches one."""
     folder = path.rstrip("/") + "/"
-    return any(w == path or w.startswith(folder) for w in written)
+    return any(w == path or w.startswith(folder) or fnmatch.fnmatchcase(w, path) for w in written)
 
 
 def _is_synth(tokens: list[str]) -> bool:
@@ -118,9 +120,11 @@ SECTIONS = _readme_sections()
 def test_readme_has_the_recipes():
     """The command-line recipes cover every analysis the README's table lists, each fed by a ``synth``."""
     lines = [shlex.split(line, comments=True) for s in SECTIONS for line in _commands(s)]
-    commands = {" ".join(t[1:3]) if t[1] in ("valvetrain", "drop") else t[1] for t in lines if t[0] == "impactid"}
+    commands = {" ".join(t[1:3]) if t[1] in ("valvetrain", "drop", "tracks", "planar") else t[1]
+                for t in lines if t[0] == "impactid"}
     for needed in ("estimate", "events", "info", "campaign", "synth", "cam-fit", "restitution", "bifurcation",
-                   "bounces", "drop fit", "valvetrain fit-tappet", "valvetrain fit-surge"):
+                   "bounces", "drop fit", "valvetrain fit-tappet", "valvetrain fit-surge", "tracks analyse",
+                   "planar fit", "planar predict"):
         assert needed in commands, f"README.md: no recipe runs 'impactid {needed}'"
 
 

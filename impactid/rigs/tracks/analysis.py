@@ -4,7 +4,10 @@ the table-tennis rule's band beside the restitution at the rule's impact speeds
 
 1. Each track's bounces (:func:`~impactid.rigs.tracks.bounces.find_bounces`) and tracking noise
    (:func:`~impactid.rigs.tracks.bounces.tracking_noise`); each bounce with enough flight fitted
-   (:func:`~impactid.rigs.tracks.bounces.fit_bounce`), the contact height free.
+   (:func:`~impactid.rigs.tracks.bounces.fit_bounce`), the contact height free, in the order of time:
+   the track's given spin is its first bounce's incoming spin, each later bounce's is the previous
+   bounce's outgoing spin (propagated), and a spin nothing gives is estimated from the flights
+   (unknown without the Magnus force; such bounces are left out of the tangential laws).
 2. The surface: given (``surface_height``, horizontal), or estimated from the fitted contact points
    (tracks analysed together share their frame): a plane ``z_c = a + b x + c y`` through the contact
    points within :data:`SURFACE_BAND` of their median height (``b`` only for 2-D tracks), kept when
@@ -119,28 +122,61 @@ def _label(track: Track, cand: Candidate) -> str:
     return f"{track.name}@{track.time[cand.index]:.4f}s"
 
 
+def _usable_spin(fit: BounceFit | None) -> bool:
+    """Whether a bounce's outgoing spin can be carried to the next bounce: fitted, its spin known, its
+    intervals not withheld, its covariance finite."""
+    if fit is None or fit.details.get("spin_source", "unknown") == "unknown":
+        return False
+    if fit.model_check.get("action") == "withheld":
+        return False
+    return bool(np.all(np.isfinite(fit.details["spin_out"]))
+                and np.all(np.isfinite(fit.details["spin_out_covariance"])))
+
+
 def _fit_all(tracks: Sequence[Track], ball: TrackedBall, *, contact_height, spin, confidence, min_flight,
-             window, spin_side, normal=None, fit_lift=False, only=None) -> list[_Bounce]:
-    """Every bounce of the tracks fitted; ``only``: the labels to fit (the others skipped)."""
+             window, spin_side, normal=None, fit_lift=False, only=None, breaks=frozenset()) -> list[_Bounce]:
+    """Every bounce of the tracks fitted in the order of time, each with its incoming spin (step 1 of the
+    module doc): the track's given spin for its first bounce, the previous bounce's outgoing spin
+    (propagated) when that bounce was fitted with a usable spin and is not in ``breaks`` (labels of
+    bounces that are not on the surface), else estimated from the flights (unknown without the Magnus
+    force). ``only``: the labels to return (the bounces before them in their tracks are fitted too,
+    for their spins)."""
     out = []
     for track in tracks:
         cands = find_bounces(track, min_flight=min_flight, window=window)
+        labels = [_label(track, c) for c in cands]
+        last = max((k for k, lab in enumerate(labels) if only is None or lab in only), default=-1)
         noise = tracking_noise(track, cands)
-        for cand in cands:
-            label = _label(track, cand)
-            if only is not None and label not in only:
-                continue
+        previous: _Bounce | None = None
+        for k, (cand, label) in enumerate(zip(cands, labels)):
+            if k > last:
+                break
+            keep = only is None or label in only
             if cand.reason:
-                out.append(_Bounce(track, cand, label, None, cand.reason))
+                previous = _Bounce(track, cand, label, None, cand.reason)
+                if keep:
+                    out.append(previous)
                 continue
+            options = {}
+            if previous is None and track.spin is not None:
+                options = dict(spin_source="given")
+            elif (previous is not None and previous.label not in breaks and _usable_spin(previous.fit)):
+                options = dict(spin_source="propagated", spin_in=np.array(previous.fit.details["spin_out"]),
+                               spin_in_covariance=np.array(previous.fit.details["spin_out_covariance"]))
+            else:
+                options = dict(spin_source="estimated" if spin else "unknown")
             try:
                 fit = fit_bounce(track, cand, ball, contact_height=contact_height, spin=spin, confidence=confidence,
                                  bounce_id=label, noise=noise, spin_side=spin_side, normal=normal,
-                                 fit_lift=fit_lift)
+                                 fit_lift=fit_lift, **options)
             except ValueError as exc:
-                out.append(_Bounce(track, cand, label, None, f"fit failed: {exc}"))
+                previous = _Bounce(track, cand, label, None, f"fit failed: {exc}")
+                if keep:
+                    out.append(previous)
                 continue
-            out.append(_Bounce(track, cand, label, fit, ""))
+            previous = _Bounce(track, cand, label, fit, "")
+            if keep:
+                out.append(previous)
     return out
 
 
@@ -236,13 +272,19 @@ def _row(b: _Bounce, status: str, reason: str) -> dict:
     row = {"bounce": b.label, "track": b.track.source, "sample": int(b.cand.index),
            "t_min_s": float(b.track.time[b.cand.index]), "z_min_m": float(b.track.height[b.cand.index]),
            "analysed": status == "analysed", "reason": reason}
-    spin = b.track.spin
-    row["spin_in_rad_s"] = float(np.linalg.norm(spin)) if spin is not None else math.nan
-    for axis, k in zip("xyz", range(3)):
-        row[f"spin_in_{axis}_rad_s"] = float(spin[k]) if spin is not None else math.nan
     if b.fit is None:
+        row["spin_source"] = ""
         return row
     f = b.fit
+    row["spin_source"] = f.details["spin_source"]
+    for side in ("in", "out"):
+        spin = np.asarray(f.details[f"spin_{side}"], dtype=float)
+        row[f"spin_{side}_rad_s"] = float(np.linalg.norm(spin))
+        for axis, k in zip("xyz", range(3)):
+            row[f"spin_{side}_{axis}_rad_s"] = float(spin[k])
+            name = f"spin_{side}_{axis}"
+            if name in f.params:
+                row[f"spin_{side}_{axis}_rad_s_stderr"] = f.params[name].stderr
     for name in ("t_c", "z_c", "vn_in", "speed_in", "vt_in", "e_n", "beta_t", "ut_in", "ut_out", "dspin_x",
                  "dspin_y"):
         if name not in f.params:
@@ -388,6 +430,20 @@ def analyse_tracks(tracks: Sequence[Track], ball: TrackedBall = TABLE_TENNIS_BAL
                      f"{surface_z:.4g} m; the points scatter by {plane.rms * 1e3:.2g} mm about it")
     else:
         contact_est, surface_z, spread = contact, float(surface_height), math.nan
+    # a bounce that is not on the surface (a hit elsewhere) breaks the chain of spins: the bounce after it
+    # has its spin estimated, not carried through an impact of unknown geometry
+    breaks = set()
+    for b in fitted:
+        if b.fit is None:
+            continue
+        i = b.cand.index
+        here = contact_est if plane is None else plane.contact_height(b.track.position[i, 0], b.track.position[i, 1])
+        if abs(float(b.track.height[i]) - here) > SURFACE_BAND:
+            breaks.add(b.label)
+    if any(b.label in breaks and any(o.track is b.track and o.cand.index > b.cand.index for o in fitted)
+           for b in fitted):
+        common["breaks"] = frozenset(breaks)
+        fitted = _fit_all(tracks, ball, normal=normal, **common)
     frame = _surface_frame(normal)
     rows, analysed = [], []
     for b in fitted:
@@ -441,10 +497,23 @@ def analyse_tracks(tracks: Sequence[Track], ball: TrackedBall = TABLE_TENNIS_BAL
     v_out = np.array([f.details["v_out"] for f in fits]) @ frame.T
     w_in = np.array([f.details["spin_in"] for f in fits]) @ frame.T
     dims = np.array([f.details["dimensions"] for f in fits])
-    for name in TANGENTIAL_LAWS:
+    # the friction laws need the incoming spin: the bounces whose spin is unknown are left out of all the
+    # tangential laws (so that they are compared on the same bounces), unless none is known
+    spun = np.all(np.isfinite(w_in), axis=1)
+    tangential_laws = dict(TANGENTIAL_LAWS)
+    if not np.any(spun):
+        spun = np.ones(len(fits), dtype=bool)
+        tangential_laws = {"ratio": TANGENTIAL_LAWS["ratio"]}
+        notes.append("no bounce has a known incoming spin: only the tangential ratio law is fitted (the Coulomb "
+                     "and rolling laws need the spin)")
+    elif not np.all(spun):
+        notes.append(f"{int(np.sum(~spun))} of {len(fits)} bounces have an unknown incoming spin: they are left out "
+                     "of the tangential laws (their beta_t is still reported)")
+    statistics["bounces_in_tangential_laws"] = int(np.sum(spun))
+    for name in tangential_laws:
         try:
-            laws["tangential"][name] = fit_tangential_law(name, v_in, v_out, w_in, ball.radius, ball.inertia,
-                                                          dimensions=dims, confidence=confidence)
+            laws["tangential"][name] = fit_tangential_law(name, v_in[spun], v_out[spun], w_in[spun], ball.radius,
+                                                          ball.inertia, dimensions=dims[spun], confidence=confidence)
         except ValueError as exc:
             notes.append(f"tangential law {name}: {exc}")
     for kind, fitted_laws in laws.items():

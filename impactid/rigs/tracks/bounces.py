@@ -13,8 +13,10 @@ identification engine: both start at the contact, at the time ``t_c`` and the ba
 ``(x_c, y_c, z_c)``, the incoming flight with the velocity ``v_in`` (integrated backwards to the
 samples before it), the outgoing with ``v_out`` (forwards); the contact lasts about a millisecond, a
 seventh of a sample, and is taken as instantaneous. The flights follow
-:mod:`~impactid.rigs.tracks.flight` (gravity, drag, Magnus); the incoming spin is the track's (zero
-when unknown), the outgoing spin follows from the tangential impulse by the balance of angular
+:mod:`~impactid.rigs.tracks.flight` (gravity, drag, Magnus); the incoming spin is given (the track's
+measured spin), propagated (the previous bounce's outgoing spin, its covariance carried), estimated
+(three more parameters, one in 2-D: the Magnus curvature of the flights) or unknown
+(:data:`SPIN_SOURCES`), the outgoing spin follows from the tangential impulse by the balance of angular
 momentum about the contact point, ``Delta omega = -(n x Delta v_t) / (k R)`` (``k = I / (m R^2)``,
 ``n`` the surface's unit normal, ``e_z`` unless a tilted surface is given), so that the change of
 spin is seen through the change of the tangential velocity. ``z_c`` is free (the height where the
@@ -48,8 +50,8 @@ from impactid.rigs.tracks.flight import MAX_STEP, flight_positions
 from impactid.rigs.tracks.parameters import TrackedBall
 from impactid.rigs.tracks.readers import Track
 
-__all__ = ["MIN_FLIGHT", "MIN_VERTICAL_SPEED", "NOISE_REFERENCE", "OUTLIER_SIGMAS", "WINDOW", "BounceFit", "Candidate",
-           "find_bounces", "fit_bounce", "spin_change", "tracking_noise"]
+__all__ = ["MAX_SPIN", "MIN_FLIGHT", "MIN_VERTICAL_SPEED", "NOISE_REFERENCE", "OUTLIER_SIGMAS", "SPIN_SOURCES",
+           "WINDOW", "BounceFit", "Candidate", "find_bounces", "fit_bounce", "spin_change", "tracking_noise"]
 
 #: Fewest samples of flight on each side of a bounce.
 MIN_FLIGHT = 5
@@ -63,8 +65,18 @@ OUTLIER_SIGMAS = 5.0
 #: Where the model check's noise comes from (:func:`tracking_noise`).
 NOISE_REFERENCE = "the track's scatter about cubics through 15 samples of flight"
 
-_NAMES = ("t_c", "x_c", "y_c", "z_c", "vin_x", "vin_y", "vin_z", "vout_x", "vout_y", "vout_z", "lift_scale")
-_STEPS = np.array([1e-6, 1e-6, 1e-6, 1e-6, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-4])
+#: Where the incoming spin of a bounce comes from: ``given`` (the track's measured spin, for its first
+#: bounce), ``propagated`` (the previous bounce's outgoing spin: its incoming spin changed by the angular
+#: impulse of its friction, :func:`spin_change`), ``estimated`` (fitted from the curvature that the Magnus
+#: force gives the flights) or ``unknown`` (none of these: the flights are fitted without Magnus force and
+#: every quantity that needs the spin is left undetermined).
+SPIN_SOURCES = ("given", "propagated", "estimated", "unknown")
+#: Largest spin component an estimate may reach [rad/s].
+MAX_SPIN = 2000.0
+
+_NAMES = ("t_c", "x_c", "y_c", "z_c", "vin_x", "vin_y", "vin_z", "vout_x", "vout_y", "vout_z", "lift_scale",
+          "win_x", "win_y", "win_z")
+_STEPS = np.array([1e-6, 1e-6, 1e-6, 1e-6, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-5, 1e-4, 1e-2, 1e-2, 1e-2])
 _UP = np.array([0.0, 0.0, 1.0])
 
 
@@ -198,7 +210,8 @@ def _start(track: Track, cand: Candidate, dims: int):
 def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_height: float | None = None,
                spin: bool = True, confidence: float = 0.95, bounce_id: str = "",
                noise: np.ndarray | None = None, spin_side: str = "in", normal: np.ndarray | None = None,
-               fit_lift: bool = False) -> BounceFit:
+               fit_lift: bool = False, spin_source: str | None = None, spin_in: np.ndarray | None = None,
+               spin_in_covariance: np.ndarray | None = None) -> BounceFit:
     """Fit the two flights of one bounce (module doc).
 
     Parameters
@@ -207,17 +220,22 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
     ball : the ball and its air model.
     contact_height : the height of the ball's centre at contact [m] (the surface plus the radius);
         None: fitted (where the flights meet).
-    spin : whether the Magnus force of the spin acts (the track's spin coming in, zero when the track
-        has none; the spin going out from the tangential impulse).
+    spin : whether the Magnus force of the spin acts on the flights.
     confidence : coverage of the intervals.
-    spin_side : which flight the track's spin belongs to: ``"in"`` (measured before the bounce; the
+    spin_side : which flight a ``given`` spin belongs to: ``"in"`` (measured before the bounce; the
         outgoing spin follows from the impulse) or ``"out"`` (measured after it; the incoming spin
-        follows from the impulse).
+        follows from the impulse). Other sources are always the incoming spin.
     bounce_id : a label for the tables.
     noise : the track's tracking noise in each axis [m] (:func:`tracking_noise`): the weights of the
         positions and the model check's reference; None (or NaN): equal weights, no reference.
     normal : the surface's normal (3,) (normalised here; None: ``e_z``): the direction of ``e_n``.
-    fit_lift : whether the lift scale is fitted (from ``ball.lift_scale``; needs a known spin).
+    fit_lift : whether the lift scale is fitted (from ``ball.lift_scale``; needs a given spin).
+    spin_source : where the incoming spin comes from (:data:`SPIN_SOURCES`); None: ``given`` when the
+        track has a spin, else ``estimated`` when the Magnus force acts, else ``unknown``.
+    spin_in : the spin [rad/s] (3,) of a ``given`` (None: the track's) or ``propagated`` source, or the
+        start of an ``estimated`` one (None: 0).
+    spin_in_covariance : (3, 3) the covariance of a ``propagated`` ``spin_in`` [rad^2/s^2] (None: 0);
+        it is added to the intervals of every quantity that depends on the incoming spin.
 
     Returns
     -------
@@ -237,15 +255,42 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
     after = ([i] if t[i] >= tc0 else []) + list(cand.after)
     if spin_side not in ("in", "out"):
         raise ValueError(f"spin_side must be 'in' or 'out', got {spin_side!r}")
-    w_given = np.asarray(track.spin if (spin and track.spin is not None) else (0.0, 0.0, 0.0), dtype=float)
+    if spin_source is None:
+        spin_source = "given" if track.spin is not None else "estimated" if spin else "unknown"
+    if spin_source not in SPIN_SOURCES:
+        raise ValueError(f"spin_source must be one of {', '.join(SPIN_SOURCES)}, got {spin_source!r}")
+    if spin_source == "given" and spin_in is None and track.spin is None:
+        raise ValueError("a given spin needs the track's spin or spin_in")
+    if spin_source == "propagated" and spin_in is None:
+        raise ValueError("a propagated spin needs spin_in")
+    if spin_source == "estimated" and not spin:
+        spin_source = "unknown"  # without the Magnus force the flights carry no trace of the spin
+    side = spin_side if spin_source == "given" else "in"
+    known = np.asarray(spin_in if spin_in is not None else track.spin if spin_source == "given" else (0.0, 0.0, 0.0),
+                       dtype=float)
+    w_given = known if spin_source in ("given", "propagated") else np.zeros(3)
+    w_prior_cov = (np.zeros((3, 3)) if spin_in_covariance is None or spin_source != "propagated"
+                   else np.asarray(spin_in_covariance, dtype=float))
+    estimate = spin_source == "estimated"
     flight_ball = ball if spin else ball.with_(lift_scale=0.0)
     n_hat = _UP if normal is None else np.asarray(normal, dtype=float) / float(np.linalg.norm(normal))
     if dims == 2 and abs(n_hat[1]) > 0.0:
         raise ValueError("the surface normal of a 2-D track must lie in its x-z plane")
-    fit_lift = bool(fit_lift and spin and track.spin is not None)
+    fit_lift = bool(fit_lift and spin and spin_source == "given")
     notes = []
-    if spin and track.spin is None:
-        notes.append("the incoming spin is not known: taken as 0 (the outgoing spin follows from the impulse)")
+    if spin_source == "unknown":
+        notes.append("the incoming spin is unknown (not given, not propagated from a previous bounce"
+                     + (", and the flights have no Magnus force to estimate it from" if not spin else "")
+                     + "): the flights are fitted without it, and the contact point's slip and the spins are "
+                       "left undetermined")
+    elif spin_source == "estimated":
+        notes.append("the incoming spin is estimated from the flights (the curvature of the Magnus force, "
+                     f"lift scale {flight_ball.lift_scale:.3g}); its error scales with the lift model's")
+    elif spin_source == "propagated":
+        notes.append("the incoming spin is the previous bounce's outgoing spin (its incoming spin changed by "
+                     "the angular impulse of its friction), constant in flight")
+    n_base = 11 if fit_lift else 10
+    spin_axes = ([1] if dims == 2 else [0, 1, 2]) if estimate else []
 
     def model(u: np.ndarray, b_idx: np.ndarray, a_idx: np.ndarray) -> np.ndarray:
         u = np.atleast_2d(u)
@@ -254,8 +299,14 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
         dv = vout - vin
         dv = dv - (dv @ n_hat)[:, None] * n_hat[None, :]
         change = spin_change(dv, ball, n_hat)
-        w_before = w_given[None, :] + (0.0 if spin_side == "in" else -change)
-        w_after = w_given[None, :] + (change if spin_side == "in" else 0.0)
+        if estimate:
+            w0 = u[:, n_base:n_base + 3]
+        else:
+            w0 = np.broadcast_to(w_given[None, :], change.shape)
+        w_before = w0 + (0.0 if side == "in" else -change)
+        w_after = w0 + (change if side == "in" else 0.0)
+        if spin_source == "unknown":
+            w_before = w_after = np.zeros_like(change)
         tb = t[b_idx][::-1]
         pb = flight_positions(pc, vin, tc, tb, flight_ball, w_before, MAX_STEP, lam)[:, ::-1, :]
         pa = flight_positions(pc, vout, tc, t[a_idx], flight_ball, w_after, MAX_STEP, lam)
@@ -266,6 +317,7 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
     has_noise = noise is not None and bool(np.all(np.isfinite(np.asarray(noise)[axes]) & (np.asarray(noise)[axes] > 0)))
     if has_noise:
         sigma = np.asarray(noise, dtype=float)[axes]
+    steps_all = np.r_[_STEPS[:10], _STEPS[10:11] if fit_lift else [], _STEPS[11:14] if estimate else []]
 
     def run(b_idx, a_idx, start):
         data = p[np.r_[b_idx, a_idx]][:, axes].ravel()
@@ -278,13 +330,16 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
                  for n, v in zip(_NAMES[4:10], start[4:10])]
         if fit_lift:
             free.append(Free("lift_scale", start[10], -5.0, 10.0))
+        if estimate:
+            free += [Free(n, start[n_base + k] if k in spin_axes else 0.0, -MAX_SPIN, MAX_SPIN, unit="rad/s",
+                          vary=k in spin_axes) for k, n in enumerate(_NAMES[11:14])]
         jfree = np.array([f.vary for f in free])
 
         def residual(u):
             return (model(u, b_idx, a_idx)[0] - data) * weight
 
         def jacobian(u):
-            steps = np.where(jfree, _STEPS[:len(free)], 0.0)
+            steps = np.where(jfree, steps_all, 0.0)
             batch = np.vstack([u[None, :], u[None, :] + np.diag(steps)[jfree], u[None, :] - np.diag(steps)[jfree]])
             out = model(batch, b_idx, a_idx)
             k = int(jfree.sum())
@@ -295,7 +350,8 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
         found = search(residual, free, jacobian=jacobian, max_nfev=200, normalise=False, x_scale=1.0)
         return found, free, data
 
-    start = [tc0, *pos0, *vin0, *vout0] + ([ball.lift_scale] if fit_lift else [])
+    start = ([tc0, *pos0, *vin0, *vout0] + ([ball.lift_scale] if fit_lift else [])
+             + (list(known) if estimate else []))
     b_idx, a_idx = np.asarray(before, dtype=int), np.asarray(after, dtype=int)
     found, free, data = run(b_idx, a_idx, start)
     # outliers: samples far from the fit, by the residual's robust scatter (at most two a side, once)
@@ -328,7 +384,8 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
                         unit="m", n_params=len(fit.names), groups=groups, order=True,
                         **({"assumed_over_noise": math.sqrt(fit.scale)} if has_noise else {}))
     params = check.widen(fit.parameters)
-    # derived quantities by the delta method on the covariance (widened as the parameters were)
+    # derived quantities by the delta method on the covariance (widened as the parameters were), with
+    # the covariance of a propagated incoming spin added for those that depend on it
     names = list(fit.names)
     cov = np.array(fit.covariance.matrix, dtype=float) * (check.inflation ** 2 if check.action == "widened" else 1.0)
     if check.action == "withheld":
@@ -336,21 +393,37 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
     x = np.array([values[n] for n in names])
     q = float(stats.t.ppf(0.5 + 0.5 * confidence, max(fit.dof, 1)))
 
-    def vec(xx):
+    def vec(xx, ww):
         d = dict(values)
         d.update(zip(names, xx))
+        d["w_prior"] = ww
         return d
 
-    def derived(fun) -> tuple[float, float]:
-        v0 = float(fun(vec(x)))
-        grad = np.zeros(x.size)
+    def jacobian_of(fun) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The value of ``fun`` (a vector) and its derivatives by the fitted values and the prior spin."""
+        v0 = np.atleast_1d(np.asarray(fun(vec(x, w_given)), dtype=float))
+        gx = np.zeros((v0.size, x.size))
+        gw = np.zeros((v0.size, 3))
         for k in range(x.size):
             h = 1e-6 * max(1.0, abs(x[k]))
             e = np.zeros(x.size)
             e[k] = h
-            grad[k] = (fun(vec(x + e)) - fun(vec(x - e))) / (2 * h)
-        var = float(grad @ cov @ grad)
-        return v0, math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
+            gx[:, k] = (np.atleast_1d(fun(vec(x + e, w_given))) - np.atleast_1d(fun(vec(x - e, w_given)))) / (2 * h)
+        if spin_source == "propagated":
+            for k in range(3):
+                e = np.zeros(3)
+                e[k] = 1e-3
+                gw[:, k] = (np.atleast_1d(fun(vec(x, w_given + e))) - np.atleast_1d(fun(vec(x, w_given - e)))) / 2e-3
+        return v0, gx, gw
+
+    def derived_covariance(fun) -> tuple[np.ndarray, np.ndarray]:
+        v0, gx, gw = jacobian_of(fun)
+        return v0, gx @ cov @ gx.T + gw @ w_prior_cov @ gw.T
+
+    def derived(fun) -> tuple[float, float]:
+        v0, c = derived_covariance(fun)
+        var = float(c[0, 0])
+        return float(v0[0]), math.sqrt(var) if math.isfinite(var) and var >= 0 else math.nan
 
     def along(v):
         return float(v @ n_hat)
@@ -371,10 +444,18 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
         return spin_change((tangential(vout(d)) - tangential(vin(d)))[None, :], ball, n_hat)[0]
 
     def w_in_of(d):
-        return w_given if spin_side == "in" else w_given - change(d)
+        if spin_source == "unknown":
+            return np.full(3, math.nan)
+        if estimate:
+            return np.array([d["win_x"], d["win_y"], d["win_z"]])
+        return d["w_prior"] if side == "in" else d["w_prior"] - change(d)
 
     def w_out(d):
-        return w_given + change(d) if spin_side == "in" else w_given
+        if spin_source == "unknown":
+            return np.full(3, math.nan)
+        if estimate:
+            return w_in_of(d) + change(d)
+        return d["w_prior"] + change(d) if side == "in" else d["w_prior"]
 
     def beta(d):
         a, b = tangential(vin(d)), tangential(vout(d))
@@ -391,22 +472,34 @@ def fit_bounce(track: Track, cand: Candidate, ball: TrackedBall, *, contact_heig
         "dspin_x": (lambda d: float(change(d)[0]), "rad/s"),
         "dspin_y": (lambda d: float(change(d)[1]), "rad/s"),
     }
+    for k, axis in enumerate("xyz"):
+        quantities[f"spin_in_{axis}"] = (lambda d, k=k: float(w_in_of(d)[k]), "rad/s")
+        quantities[f"spin_out_{axis}"] = (lambda d, k=k: float(w_out(d)[k]), "rad/s")
     if dims == 2:
-        quantities.pop("dspin_x")
+        for name in ("dspin_x", "spin_in_x", "spin_in_z", "spin_out_x", "spin_out_z"):
+            quantities.pop(name)
+    spin_dependent = {"ut_in", "ut_out"} | {n for n in quantities if n.startswith("spin_")}
     for name, (fun, unit) in quantities.items():
         value, se = derived(fun)
-        note = "" if math.isfinite(se) else ("withheld by the model check" if check.action == "withheld"
-                                             else "undetermined")
+        if name in spin_dependent and spin_source == "unknown":
+            note = "the incoming spin is unknown"
+        elif math.isfinite(se):
+            note = (f"spin {spin_source}" if name.startswith("spin_") else "")
+        else:
+            note = "withheld by the model check" if check.action == "withheld" else "undetermined"
         params += (Parameter(name, value, se, (value - q * se, value + q * se), confidence, False, unit, note),)
     ids = [names.index(n) for n in ("vin_x", "vin_y", "vin_z", "vout_x", "vout_y", "vout_z") if n in names]
     block = identifiability(found, fit, names=[n for n in names], describes_data=check.describes_data)
     residual_rms = float(np.sqrt(np.mean((found.residual * sd) ** 2)))
     stats_ = {**fit.statistics, "samples_before": int(b_idx.size), "samples_after": int(a_idx.size),
               "residual_rms_m": residual_rms, "tracking_noise_m": [float(v) for v in noise] if has_noise else None}
+    w_in_value, w_in_cov = derived_covariance(w_in_of)
+    w_out_value, w_out_cov = derived_covariance(w_out)
     details = {"track": track.source, "bounce": bounce_id, "index": int(cand.index),
-               "samples": [int(k) for k in np.r_[b_idx, a_idx]], "spin_known": track.spin is not None,
-               "spin_side": spin_side, "spin_in": w_in_of(values).tolist(), "spin_out": w_out(values).tolist(),
-               "v_in": vin(values).tolist(),
+               "samples": [int(k) for k in np.r_[b_idx, a_idx]], "spin_known": spin_source != "unknown",
+               "spin_source": spin_source, "spin_side": side, "spin_in": w_in_value.tolist(),
+               "spin_out": w_out_value.tolist(), "spin_in_covariance": w_in_cov.tolist(),
+               "spin_out_covariance": w_out_cov.tolist(), "v_in": vin(values).tolist(),
                "v_out": vout(values).tolist(), "dimensions": dims,
                "velocity_names": [names[k] for k in ids],
                "velocity_covariance": cov[np.ix_(ids, ids)].tolist(),

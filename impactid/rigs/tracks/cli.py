@@ -1,6 +1,8 @@
 """``impactid tracks analyse``: thin; reads the tracks, calls :func:`~impactid.rigs.tracks.analysis.analyse_tracks`,
-prints, writes. Inputs are checked before any is read, outputs before any computation; the JSON and
-the figures are written as transactions; every failure is one line ``impactid: error: ...``.
+prints, writes (the JSON, the figures, the ``--report`` page). Inputs are checked before any is read,
+outputs before any computation; the outputs are written as transactions; every failure is one line
+``impactid: error: ...``. Also ``impactid synth --rig tracked-ball`` (:func:`run_synth`), which
+writes a synthetic track (:mod:`impactid.rigs.tracks.synth`).
 """
 
 from __future__ import annotations
@@ -9,13 +11,39 @@ import math
 from pathlib import Path
 
 from impactid._files import check_distinct_inputs
-from impactid.commandline import UsageError, check_outputs, deliver, figure_format
+from impactid.commandline import (
+    UsageError,
+    check_outputs,
+    deliver,
+    figure_format,
+    refuse_other_rigs_options,
+    say_report,
+)
+from impactid.rigs.base import argument_dests
 from impactid.rigs.tracks.analysis import air_model_share, analyse_tracks
+from impactid.rigs.tracks.commands import SYNTH, SYNTH_SUFFIXES
 from impactid.rigs.tracks.figures import figure_names, write_figures
-from impactid.rigs.tracks.parameters import TABLE_TENNIS_BALL, TrackParameterError
+from impactid.rigs.tracks.parameters import MODEL_NAME, TABLE_TENNIS_BALL, TrackParameterError
 from impactid.rigs.tracks.readers import LENGTH_UNITS, TIME_UNITS, is_spin_index, read_track
+from impactid.rigs.tracks.synth import (
+    DEFAULT_FRAME_RATE,
+    DEFAULT_HEIGHT,
+    DEFAULT_NOISE,
+    synth_track,
+    write_track,
+)
 
-__all__ = ["run"]
+__all__ = ["run", "run_synth"]
+
+#: Defaults of ``impactid synth --rig tracked-ball`` not in :mod:`~impactid.rigs.tracks.synth`'s constants.
+SYNTH_DEFAULTS = {"bounce_law": (0.9, 0.0), "mu": 0.25, "horizontal_speed": 0.5, "bounces": 3}
+#: The options of other rigs' ``synth`` that mean something close here, and what to give instead.
+_SYNTH_HINTS = {"noise": " (the tracked positions' noise is --position-noise M)",
+                "sample_rate": " (the track's sampling is --frame-rate FPS)",
+                "restitution": " (the tracked ball's restitution law is --bounce-law E0,GAMMA)",
+                "restitution_law": " (the tracked ball's restitution law is --bounce-law E0,GAMMA)",
+                "jitter": " (the tracked positions' noise is --position-noise M)",
+                "ball": " (the tracked ball is the table-tennis ball: --rig tracked-ball)"}
 
 
 def _ball(args):
@@ -27,6 +55,21 @@ def _ball(args):
         return TABLE_TENNIS_BALL.with_(**changes)
     except TrackParameterError as exc:
         raise UsageError(f"argument --mass: {exc}") from None
+
+
+#: Most analysed bounces printed one per line.
+_BOUNCES_PRINTED = 20
+
+
+def _spin_text(row, side: str, planar: bool) -> str:
+    """A bounce's spin before or after (``side`` ``in``/``out``) as ``(wx, wy, wz)`` with standard errors, or
+    for a 2-D track (``planar``) the one value, counter-clockwise in its x-y plane as ``--spin`` takes it."""
+    parts = []
+    for axis in ("y" if planar else "xyz"):
+        value = getattr(row, f"spin_{side}_{axis}_rad_s") * (-1.0 if planar else 1.0)
+        se = getattr(row, f"spin_{side}_{axis}_rad_s_stderr", math.nan)
+        parts.append(_num(value, ".3g") + (f" +- {_num(se, '.2g')}" if math.isfinite(se) and se > 0 else ""))
+    return parts[0] if len(parts) == 1 else "(" + ", ".join(parts) + ")"
 
 
 def _num(value, fmt=".4g") -> str:
@@ -79,9 +122,65 @@ def run(args) -> int:
                                               "data": share.to_numpy(dtype=object).tolist()}
     fmt = figure_format(args)
     deliver(args, data, inputs, figures=(figure_names(result, fmt),
-                                         lambda staged: write_figures(result, args.plots, staged, fmt)))
+                                         lambda staged: write_figures(result, args.plots, staged,
+                                                                        figure_format(args))))
     if not args.json:
         _print_report(result, args, share)
+    return 0
+
+
+def _synth_values(args) -> dict:
+    """The values of ``impactid synth --rig tracked-ball``, defaults filled and checked (one-line errors)."""
+    e0, gamma = args.bounce_law if args.bounce_law is not None else SYNTH_DEFAULTS["bounce_law"]
+    height = DEFAULT_HEIGHT if args.height is None else args.height
+    rate = DEFAULT_FRAME_RATE if args.frame_rate is None else args.frame_rate
+    spin = args.spin if args.spin is not None else (0.0,)
+    values = dict(height=height, horizontal_speed=SYNTH_DEFAULTS["horizontal_speed"] if args.horizontal_speed is None
+                  else args.horizontal_speed, e0=e0, gamma=gamma,
+                  mu=SYNTH_DEFAULTS["mu"] if args.mu is None else args.mu,
+                  bounces=SYNTH_DEFAULTS["bounces"] if args.bounces is None else args.bounces, frame_rate=rate,
+                  noise=DEFAULT_NOISE if args.position_noise is None else args.position_noise, seed=args.seed,
+                  dimensions=2 if len(spin) == 1 else 3,
+                  spin=(0.0, -spin[0], 0.0) if len(spin) == 1 else tuple(spin))  # 2-D: out of x-y is -y inside
+    if not 0.005 <= height <= 20.0:
+        raise UsageError(f"argument --height: the release height must lie in [0.005, 20] m, got {height:g}")
+    speed = math.sqrt(2.0 * 9.80665 * height)
+    if not (0.0 < e0 <= 1.0 and gamma >= 0.0 and e0 - gamma * speed >= 0.1):
+        raise UsageError(f"argument --bounce-law: e = {e0:g} - {gamma:g} v needs 0 < E0 <= 1, GAMMA >= 0 and e at "
+                         f"least 0.1 at the first impact ({speed:.3g} m/s from {height:g} m)")
+    if abs(values["horizontal_speed"]) > 50.0:
+        raise UsageError(f"argument --horizontal-speed: must lie in [-50, 50] m/s, got {values['horizontal_speed']:g}")
+    if max(abs(w) for w in spin) > 2000.0:
+        raise UsageError("argument --spin: at most 2000 rad/s (about 19 000 rpm) per component")
+    if values["noise"] > 0.1:
+        raise UsageError(f"argument --position-noise: at most 0.1 m, got {values['noise']:g}")
+    if not 1.0 <= rate <= 100_000.0:
+        raise UsageError(f"argument --frame-rate: must lie in [1, 100000] frames/s, got {rate:g}")
+    return values
+
+
+def run_synth(args) -> int:
+    """``impactid synth --rig tracked-ball``: a synthetic track (positions against time) of a ball dropped onto
+    a surface, as CSV, TSV or a Tracker export, for ``impactid tracks analyse``; returns the exit code."""
+    refuse_other_rigs_options(args, argument_dests(SYNTH.arguments), command="synth", model_name=MODEL_NAME,
+                              hints=_SYNTH_HINTS)
+    suffix = Path(args.out).suffix.lower()
+    if suffix not in SYNTH_SUFFIXES:
+        raise UsageError(f"argument --out: a track is written as {', '.join(SYNTH_SUFFIXES)} (by the file's suffix), "
+                         f"got {args.out!r}")
+    values = _synth_values(args)
+    check_outputs(args, [])
+    try:
+        track = synth_track(ball=args.resolved_rig.rig, **values)
+    except ValueError as exc:
+        raise UsageError(f"arguments --height/--bounce-law/--bounces/--frame-rate: {exc}") from None
+    write_track(args.out, track, name=Path(args.out).stem)
+    e = track.restitution
+    sticks = int(track.sticking.sum())
+    print(f"{args.out}: {track.dimensions}-D track of a {track.ball.name} ball from {values['height']:g} m, "
+          f"{track.time.size} frames at {track.frame_rate:g} fps, {e.size} bounce(s) at "
+          f"{track.impact_speeds.max():.3g} to {track.impact_speeds.min():.3g} m/s (e_n {e.max():.3f} to "
+          f"{e.min():.3f}; {sticks} of {e.size} stick), position noise {1e3 * track.noise:g} mm")
     return 0
 
 
@@ -92,7 +191,8 @@ def _print_report(result, args, share) -> None:
           f"({result.details['surface']})")
     for name, p in result.params.items():
         lo, hi = p.interval
-        print(f"  {name:<24} {_num(p.value)} [{_num(lo)}, {_num(hi)}] {p.unit}".rstrip())
+        high = "inf (bounded below only)" if hi == math.inf else _num(hi)
+        print(f"  {name:<24} {_num(p.value)} [{_num(lo)}, {high}] {p.unit}".rstrip())
     sel = result.details["selected"]
     print(f"  selected by {s['criterion']}: normal {sel.get('normal')}, tangential {sel.get('tangential')}")
     rule = result.details.get("rule")
@@ -114,6 +214,16 @@ def _print_report(result, args, share) -> None:
         for row in share.itertuples():
             print(f"  air model C_D {row.drag_coefficient:g}, lift scale {row.lift_scale:.3g}: e_n {_num(row.e_n)} "
                   f"[{_num(row.e_n_low)}, {_num(row.e_n_high)}]; rule {_num(row.rule_low)}-{_num(row.rule_high)}")
+    analysed = result.bounces[result.bounces["analysed"]]
+    planar = {f["details"]["bounce"] for f in result.details["bounce_fits"] if f["details"]["dimensions"] == 2}
+    if len(analysed) <= _BOUNCES_PRINTED:
+        for row in analysed.itertuples():
+            print(f"  bounce {row.bounce}: e_n {_num(row.e_n)} [{_num(row.e_n_low)}, {_num(row.e_n_high)}], beta_t "
+                  f"{_num(row.beta_t)} [{_num(row.beta_t_low)}, {_num(row.beta_t_high)}]; spin "
+                  f"{_spin_text(row, 'in', row.bounce in planar)} -> {_spin_text(row, 'out', row.bounce in planar)} "
+                  f"rad/s ({row.spin_source})")
+    else:
+        print(f"  {len(analysed)} bounces analysed: their values and spins are in the result's bounces table (--out)")
     not_analysed = result.bounces[~result.bounces["analysed"]]
     for row in not_analysed.itertuples():
         print(f"  not analysed: {row.bounce}: {row.reason}")
@@ -123,3 +233,4 @@ def _print_report(result, args, share) -> None:
         print(f"  result written to {args.out}")
     if args.plots:
         print(f"  figures written to {args.plots}")
+    say_report(args)

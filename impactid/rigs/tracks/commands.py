@@ -1,5 +1,7 @@
-"""The command the tracked-ball rig contributes (``RigModel.commands`` names this module):
-``impactid tracks analyse TRACK...`` (its arguments as data; its run in :mod:`impactid.rigs.tracks.cli`).
+"""The commands the tracked-ball rig contributes (``RigModel.commands`` names this module):
+``impactid tracks analyse TRACK...`` and its implementation of the shared ``impactid synth``
+(``--rig tracked-ball``, or its preset's name), which writes a synthetic track that ``tracks analyse``
+reads (their arguments as data; their runs in :mod:`impactid.rigs.tracks.cli`).
 
 Light: building the command line imports this module only; the readers and the analysis (numpy,
 SciPy, pandas) are imported when the command runs.
@@ -9,10 +11,24 @@ from __future__ import annotations
 
 import argparse
 
-from impactid.commandline import FIGURE_FORMAT, integer_in, nonnegative, number, positive
+from impactid.commandline import (
+    FIGURE_FORMAT,
+    REPORT,
+    SEED,
+    SYNTH_OUT,
+    integer_in,
+    nonnegative,
+    number,
+    pair,
+    positive,
+)
 from impactid.rigs.base import Argument, CommandSpec
 
-__all__ = ["COMMANDS", "command"]
+__all__ = ["COMMANDS", "SYNTH", "SYNTH_SUFFIXES", "command", "synth_command"]
+
+#: The suffixes ``impactid synth --rig tracked-ball --out`` writes (the keys of
+#: :data:`impactid.rigs.tracks.synth.TRACK_FORMATS`, which loads numpy).
+SYNTH_SUFFIXES = (".csv", ".tsv", ".txt")
 
 
 def _spin(text: str) -> tuple[float, ...]:
@@ -102,7 +118,40 @@ def _arguments() -> tuple[Argument, ...]:
         Argument(("--out",), dict(metavar="RESULT.json", default=None, help="write the result as JSON (atomically)")),
         Argument(("--plots",), dict(metavar="DIR", default=None, help="write the figures into DIR")),
         FIGURE_FORMAT,
+        REPORT,
         Argument(("--json",), dict(action="store_true", help="print the result as JSON")),
+    )
+
+
+def _synth_arguments() -> tuple[Argument, ...]:
+    """The tracked ball's arguments of ``impactid synth`` (``--height`` and ``--bounce-law`` are shared
+    with the bouncing ball's, ``--mu`` with rig P's, ``--seed`` and ``--out`` with every rig's: the first
+    rig's declaration of a shared flag wins, so the tracked ball's own help for them is in docs/synthetic.md)."""
+    return (
+        Argument(("--height",), {"type": nonnegative, "default": None, "metavar": "M",
+                                 "help": "tracked-ball: release height of the ball's bottom above the surface "
+                                         "(default 0.305)"}),
+        Argument(("--bounce-law",), {"type": pair, "default": None, "metavar": "E0,GAMMA",
+                                     "help": "tracked-ball: normal restitution e = E0 - GAMMA v, v the normal impact "
+                                             "speed [m/s] (default 0.9,0)"}),
+        Argument(("--mu",), {"type": nonnegative, "default": None,
+                             "help": "tracked-ball: Coulomb friction coefficient of the bounces (default 0.25)"}),
+        Argument(("--horizontal-speed",), {"type": number, "default": None, "metavar": "M/S",
+                                           "help": "tracked-ball: horizontal speed at the release, along x [m/s] "
+                                                   "(default 0.5)"}),
+        Argument(("--spin",), {"type": _spin, "default": None, "metavar": "W",
+                               "help": "tracked-ball: spin at the release [rad/s]: one value, counter-clockwise in "
+                                       "the x-y plane of a 2-D track (t, x, y; y up), or WX,WY,WZ for a 3-D track "
+                                       "(t, x, y, z; z up) (default 0, 2-D)"}),
+        Argument(("--bounces",), {"type": integer_in(1, 1000), "default": None, "metavar": "N",
+                                  "help": "tracked-ball: number of bounces; the track ends at the next touchdown "
+                                          "(default 3)"}),
+        Argument(("--frame-rate",), {"type": positive, "default": None, "metavar": "FPS",
+                                     "help": "tracked-ball: frames per second (default 240, a phone's slow motion)"}),
+        Argument(("--position-noise",), {"type": nonnegative, "default": None, "metavar": "M",
+                                         "help": "tracked-ball: standard deviation of each tracked coordinate [m] "
+                                                 "(default 0.001)"}),
+        SEED, SYNTH_OUT,
     )
 
 
@@ -111,6 +160,20 @@ def run(args, model) -> int:
     from impactid.rigs.tracks.cli import run as run_tracks
 
     return run_tracks(args)
+
+
+def run_synth(args, model) -> int:
+    """Run ``impactid synth --rig tracked-ball`` (:func:`impactid.rigs.tracks.cli.run_synth`, imported now)."""
+    from impactid.rigs.tracks.cli import run_synth as run_tracks_synth
+
+    return run_tracks_synth(args)
+
+
+def synth_command() -> CommandSpec:
+    """The tracked ball's ``impactid synth`` (``--rig tracked-ball`` or its preset's name)."""
+    return CommandSpec(
+        group="", name="synth", help="write a synthetic track of a bouncing, spinning ball (CSV, TSV, Tracker .txt)",
+        arguments=_synth_arguments(), run=run_synth, rig_argument="resolve")
 
 
 def command() -> CommandSpec:
@@ -125,5 +188,8 @@ def command() -> CommandSpec:
         arguments=_arguments(), run=run)
 
 
+#: The tracked ball's ``impactid synth``.
+SYNTH = synth_command()
+
 #: The commands the tracked-ball rig contributes.
-COMMANDS = (command(),)
+COMMANDS = (command(), SYNTH)

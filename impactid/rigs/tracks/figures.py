@@ -99,7 +99,8 @@ def track_figure(track, fits=(), **_):
             if ts.size == 0:
                 continue
             grid = np.linspace(ts.min(), tc, 40)[::-1] if side == "before" else np.linspace(tc, ts.max(), 40)
-            pos = flight_positions(pc, np.array([vel]), np.array([tc]), grid, ball, np.array(spin))[0]
+            pos = flight_positions(pc, np.array([vel]), np.array([tc]), grid, ball,
+                                   np.nan_to_num(np.array(spin, dtype=float)))[0]  # unknown: fitted without
             ax.plot(grid, pos[:, 2], color=OKABE_ITO["vermillion"], lw=1)
     ax.set_xlabel(axis_label("time", "s", "t"))
     ax.set_ylabel(axis_label("height of the ball's centre", "m", "z"))

@@ -28,10 +28,11 @@ from __future__ import annotations
 import math
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from impactid.engine import (
     NO_NOISE_REFERENCE,
@@ -203,11 +204,46 @@ def fit_tangential_law(name: str, v_in: np.ndarray, v_out: np.ndarray, spin: np.
                         what=f"v_t,out about the {name} law", unit="m/s", n_params=1, covariate=covariate,
                         covariate_name="normal impact speed", order=False)
     block = identifiability(found, fit, describes_data=check.describes_data)
+    params = check.widen(fit.parameters)
     if name == "coulomb":
         mu = found.values()["mu"]
         extra["sticking"] = int(np.sum(tangential_prediction(mu, v_in, v_out[:, 2], spin, radius, inertia)[1]))
-    return LawFit("tangential", name, check.widen(fit.parameters), float(np.sum(found.residual ** 2)),
+        params = (_profile_mu(params[0], lambda m: observed - predict(np.array([m])), confidence, extra),)
+    return LawFit("tangential", name, params, float(np.sum(found.residual ** 2)),
                   found.residual.size, check, block, extra)
+
+
+#: The friction coefficients of the profile of ``mu`` [-] (then infinity: every bounce sticks).
+_MU_GRID = np.geomspace(1e-3, 10.0, 241)
+
+
+def _profile_mu(param: Parameter, residual, confidence: float, extra: dict) -> Parameter:
+    """``mu``'s interval joined with its profile-likelihood interval. The Coulomb law has a kink where a
+    bounce passes from sliding to sticking, and no dependence on ``mu`` at all once every bounce sticks:
+    the delta method at the fitted value then gives an interval far too narrow (or none). The profile
+    keeps every ``mu`` of the grid (and infinity) whose sum of squares stays below
+    ``RSS_min (1 + F_{1, n-1} / (n - 1))`` (the scale unknown); reaching infinity leaves the interval open
+    above (every bounce may stick: ``mu`` is only bounded below)."""
+    rss = np.array([float(np.sum(residual(m) ** 2)) for m in _MU_GRID] + [float(np.sum(residual(math.inf) ** 2))])
+    n = residual(param.value).size
+    dof = max(n - 1, 1)
+    best = min(float(np.min(rss)), float(np.sum(residual(param.value) ** 2)))
+    limit = best * (1.0 + float(stats.f.ppf(confidence, 1, dof)) / dof)
+    keep = np.flatnonzero(rss <= limit)
+    if keep.size == 0:
+        return param
+    grid = np.r_[_MU_GRID, math.inf]
+    low = float(grid[max(keep[0] - 1, 0)]) if keep[0] > 0 else 0.0  # the next grid value below is outside
+    high = float(grid[min(keep[-1] + 1, grid.size - 1)])
+    lo, hi = param.interval
+    lo = low if not math.isfinite(lo) else min(lo, low)
+    hi = high if not math.isfinite(hi) else max(hi, high)
+    extra["mu_profile"] = [low, high]
+    note = param.note
+    if math.isinf(hi):
+        note = ("every bounce may stick within the data's scatter: mu is bounded below only"
+                + (f"; {note}" if note else ""))
+    return replace(param, interval=(lo, hi), note=note)
 
 
 def select(fits: Sequence[LawFit], criterion: str = "bic", nested: Sequence[tuple[str, str]] = ()) -> tuple[str, dict]:

@@ -2,8 +2,8 @@
 the table-tennis rule's band beside the restitution at 2-3 m/s.
 
 Set ``IMPACTID_REALDATA_TRACKS`` to the folder that holds ``spindoe/`` (the SpinDOE trajectories of
-Gossard et al. 2023, with their ``index.csv``), or place that folder at ``../shared/realdata/tracks``
-beside the repository's root; without it these tests are skipped.
+Gossard et al. 2023, with their ``index.csv``; ``.ci/run`` sets it when the folder is there); without
+it these tests are skipped.
 """
 
 import os
@@ -14,8 +14,7 @@ import pytest
 from impactid.rigs.tracks import analyse_tracks, read_track
 from impactid.rigs.tracks.readers import is_spin_index
 
-_BESIDE = Path(__file__).resolve().parents[3].parent / "shared" / "realdata" / "tracks"
-ROOT = Path(os.environ.get("IMPACTID_REALDATA_TRACKS") or _BESIDE)
+ROOT = Path(os.environ.get("IMPACTID_REALDATA_TRACKS") or "/nonexistent")
 pytestmark = pytest.mark.skipif(not (ROOT / "spindoe").is_dir(),
                                 reason="set IMPACTID_REALDATA_TRACKS to the real ball tracks")
 
@@ -60,3 +59,21 @@ def test_lift_tilt_and_air_model_share():
     assert "overlaps_with_air_model" in rule and rule["band_over_drag_range"][0] < rule["e_low"]
     used = res.bounces[res.bounces["analysed"]]
     assert (used["e_n_air_low"] <= used["e_n_low"]).all() and (used["e_n_air_high"] >= used["e_n_high"]).all()
+
+
+def test_measured_spin_is_used_for_the_first_bounce_only(analysis):
+    """The measured spin of a trajectory is its first bounce's; a second bounce of the same trajectory
+    takes the first's outgoing spin (measured: two trajectories with two bounces)."""
+    fitted = analysis.bounces[analysis.bounces["spin_source"] != ""].sort_values("t_min_s")
+    assert len(fitted) > 0
+    later = 0
+    for _, rows in fitted.groupby("track"):
+        sources = list(rows["spin_source"])
+        assert sources[0] == "given"
+        assert all(s in ("propagated", "estimated") for s in sources[1:])
+        later += len(sources) - 1
+        if len(sources) > 1 and sources[1] == "propagated":
+            first, second = rows.iloc[0], rows.iloc[1]
+            assert second["spin_in_x_rad_s"] == pytest.approx(first["spin_out_x_rad_s"])
+            assert second["spin_in_rad_s"] != pytest.approx(first["spin_in_rad_s"], rel=1e-6)
+    assert later >= 1
