@@ -241,6 +241,16 @@ def _add_estimate_command(sub) -> None:
     p.set_defaults(func=cmd_estimate, option_defaults=types.MappingProxyType({a.dest: a.default for a in p._actions}))
 
 
+#: What ``impactid --help`` says first (for a user; the module's docstring is for a developer).
+DESCRIPTION = ("impactid identifies contact and impact models from recordings of impact experiments: it "
+               "finds each impact,\nreconstructs it and fits the rig's simulator to the data, with 95 % "
+               "confidence intervals and a check\nthat the model describes the data.")
+#: The end of ``impactid --help``: where to start.
+EPILOG = ("Start with:  impactid estimate --example      (a built-in example: prints the estimate beside the "
+          "values it was made with)\nEvery command has --help. Units are SI, cam speeds in Hz (--cam-speed) or "
+          "rpm (--rpm). Documentation: docs/ in the\nsource tree (docs/commands.md lists every command).")
+
+
 def _campaign_description() -> str:
     """``impactid campaign --help``'s text: the campaign file's format and the exit statuses
     (:data:`impactid.campaign_format.FORMAT_HELP`)."""
@@ -293,7 +303,8 @@ def _add_warmup_command(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="impactid", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="impactid", description=DESCRIPTION, epilog=EPILOG,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"impactid {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
 

@@ -367,3 +367,24 @@ def test_figure_format_svg(command, tmp_path, capsys):
         return
     data = json.loads(stdout)
     assert {Path(p) for p in data[listed] if Path(p).suffix != ".csv"} == drawn
+
+
+def test_tracks_figures(captured, tmp_path):
+    """Ball tracks (issue 29): the track with its fitted flights and the per-bounce restitution."""
+    track = tmp_path / "track.csv"
+    assert main(["synth", "--rig", "tracked-ball", "--height", "0.3", "--spin", "150", "--bounces", "1",
+                 "--seed", "3", "--out", str(track)]) == 0
+    assert main(["tracks", "analyse", str(track), "--spin", "150", "--no-air-share", "--plots",
+                 str(tmp_path / "p"), "--json"]) == 0
+    assert captured, "no figure written"
+    _check_all(captured)
+
+
+def test_bounce_audio_onset_figure(captured, tmp_path):
+    """Raw sound (issue 29): the waveform with the accepted onsets and the rejected clicks by reason."""
+    wav = tmp_path / "drop.wav"
+    assert main(["synth", "--rig", "bouncing-ball", "--ball", "pingpong", "--height", "0.3", "--seed", "1",
+                 "--out", str(wav)]) == 0
+    assert main(["bounces", str(wav), "--ball", "pingpong", "--plots", str(tmp_path / "p"), "--json"]) == 0
+    assert any("onset" in name for name in captured), sorted(captured)
+    _check_all(captured)
