@@ -263,16 +263,19 @@ def main() -> None:
     parser.add_argument("--no-page", action="store_true", help="print only: do not write the page")
     args = parser.parse_args()
     intro = ("Issue 27 (the 60 s estimate): the calibration replays 65 cam revolutions (4.1 s at 16 Hz) instead "
-             "of a copy of the recording, cached per rig, operating point, law and sampling; noisy onsets can be "
+             "of a copy of the recording, cached per rig, operating point, law and sampling; noisy onsets are "
              "fitted in one batch (impactid.events.ONSET_FIT); the return-time anchor starts from the median "
-             "of a few solutions; the calibration's sampling reuses the events' noise floor; reconstruction "
-             "results no longer keep whole windows alive; the readers take the channels a job needs. "
-             "CPU seconds are the child's user + system time; on a loaded machine the wall time exceeds "
-             "them by the load's share. Samples stay float64 in memory: a 24-bit ADC's codes would fit float32's "
-             "24-bit significand, but the saving for the channels the estimate needs (49 MB a channel at 60 s) is "
-             "under 5 % of the 1 GB budget, while the recording's contract and every consumer's arithmetic "
-             "(integration over a revolution, polynomial baselines, the noise floor) are float64; the memory "
-             "comes from reading channels the job does not use, which the readers can now leave out.")
+             "of a few solutions and solves the events on numba's threads; the calibration's sampling reuses the "
+             "events' noise floor; reconstruction results no longer keep whole windows alive; the readers take "
+             "the channels a job needs. Memory: channels of 32 MB or more stored contiguous as float64 are mapped "
+             "from the file, not copied (impactid.io.MAP_BYTES): the pivot forces, which rig P reads only around "
+             "the impacts, then occupy memory only there (their pages given back every 64 events); the angular "
+             "acceleration is divided by the accelerometer's radius where it is read, not copied whole; the noise "
+             "floor forms the second difference in chunks and takes its median in place; the rig file's "
+             "free-flight check sums flight by flight (it concatenated 12 M samples several times: 1 GB and 3 s). "
+             "Every change keeps the estimate's numbers (the noise floor, the events and the fit to the last bit; "
+             "the free-flight check's refit to 1e-10). CPU seconds are the child's user + system time; on a "
+             "loaded machine the wall time exceeds them by the load's share.")
     with BenchmarkPage(None if args.no_page or args.quick else PAGE, "Performance: the 60 s estimate", intro):
         print(f"load average (1 min) at the start {os.getloadavg()[0]:.2f}; {os.cpu_count()} cores; "
               f"NUMBA_NUM_THREADS {os.environ.get('NUMBA_NUM_THREADS', 'default')}")

@@ -43,6 +43,7 @@ in the result's notes (:attr:`EventTable.warnings`), which :func:`find_events` i
 
 from __future__ import annotations
 
+import functools
 import math
 import warnings
 from dataclasses import dataclass, field
@@ -140,13 +141,39 @@ class _Quadratic:
         return np.polyval(self.coeffs, np.asarray(at) - self.centre)
 
 
+@functools.lru_cache(maxsize=64)
+def _fit_design(samples: int, degree: int, scale: float | None) -> tuple[np.ndarray, np.ndarray, float]:
+    """:func:`numpy.polyfit`'s scaled design for ``samples`` consecutive samples about their centre (divided by
+    ``scale`` unless None): ``(design, column norms, rcond)``, made once per window length (every event's
+    baselines have the same few lengths) by polyfit's own steps, so that :func:`_polyfit` gives its numbers
+    to the last bit."""
+    position = np.arange(samples) - 0.5 * samples  # = np.arange(lo, hi) - 0.5 * (lo + hi), exactly
+    if scale is not None:
+        position = position / scale
+    design = np.vander(position, degree + 1)
+    norm = np.sqrt((design * design).sum(axis=0))
+    design /= norm
+    design.flags.writeable = False
+    return design, norm, samples * np.finfo(float).eps
+
+
+def _polyfit(y: np.ndarray, degree: int, scale: float | None = None) -> np.ndarray:
+    """``numpy.polyfit(position, y, degree)`` for samples ``y`` at positions about their centre
+    (:func:`_fit_design`), without rebuilding the design for every window."""
+    design, norm, rcond = _fit_design(y.size, degree, scale)
+    coeffs, _, rank, _ = np.linalg.lstsq(design, y + 0.0, rcond)
+    if rank != degree + 1:
+        warnings.warn("Polyfit may be poorly conditioned", np.exceptions.RankWarning, stacklevel=3)
+    return (coeffs.T / norm).T
+
+
 def _baseline(x: np.ndarray, lo: int, hi: int) -> _Quadratic | None:
     """Quadratic least-squares fit to ``x[lo:hi]``: a function of sample indices, or None if the
     window does not fit in the recording."""
     if lo < 0 or hi > x.size or hi - lo < 8:
         return None
     centre = 0.5 * (lo + hi)
-    return _Quadratic(np.polyfit(np.arange(lo, hi) - centre, x[lo:hi], 2), centre)
+    return _Quadratic(_polyfit(x[lo:hi], 2), centre)
 
 
 #: Most times the post-pulse baseline window is moved on past a tensile tail.
@@ -178,9 +205,10 @@ PATTERN_SHARE = 0.8
 
 
 def _next_core_start(starts: np.ndarray, current: int, size: int) -> int:
-    """Start of the pulse core after the one starting at ``current`` (``size`` if none)."""
-    later = starts[starts > current]
-    return int(later[0]) if later.size else size
+    """Start of the pulse core after the one starting at ``current`` (``size`` if none); ``starts``
+    ascending."""
+    k = int(np.searchsorted(starts, current, side="right"))
+    return int(starts[k]) if k < starts.size else size
 
 
 def _clean_baseline_after(x: np.ndarray, core_end: int, threshold: float, limit: int):
@@ -214,7 +242,7 @@ def _polynomial_baseline(x: np.ndarray, lo: int, hi: int, degree: int):
     """Least-squares polynomial of ``degree`` fitted to ``x[lo:hi]``: a function of sample indices."""
     centre = 0.5 * (lo + hi)
     scale = max(0.5 * (hi - lo), 1.0)
-    coeffs = np.polyfit((np.arange(lo, hi) - centre) / scale, x[lo:hi], degree)
+    coeffs = _polyfit(x[lo:hi], degree, scale)
     return lambda at: np.polyval(coeffs, (np.asarray(at) - centre) / scale)
 
 

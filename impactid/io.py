@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import math
+import mmap
 import os
 import re
 import warnings
@@ -35,12 +36,12 @@ from impactid.units import UnitError, si_factor
 from impactid.units import shown as shown_unit
 
 __all__ = ["CAM_SPEED_TOLERANCE", "CHANNEL_QUANTITY", "CHANNEL_UNITS", "CLIP_RUN", "CSV_TIME_TOLERANCE", "FORMAT_NAME",
-           "FORMAT_VERSION", "MAX_CAM_SPEED_HZ", "MAX_SAMPLE_RATE_HZ", "MEMORY_FACTORS", "MEMORY_LIMIT_VARIABLE",
-           "MIN_CAM_SPEED_HZ", "MIN_SAMPLES_PER_REVOLUTION", "MIN_SAMPLE_RATE_HZ", "OFFSET_ATTRIBUTES",
-           "SCALE_ATTRIBUTES", "SHORT_REVOLUTIONS", "TIME_RESOLUTION", "Footprint", "Recording", "RecordingError",
-           "RecordingWarning", "available_memory", "channel_spec", "check_cam_speed", "check_memory", "check_time_base",
-           "read_csv", "read_hdf5", "read_recording", "read_truth", "recording_footprint", "select_channels",
-           "write_csv", "write_hdf5"]
+           "FORMAT_VERSION", "MAP_BYTES", "MAX_CAM_SPEED_HZ", "MAX_SAMPLE_RATE_HZ", "MEMORY_FACTORS",
+           "MEMORY_LIMIT_VARIABLE", "MIN_CAM_SPEED_HZ", "MIN_SAMPLES_PER_REVOLUTION", "MIN_SAMPLE_RATE_HZ",
+           "OFFSET_ATTRIBUTES", "SCALE_ATTRIBUTES", "SHORT_REVOLUTIONS", "TIME_RESOLUTION", "Footprint", "Recording",
+           "RecordingError", "RecordingWarning", "available_memory", "channel_spec", "check_cam_speed", "check_memory",
+           "check_time_base", "read_csv", "read_hdf5", "read_recording", "read_truth", "recording_footprint",
+           "release_pages", "select_channels", "write_csv", "write_hdf5"]
 
 FORMAT_NAME = "recording"
 FORMAT_VERSION = 1
@@ -757,8 +758,64 @@ def _check_storage(where: str, path: Path, name: str, item) -> None:
                              f"only {stored:,} of its {item.nbytes:,} bytes (damaged or never written)")
 
 
-def _read_dataset(where: str, name: str, item) -> np.ndarray:
+#: Channels of at least this many bytes, stored contiguous, uncompressed and as little-endian float64 in a
+#: local file, are mapped from the file instead of copied into memory (:func:`_mapped`): 4 M samples, 20 s
+#: at 204.8 kHz.
+MAP_BYTES = 32 * 2 ** 20
+
+
+def _mapped(path: Path, item) -> np.ndarray | None:
+    """The samples of a dataset as a read-only array mapped from the file, or None when they cannot be.
+
+    A mapped channel occupies memory only where it is read (a rig's pivot forces are read around the
+    impacts only), and the pages read are the operating system's file cache, shared and given back
+    (:func:`_release`). The file must not be rewritten in place while the recording is in use (impactid
+    writes files whole and renames them, which leaves a mapping of the old file valid).
+    """
+    if (os.name != "posix" or item.nbytes < MAP_BYTES or item.dtype != np.dtype("<f8") or item.chunks is not None
+            or item.compression is not None or item.is_virtual or item.external):
+        return None  # (elsewhere a mapped file cannot be replaced while it is mapped)
+    offset = item.id.get_offset()
+    if offset is None:
+        return None
+    start = offset - offset % mmap.ALLOCATIONGRANULARITY
     try:
+        with open(path, "rb") as fh:
+            if os.fstat(fh.fileno()).st_size < offset + item.nbytes:
+                return None  # a truncated file: read (and refused) as before, never a mapping past its end
+            mapping = mmap.mmap(fh.fileno(), offset - start + item.nbytes, access=mmap.ACCESS_READ, offset=start)
+    except (OSError, ValueError, OverflowError):
+        return None
+    return np.frombuffer(mapping, dtype=np.float64, count=item.shape[0], offset=offset - start)
+
+
+def release_pages(recording: Recording) -> None:
+    """Give back the memory pages of a recording's channels mapped from its file (:data:`MAP_BYTES`) that
+    have been read so far; their samples stay readable (a read maps them again from the file cache).
+
+    A job that reads a mapped channel in many short windows (rig P's pivot forces around each impact)
+    calls this now and then: each window's read maps the 64 kB about it, which over a thousand impacts
+    is most of the channel. Channels held in memory are not touched.
+    """
+    _release(recording.channels)
+
+
+def _release(channels: Mapping[str, np.ndarray]) -> None:
+    """Give back the pages of the mapped channels read so far (the recording's checks read them all): the
+    next read of a sample maps it again from the file cache."""
+    for array in channels.values():
+        base = array.base
+        mapping = base.obj if isinstance(base, memoryview) else None
+        if isinstance(mapping, mmap.mmap) and hasattr(mmap, "MADV_DONTNEED"):
+            mapping.madvise(mmap.MADV_DONTNEED)
+
+
+def _read_dataset(where: str, name: str, item, path: Path | None = None) -> np.ndarray:
+    try:
+        if path is not None and not item.attrs.keys() & {*SCALE_ATTRIBUTES, *OFFSET_ATTRIBUTES}:
+            mapped = _mapped(path, item)
+            if mapped is not None:
+                return mapped
         return item[()]
     except (OSError, RuntimeError, ValueError) as exc:
         if item.external:
@@ -835,7 +892,7 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None, *, channels: Sequen
             for name, item in items:
                 _check_storage(where, path, name, item)
             for name, item in items:
-                data = _read_dataset(where, name, item)
+                data = _read_dataset(where, name, item, path)
                 data, cal_note = _calibrate(where, name, item.attrs, data)
                 if cal_note:
                     notes.append(cal_note)
@@ -878,8 +935,10 @@ def read_hdf5(path: str | os.PathLike[str], rig: Any = None, *, channels: Sequen
         raise RecordingError(f"{where}: no /rig group and no rig file given (use --rig RIG.toml)")
     if math.isfinite(operating.get("cam_speed_hz", math.nan)):
         check_cam_speed(where, operating["cam_speed_hz"], rate, name=speed_from)
-    return Recording(channels=channels, sample_rate_hz=rate, units=units, rig=recording_rig, operating=operating,
-                     start_time_s=start, source=where, provenance=provenance)
+    recording = Recording(channels=channels, sample_rate_hz=rate, units=units, rig=recording_rig,
+                          operating=operating, start_time_s=start, source=where, provenance=provenance)
+    _release(recording.channels)
+    return recording
 
 
 def _rig_from_attrs(where: str, group) -> Any:

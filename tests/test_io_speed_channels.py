@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import h5py
 import numpy as np
 import pytest
 
+import impactid.io as io_module
 from impactid.io import RecordingError, read_csv, read_hdf5, read_recording, write_csv, write_hdf5
 from tests.test_io import small_recording
 
@@ -40,3 +42,29 @@ def test_none_of_the_channels_in_the_file_is_an_error_naming_both(tmp_path, kind
     with pytest.raises(RecordingError, match=r"none of the channels follower_angle is in the recording \(it has "
                                              r"accel_tangential"):
         read_recording(path, channels=("follower_angle",))
+
+
+def test_large_channels_are_mapped_from_the_file_and_read_alike(tmp_path, monkeypatch):
+    """Channels of at least MAP_BYTES are mapped, not copied: the same samples and ranges, read-only; their
+    pages given back (release_pages) leave them readable; a calibrated channel is still read and scaled."""
+    rec = small_recording()
+    path = tmp_path / "r.h5"
+    write_hdf5(rec, path)
+    copied = read_hdf5(path)
+    monkeypatch.setattr(io_module, "MAP_BYTES", 1)
+    mapped = read_hdf5(path)
+    assert all(isinstance(mapped[n].base, memoryview) for n in mapped.channels)
+    assert not any(isinstance(copied[n].base, memoryview) for n in copied.channels)
+    for name in copied.channels:
+        assert np.array_equal(mapped[name], copied[name])
+        assert mapped.channel_range(name) == copied.channel_range(name)
+        assert not mapped[name].flags.writeable
+    io_module.release_pages(mapped)
+    io_module.release_pages(copied)
+    for name in copied.channels:
+        assert np.array_equal(mapped[name], copied[name])
+    with h5py.File(path, "a") as fh:
+        fh["signals"]["force_x"].attrs["scale"] = 2.0
+    scaled = read_hdf5(path)
+    assert not isinstance(scaled["force_x"].base, memoryview)
+    assert np.array_equal(scaled["force_x"], 2.0 * copied["force_x"])

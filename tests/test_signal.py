@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 from scipy import integrate
 
+import impactid.signal as signal_module
 from impactid.signal import (
     INTEGRATORS,
+    MAD_TO_SIGMA,
     EventSpan,
     PowerLawEdge,
     detrend_integrate,
@@ -212,3 +214,16 @@ def test_span_means_recover_the_offset_and_the_zero_mean_rate(method, head, tail
     assert np.max(np.abs(rate - rate_true(t))) < tolerance
     _, plain_rate, _ = detrend_integrate(acc(t), DT, method)
     assert np.max(np.abs(plain_rate - rate_true(t))) > 100 * tolerance  # measured 4.5e-7 .. 2.1e-6
+
+
+@pytest.mark.parametrize("size", [5, 6, 1000, signal_module._CHUNK + 3, 2 * signal_module._CHUNK + 1])
+@pytest.mark.parametrize("subtract_curvature", [False, True])
+def test_noise_floor_in_chunks_is_the_whole_array_formula_to_the_last_bit(size, subtract_curvature):
+    """The chunked second difference and the in-place median give the numbers of the whole-array formula."""
+    rng = np.random.default_rng(size)
+    x = np.sin(np.linspace(0.0, 40.0, size)) + 1e-3 * rng.normal(size=size)
+    second = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    assert np.array_equal(signal_module._second_difference(x), second)
+    centre = np.median(second) if subtract_curvature else 0.0
+    expected = MAD_TO_SIGMA * np.median(np.abs(second - centre)) / np.sqrt(6.0)
+    assert noise_floor(x, subtract_curvature=subtract_curvature, include_quantisation=False) == expected

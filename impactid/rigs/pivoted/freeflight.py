@@ -17,11 +17,11 @@ offset) then removes what the rig file's model leaves, and measures how far the 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from scipy import stats
 
 from impactid.rigs.pivoted import kernel as K
@@ -86,16 +86,17 @@ def free_flight(alpha0, rate0, duration, p, steps):  # pragma: no cover - compil
     return a, v, sa, sv
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def return_time_anchors(start_rate, duration, displacement, guess, p, steps, tol, out):  # pragma: no cover - compiled
     """For each event, the start angle ``alpha_s`` of a free flight that, from rate
     ``start_rate``, moves by ``displacement`` in ``duration``: Newton on
     ``G(alpha_s) = alpha(duration; alpha_s) - alpha_s - displacement``.
 
     ``guess`` holds the initial iterates. Fills
-    ``out[i] = (alpha_s, G'(alpha_s), iterations)``; ``iterations`` is -1 if Newton failed.
+    ``out[i] = (alpha_s, G'(alpha_s), iterations)``; ``iterations`` is -1 if Newton failed. The events are
+    independent: they are shared out among numba's threads (the same numbers as one by one).
     """
-    for i in range(guess.shape[0]):
+    for i in prange(guess.shape[0]):
         x = guess[i]
         it = 0
         slope = 0.0
@@ -178,7 +179,7 @@ class FreeFlightFit:
                 "or its preload (or the accelerometer's scale); check the rig file")
 
 
-def free_flight_fit(alpha: Sequence[np.ndarray], acceleration: Sequence[np.ndarray], p: np.ndarray,
+def free_flight_fit(alpha: Iterable[np.ndarray], acceleration: Iterable[np.ndarray], p: np.ndarray,
                     noise: float) -> FreeFlightFit | None:
     """The rig file's free-flight model against measured free flights.
 
@@ -196,25 +197,36 @@ def free_flight_fit(alpha: Sequence[np.ndarray], acceleration: Sequence[np.ndarr
     The measured acceleration is fitted as ``b_i + s m(alpha) + c (alpha - mean)`` (``m`` the model's free
     acceleration, ``b_i`` each flight's offset); the rig file's model is ``s = 1, c = 0``.
     """
-    ys, ms, xs = [], [], []
+    # flight by flight (a recording's free samples are most of it: 12 M at 60 s and 204.8 kHz, whose
+    # concatenated copies held 1 GB): the sums of the fit, and the triangular factor of the design
+    # [m, x | y - m] stacked over the flights (a QR of the stacked factors is the QR of the whole design)
+    events = n = 0
+    ss_model = sum_m = sum_mm = sum_xm = sum_xx = 0.0
+    factor = np.zeros((0, 3))
     for a, y in zip(alpha, acceleration):
         a, y = np.asarray(a, dtype=float), np.asarray(y, dtype=float)
         if a.size < 16 or not (np.all(np.isfinite(a)) and np.all(np.isfinite(y))):
             continue
         m = free_accelerations(np.ascontiguousarray(a), p)
-        ys.append(y - y.mean())
-        ms.append(m - m.mean())
-        xs.append(a - a.mean())
-    if len(ys) < 2 or not (math.isfinite(noise) and noise > 0.0):
+        m -= m.mean()
+        x = a - a.mean()
+        r = y - y.mean()
+        r -= m  # the measured acceleration's departure from the rig file's model
+        events, n = events + 1, n + a.size
+        # products summed pairwise (np.dot of short vectors costs ten times more in OpenBLAS's threads)
+        ss_model += float(np.sum(r * r))
+        sum_m += float(np.sum(m))
+        sum_mm += float(np.sum(m * m))
+        sum_xm += float(np.sum(x * m))
+        sum_xx += float(np.sum(x * x))
+        factor = np.linalg.qr(np.vstack([factor, np.column_stack([m, x, r])]), mode="r")
+    if events < 2 or not (math.isfinite(noise) and noise > 0.0):
         return None
-    y, m, x = np.concatenate(ys), np.concatenate(ms), np.concatenate(xs)
-    n = y.size
-    ss_model = float(np.sum((y - m) ** 2))
-    design = np.column_stack([m, x])
-    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    ss_refit = float(np.sum((y - design @ coef) ** 2))
-    swing = float(np.std(m))
-    slope = float(np.dot(x, m) / np.dot(x, x)) if np.dot(x, x) > 0.0 else math.nan
+    # the refit y = s m + c x: s - 1 and c are the least-squares coefficients of y - m on [m, x]
+    coef = np.linalg.lstsq(factor[:2, :2], factor[:2, 2], rcond=None)[0] + np.array([1.0, 0.0])
+    ss_refit = float(factor[2, 2] ** 2)
+    swing = math.sqrt(max(sum_mm / n - (sum_m / n) ** 2, 0.0))
+    slope = sum_xm / sum_xx if sum_xx > 0.0 else math.nan
     removed = max(ss_model - ss_refit, 0.0)
     chi_square = removed / noise ** 2
     p_value = float(stats.chi2.sf(chi_square, 2))
@@ -222,7 +234,7 @@ def free_flight_fit(alpha: Sequence[np.ndarray], acceleration: Sequence[np.ndarr
     misfit = math.sqrt(removed / n) / swing if swing > 0.0 else math.nan
     clean = refit_rms <= max(FREE_FLIGHT_CLEAN * noise, FREE_FLIGHT_CLEAN_SWING * swing)
     disagrees = bool(clean and misfit > FREE_FLIGHT_MISFIT and p_value < FREE_FLIGHT_SIGNIFICANCE)
-    return FreeFlightFit(events=len(ys), samples=int(n), noise=float(noise), swing=swing,
+    return FreeFlightFit(events=events, samples=int(n), noise=float(noise), swing=swing,
                          model_rms=math.sqrt(ss_model / n), refit_rms=refit_rms, scale=float(coef[0]),
                          linear=float(coef[1] / slope) if slope and math.isfinite(slope) else math.nan,
                          misfit=float(misfit), chi_square=float(chi_square), p_value=p_value, clean=bool(clean),
