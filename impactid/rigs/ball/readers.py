@@ -477,7 +477,9 @@ def read_phyphox(path: str | os.PathLike[str]) -> BounceRecording:
     return _from_columns(path, fmt, header, columns, "sheet 'All'", row_offset=2)
 
 
-def _xlsx_sheet(path: Path, name: str):
+def _check_xlsx_unpacked(path: Path) -> None:
+    """Refuse a damaged ``.xlsx`` zip, or one that unpacks beyond :data:`MAX_TABLE_BYTES`, before
+    anything is unpacked."""
     try:
         with zipfile.ZipFile(path) as archive:
             unpacked = sum(info.file_size for info in archive.infolist())
@@ -485,6 +487,10 @@ def _xlsx_sheet(path: Path, name: str):
         raise BounceFileError(f"{path}: not a readable .xlsx workbook (damaged zip)") from None
     if unpacked > MAX_TABLE_BYTES:
         raise _too_large(path, unpacked, "a workbook that unpacks to a table")
+
+
+def _xlsx_sheet(path: Path, name: str):
+    _check_xlsx_unpacked(path)
     try:
         with pd.ExcelFile(path, engine="openpyxl") as book:
             sheets = [str(s) for s in book.sheet_names]
@@ -922,13 +928,7 @@ def _workbook(path: Path) -> tuple[str, dict[str, list[list]]]:
     """Every sheet of a workbook as rows of cells (``.xlsx`` through openpyxl, ``.xls`` through xlrd)."""
     size = check_file(path).st_size
     if _head(path).startswith(b"PK\x03\x04"):
-        try:
-            with zipfile.ZipFile(path) as archive:
-                unpacked = sum(info.file_size for info in archive.infolist())
-        except (zipfile.BadZipFile, OSError, EOFError):
-            raise BounceFileError(f"{path}: not a readable .xlsx workbook (damaged zip)") from None
-        if unpacked > MAX_TABLE_BYTES:
-            raise _too_large(path, unpacked, "a workbook that unpacks to a table")
+        _check_xlsx_unpacked(path)
         try:
             frames = pd.read_excel(path, sheet_name=None, header=None, dtype=object, engine="openpyxl")
         except Exception as exc:  # openpyxl raises its own exception types on malformed XML
