@@ -385,6 +385,13 @@ def summary(result: Estimate) -> list[str]:
                  f"damping at delta_ref = {d.delta_ref * 1e6:.4g} µm, the median measured peak indentation: its unit, "
                  "N s/m, does not change with n;")
     lines.append(f"   {INTERVALS})")
+    boot_beta, boot_n = d.beta_bootstrap_interval, d.n_bootstrap_interval
+    if all(math.isfinite(v) for v in boot_beta):
+        boot = f"beta [{boot_beta[0]:.4g}, {boot_beta[1]:.4g}]"
+        if not d.fixed_n and all(math.isfinite(v) for v in boot_n):
+            boot += f", n [{boot_n[0]:.5g}, {boot_n[1]:.5g}]"
+        lines.append(f"  bootstrap over the impacts (95 %): {boot} (the impacts' scatter alone, a part of the "
+                     "intervals above)")
     lines.append(f"  objective (mean |{d.residual}| at the estimate) = {num(d.objective, '.4g')}")
     if r is None:
         reason = next((w for w in result.warnings if w.startswith("restitution law not estimated")),
