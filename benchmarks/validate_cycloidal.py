@@ -104,7 +104,7 @@ def paper_figures(lines):
             for n in (250, 500, 1000, 2000)}
     lines += ["### The paper's figures", "",
               "All speeds are camshaft speeds (decision R-D3). The paper's Figs. 4 and 5 use the kinematic load "
-              "`W = f_p + k0 s` (R-43'); Figs. 6 and 7 the level-A load (R-40'). The film uses the paper's 500 "
+              "$W = f_p + k_0 s$ (R-43'); Figs. 6 and 7 the level-A load (R-40'). The film uses the paper's 500 "
               "steps per revolution and the squeeze ratio clipped to Table 3's range (R-D2).", "",
               "| figure: statement in the paper | ours | verdict |", "|---|---|---|",
               "| Fig. 2: lift, velocity, acceleration symmetric about the nose; acceleration spike (cusp) at the nose "
@@ -152,7 +152,7 @@ def paper_figures(lines):
               "| Fig. 8: camshaft wind-up at 600 rpm | not modelled: the camshaft's length, section and modulus are "
               "not given (R.2.7) | not reproduced |", "",
               "Arithmetic behind the inconsistent statements (R-D3, R-D4): at the nose s'' = 0, so "
-              f"`u = omega (R0 + S)/2`; u = 4 m/s at 1000 rpm camshaft needs R0 + S = {u_needed * 1e3:.1f} mm "
+              rf"$u = \omega (R_0 + S)/2$; u = 4 m/s at 1000 rpm camshaft needs R0 + S = {u_needed * 1e3:.1f} mm "
               f"(at 500 rpm, if 1000 were engine speed, {2 * u_needed * 1e3:.0f} mm), impossible for a 0.2-0.3 kg cam. "
               f"The four zeros span {span:.2f} deg (72 deg with the paper's +-36): 1 ms needs {rpm_1ms:.0f} rpm "
               f"camshaft. The flank film is {kin3['max_film_thickness_m'] / kin3['nose_film_thickness_m']:.2f} times "
