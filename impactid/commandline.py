@@ -29,10 +29,10 @@ __all__ = ["CAM_PPR", "FIGURE_FORMAT", "JSON", "MAX_SWEEP_POINTS", "MAX_SYNTH_SA
            "NOISE_CHANNEL", "PLOTS", "REPORT", "SAMPLE_RATE", "SEED", "SYNTH_DURATION", "SYNTH_OUT", "UsageError",
            "cam_speed", "check_outputs", "check_report", "check_synth_size", "command_inputs", "command_line",
            "deliver", "end_progress_line", "exponent", "figure_format", "fraction", "integer_in", "is_rig_file",
-           "json_text", "noise_channels", "nonnegative", "num", "number", "pair", "positive", "print_json",
-           "progress_bar", "recording_arguments", "recording_paths", "recording_rig", "refuse_other_rigs_options",
-           "rig_help", "say_report", "say_written", "speed_arguments", "stage_progress", "write_report",
-           "write_synthetic"]
+           "json_text", "noise_channels", "nonnegative", "num", "number", "number_up_to", "pair", "positive",
+           "print_json", "progress_bar", "recording_arguments", "recording_paths", "recording_rig",
+           "refuse_other_rigs_options", "rig_help", "say_report", "say_written", "speed_arguments",
+           "stage_progress", "write_report", "write_synthetic"]
 
 #: Largest number of operating points of ``regime-map`` and speeds of ``bifurcation``.
 MAX_SWEEP_POINTS = 10_000
@@ -68,18 +68,25 @@ def nonnegative(text: str) -> float:
     return value
 
 
-def fraction(text: str) -> float:
-    value = nonnegative(text)
-    if value > 1.0:
-        raise argparse.ArgumentTypeError(f"must lie in [0, 1], got {text!r}")
-    return value
+def number_up_to(high: float, *, zero: bool = True, unit: str = ""):
+    """An argparse type: a number in ``[0, high]`` (``(0, high]`` without ``zero``), ``unit`` named in
+    the message."""
+    low = "[" if zero else "("
+    shown = f" {unit}" if unit else ""
+
+    def parse(text: str) -> float:
+        value = nonnegative(text) if zero else positive(text)
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must lie in {low}0, {high:g}]{shown}, got {text!r}")
+        return value
+
+    return parse
 
 
-def exponent(text: str) -> float:
-    value = nonnegative(text)
-    if value > 10.0:
-        raise argparse.ArgumentTypeError(f"must lie in [0, 10], got {text!r}")
-    return value
+#: A number in [0, 1].
+fraction = number_up_to(1.0)
+#: A number in [0, 10] (an exponent, a coefficient).
+exponent = number_up_to(10.0)
 
 
 def integer_in(lo: int, hi: int):

@@ -19,6 +19,7 @@ from impactid.commandline import (
     integer_in,
     nonnegative,
     number,
+    number_up_to,
     pair,
     positive,
 )
@@ -48,18 +49,8 @@ def _band(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _coefficient(text: str) -> float:
-    value = nonnegative(text)
-    if value > 10.0:
-        raise argparse.ArgumentTypeError(f"must lie in [0, 10], got {text!r}")
-    return value
-
-
-def _window(text: str) -> float:
-    value = positive(text)
-    if value > 2.0:
-        raise argparse.ArgumentTypeError(f"must lie in (0, 2] s, got {text!r}")
-    return value
+_coefficient = number_up_to(10.0)
+_window = number_up_to(2.0, zero=False, unit="s")
 
 
 def _arguments() -> tuple[Argument, ...]:
