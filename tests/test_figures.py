@@ -293,6 +293,28 @@ def test_rig_f_cam_fit_and_svg(captured, tmp_path):
     _check_all(captured)
 
 
+def test_rig_f_restitution_figures(captured, tmp_path):
+    """``restitution --plots``: measured first impacts against their simulation with the fitted law, and the law."""
+    recordings = [str(tmp_path / f"f{rpm}.h5") for rpm in ("136", "148")]
+    for rpm, path in zip(("136", "148"), recordings):
+        assert main(["synth", "--rig", "flat-follower", "--rpm", rpm, "--duration", "1.2", "--out", path]) == 0
+    assert main(["restitution", *recordings, "--plots", str(tmp_path / "p"), "--json"]) == 0
+    assert {"restitution_impacts.png", "restitution_law.png"} <= set(captured)
+    legend = [t.get_text() for t in captured["restitution_impacts.png"].axes[0].get_legend().get_texts()]
+    assert legend[0] == "measured (follower encoder)" and legend[1].startswith("simulated with the fitted law")
+    _check_all(captured)
+
+
+def test_planar_fit_figures(captured, tmp_path):
+    """``planar fit --plots``: a few impacts' measured and predicted outcomes, and predicted against measured."""
+    table = tmp_path / "impacts.csv"
+    assert main(["synth", "--rig", "planar-impact", "--impacts", "40", "--seed", "4", "--out", str(table)]) == 0
+    assert main(["planar", "fit", str(table), "--body", "mcube-ellipse", "--law", "newton-constant-stick",
+                 "--plots", str(tmp_path / "p"), "--json"]) == 0
+    assert {"planar_impacts.png", "planar_agreement.png"} <= set(captured)
+    _check_all(captured)
+
+
 # ---- --figure-format on every command that writes figures -------------------------------------------
 
 _FF = ("--rig", "finger-follower-hla")
@@ -311,6 +333,12 @@ _FIGURE_COMMANDS = {
                  ["drop", "fit", "{rec}.h5", "--plots", "{dir}", "--json"], {"drop_fit"}, "plots"),
     "cam-fit": (["synth", "--rig", "flat-follower", "--rpm", "60", "--duration", "3.1", "--out", "{rec}.h5"],
                 ["cam-fit", "{rec}.h5", "--terms", "3", "--plots", "{dir}", "--json"], {"cam_fit"}, "plots"),
+    "restitution": (["synth", "--rig", "flat-follower", "--rpm", "140", "--duration", "1", "--out", "{rec}.h5"],
+                    ["restitution", "{rec}.h5", "--plots", "{dir}", "--json"],
+                    {"restitution_impacts", "restitution_law"}, "plots"),
+    "planar fit": (["synth", "--rig", "planar-impact", "--impacts", "30", "--out", "{rec}.csv"],
+                   ["planar", "fit", "{rec}.csv", "--body", "mcube-ellipse", "--law", "newton-constant-stick",
+                    "--plots", "{dir}", "--json"], {"planar_impacts", "planar_agreement"}, "plots"),
     "bifurcation": (None, ["bifurcation", "--speeds", "2", "--revolutions", "4", "--out", "{dir}", "--json"],
                     {"bifurcation"}, "files"),
     "regime-map": (None, ["regime-map", "--e-over-rc-values", "0.1", "--cam-speeds", "5", "--max-revolutions", "20",

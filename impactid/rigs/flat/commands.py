@@ -20,6 +20,7 @@ so that ``impactid --help`` and ``impactid COMMAND --help`` load neither numpy n
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import replace
 
@@ -43,7 +44,6 @@ from impactid.commandline import (
     figure_format,
     fraction,
     integer_in,
-    json_text,
     noise_channels,
     num,
     number,
@@ -55,10 +55,8 @@ from impactid.commandline import (
     recording_rig,
     refuse_other_rigs_options,
     rig_help,
-    say_report,
     say_written,
     speed_arguments,
-    write_report,
     write_synthetic,
 )
 from impactid.distributed import scheduler_arguments
@@ -143,7 +141,6 @@ def run_bifurcation(args, model) -> int:
 
 
 def run_restitution(args, model) -> int:
-    from impactid._files import StagedFiles
     from impactid.io import read_recording
     from impactid.rigs.flat.encoder_impacts import fit_speed_law, restitution_at_speed
     from impactid.rigs.registry import resolve_rig
@@ -158,19 +155,19 @@ def run_restitution(args, model) -> int:
 
         profile = load_profile_json(args.profile)
     rig = resolve_rig(args.rig).rig if args.rig else None
-    points = [restitution_at_speed(read_recording(path), profile, method=args.method, rig=rig, warn=False)
-              for path in args.recordings]
+    recordings = [read_recording(path) for path in args.recordings]
+    points = [restitution_at_speed(recording, profile, method=args.method, rig=rig, warn=False)
+              for recording in recordings]
     result = fit_speed_law(points)
     result = replace(result, details={**result.details,
                                       "profile": args.profile or "analytic A-17 of the recording's rig"})
     data = result.to_dict()
     data["recordings_read"] = [str(p) for p in args.recordings]
-    if args.out:
-        with StagedFiles(protect=inputs) as staged:
-            staged.write_text(args.out, json_text(data))
-    write_report(args, data, inputs)
+    overlays = ()
+    if args.plots or args.report:
+        overlays = _restitution_overlays(result, points, recordings, rig, profile)
+    deliver(args, data, inputs, _restitution_figures(args, result, overlays))
     if args.json:
-        print_json(data)
         return 0
     for p in points:
         print(f"{p.source}: {p.cam_speed_rpm:.2f} rpm, r = {num(p.restitution, '.4f')} +- {num(p.stderr, '.4f')} "
@@ -180,10 +177,31 @@ def run_restitution(args, model) -> int:
           f" * rpm (residual RMS {result.residual_rms:.2g})")
     for note in result.notes:
         print(f"impactid: note: {note}", file=sys.stderr)
-    if args.out:
-        print(f"  result written to {args.out}")
-    say_report(args)
+    for overlay in overlays:
+        if overlay.note:
+            print(f"impactid: note: figure: {overlay.source}, first impact {overlay.number}: {overlay.note}",
+                  file=sys.stderr)
+    say_written(args)
     return 0
+
+
+def _restitution_overlays(result, points, recordings, rig, profile):
+    """The first impacts ``restitution --plots``/``--report`` shows, measured and simulated with the fitted law
+    (:func:`impactid.rigs.flat.figures.impact_overlays`)."""
+    from impactid.rigs.flat.figures import impact_overlays
+
+    a, b = result.value("a"), result.value("b")
+    law = result.law if math.isfinite(a) and math.isfinite(b) else None
+    return impact_overlays(points, recordings, law, rig=rig, profile=profile)
+
+
+def _restitution_figures(args, result, overlays):
+    """The figures of ``restitution --plots``: their names and their writer."""
+    from impactid.rigs.flat import figures
+
+    names = (["restitution_impacts.png"] if overlays else []) + ["restitution_law.png"]
+    return names, lambda staged: figures.restitution_figures(result, overlays, args.plots, staged,
+                                                             figure_format(args))
 
 
 def _cam_fit_figures(args, fit):
@@ -315,8 +333,13 @@ COMMANDS = (
                                          "first-bounce: the model's r that reproduces the first-bounce height "
                                          "(Alzate et al. 2007)"}),
         Argument(("--rig",), {"metavar": "RIG.toml|MODEL|PRESET",
-                              "help": rig_help("the rig for first-bounce (default: the recording's)")}),
-        OUT_JSON, REPORT, JSON), run_restitution),
+                              "help": rig_help("the rig for first-bounce and the figures' simulations (default: "
+                                               "the recording's)")}),
+        OUT_JSON,
+        Argument(("--plots",), {"metavar": "DIR",
+                                "help": "write figures (measured first impacts against their simulation with the "
+                                        "fitted law; the law over cam speed)"}),
+        FIGURE_FORMAT, REPORT, JSON), run_restitution),
     CommandSpec("", "cam-fit", "fit a Gaussian-sum cam profile (Alzate et al. 2007, eq. 1) to rig F encoder data", (
         *recording_arguments(),
         Argument(("--terms",), {"default": "7", "metavar": "N|auto",

@@ -19,12 +19,11 @@ from impactid._files import StagedFiles, check_output
 from impactid.commandline import (
     UsageError,
     check_outputs,
-    check_report,
-    json_text,
+    deliver,
+    figure_format,
     print_json,
     refuse_other_rigs_options,
-    say_report,
-    write_report,
+    say_written,
 )
 from impactid.errors import ImpactidError, RigParameterError
 from impactid.results import FitResult
@@ -104,10 +103,8 @@ def run_fit(args) -> int:
     """``impactid planar fit IMPACTS.csv``; returns the exit code."""
     body = body_from_arguments(args)
     _check_input(args.impacts, "IMPACTS.csv")
-    inputs = [args.impacts, args.rig_file]
-    if args.out is not None:
-        check_output(args.out, option="--out", inputs=inputs)
-    check_report(args, inputs, others={"--out": args.out})
+    inputs = [path for path in (args.impacts, args.rig_file) if path is not None]
+    check_outputs(args, inputs)
     impacts = read_impacts(args.impacts, require=args.target or "any")
     try:
         result = fit_planar(impacts, body, laws=args.law, criterion=args.criterion, target=args.target,
@@ -116,12 +113,8 @@ def run_fit(args) -> int:
         raise ImpactidError(str(exc)) from None
     data = result.to_dict()
     data["recordings_read"] = [str(args.impacts)]
-    if args.out is not None:
-        with StagedFiles(protect=[args.impacts]) as staged:
-            staged.write_text(args.out, json_text(data))
-    write_report(args, data, inputs)
+    deliver(args, data, inputs, _fit_figures(args, result, impacts))
     if args.json:
-        print_json(data)
         return 0
     s = result.statistics
     print(f"impactid planar fit: {s['n_impacts']} impacts of {args.impacts}, law {result.law.name} "
@@ -139,10 +132,20 @@ def run_fit(args) -> int:
     print(f"  model check: {result.model_check.get('verdict')}")
     for note in result.notes:
         print(f"  note: {note}")
-    if args.out is not None:
-        print(f"  result written to {args.out}")
-    say_report(args)
+    say_written(args)
     return 0
+
+
+def _fit_figures(args, result, impacts):
+    """The figures of ``planar fit --plots`` (:func:`impactid.rigs.planar.figures.planar_figures`): their names
+    and their writer (matplotlib is imported when it runs)."""
+
+    def write(staged):
+        from impactid.rigs.planar.figures import planar_figures
+
+        return planar_figures(result, impacts, args.plots, staged, figure_format(args))
+
+    return ["planar_impacts.png", "planar_agreement.png"], write
 
 
 def _read_law(path: str) -> PlanarLawFit:

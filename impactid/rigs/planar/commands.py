@@ -13,7 +13,18 @@ from __future__ import annotations
 
 import argparse
 
-from impactid.commandline import REPORT, SEED, SYNTH_OUT, fraction, integer_in, nonnegative, number, pair, positive
+from impactid.commandline import (
+    FIGURE_FORMAT,
+    REPORT,
+    SEED,
+    SYNTH_OUT,
+    fraction,
+    integer_in,
+    nonnegative,
+    number,
+    pair,
+    positive,
+)
 from impactid.rigs.base import Argument, CommandSpec
 
 __all__ = ["BODIES", "COMMANDS", "LAWS", "MODEL_NAME", "RULES", "SYNTH", "SYNTH_SUFFIXES"]
@@ -89,7 +100,10 @@ FIT = CommandSpec(
                                          help="coverage of the intervals (default 0.95)")),
         Argument(("--out",), dict(metavar="RESULT.json", default=None,
                                   help="write the fit as JSON (atomically): what predict --law reads")),
-        REPORT,
+        Argument(("--plots",), dict(metavar="DIR", default=None,
+                                    help="write figures (a few impacts' measured and predicted outcomes; predicted "
+                                         "against measured over every impact)")),
+        FIGURE_FORMAT, REPORT,
         Argument(("--json",), dict(action="store_true", help="print the result as JSON")),
     ),
     run=run_fit)
