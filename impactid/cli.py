@@ -36,6 +36,7 @@ import types
 import warnings
 from collections.abc import Iterator, Sequence
 
+from impactid import _status
 from impactid._files import TerminationRequested, request_termination, termination_requested
 from impactid._signals import arrived_stop, forget_stops, in_import, in_native_machinery, stopping_handler
 from impactid._version import __version__
@@ -481,7 +482,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INPUT_ERROR
     args.argv = list(sys.argv[1:] if argv is None else argv)  # the command line, for a report's provenance
     try:
-        with _command_environment():
+        with _command_environment(), _status.running(str(getattr(args, "command", None) or "working")):
             return int(args.func(args) or 0)
     except ImpactidError as exc:
         _error(exc)

@@ -37,6 +37,8 @@ from typing import TextIO
 
 from numba.core import event
 
+from impactid import _kernel_cache
+
 __all__ = ["KERNELS", "TICK_S", "KernelGroup", "Notice", "group_of", "install", "notice_enabled"]
 
 #: Longest silence, in seconds, of the notice while a compilation runs.
@@ -212,7 +214,13 @@ _INSTALLED: list[_Listener] = []
 
 
 def install() -> None:
-    """Install the notice (once per process; the kernel modules call it when imported)."""
+    """Install the notice and the kernel cache's locators (once per process; the kernel modules call it when imported).
+
+    The locators (:mod:`impactid._kernel_cache`: kernels compiled at installation, a cache stamped by
+    the source's content) must be in place before a module defines its ``cache=True`` kernels, so
+    every kernel module calls this first.
+    """
+    _kernel_cache.install()
     if not _INSTALLED:
         listener = _Listener()
         event.register("numba:compile", listener)

@@ -25,7 +25,7 @@ import warnings
 from collections.abc import Callable
 from pathlib import Path
 
-from impactid import _cachedir, compilation
+from impactid import _cachedir, _kernel_cache, compilation
 from impactid.pipeline import Pipeline, read_recordings
 from impactid.rigs.registry import PLUGINS, rig_model
 
@@ -52,6 +52,8 @@ def warm_up(models: list[str], log: Callable[[str], None]) -> dict[str, float]:
     """
     choice = _cachedir.choose_kernel_cache(Path(compilation.__file__).parent)
     folder = os.environ.get("NUMBA_CACHE_DIR") or str(choice.folder or "beside the package (__pycache__)")
+    if os.environ.get(_kernel_cache.BUILD_ENV):  # setup.py's build step: into the package being built
+        folder = f"{os.environ[_kernel_cache.BUILD_ENV]} (shipped with the package being built)"
     log(f"numba cache: {folder}")
     times = {}
     for name in models:
