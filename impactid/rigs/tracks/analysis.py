@@ -13,7 +13,11 @@ the table-tennis rule's band beside the restitution at the rule's impact speeds
    points within :data:`SURFACE_BAND` of their median height (``b`` only for 2-D tracks), kept when
    it beats the horizontal plane by BIC (``surface="auto"``; ``"plane"`` or ``"flat"`` force one).
    A tilted plane's normal is the direction of the normal restitution: the bounces are refitted with
-   it (:func:`~impactid.rigs.tracks.bounces.fit_bounce`, ``normal``). A bounce counts when its lowest
+   it (:func:`~impactid.rigs.tracks.bounces.fit_bounce`, ``normal``). Read against the plane's
+   gradient, ``e_n`` does not change under an affine distortion of the frame
+   (:func:`restitution_against`); the slopes' covariance is carried into every ``e_n`` and into the
+   normal laws (the surface plane's share, in quadrature; common to all bounces, so that pooling does
+   not average it down; ``details.surface_share``). A bounce counts when its lowest
    sample lies within :data:`SURFACE_BAND` of the contact plane (the ball's bottom within 5 cm of the
    surface, above or below); with a given surface the bounces are refitted with the contact on it.
 3. A bounce is analysed unless it lacks flight, its fit fails, its flights' model check withholds
@@ -70,7 +74,7 @@ from impactid.rigs.tracks.readers import Track
 from impactid.rigs.tracks.rule import rule_band
 
 __all__ = ["SPEED_BAND", "SURFACE_BAND", "SURFACE_MODES", "SurfacePlane", "TrackAnalysis", "TrackAnalysisError",
-           "air_model_share", "analyse_tracks", "surface_plane"]
+           "air_model_share", "analyse_tracks", "restitution_against", "restitution_slope_gradient", "surface_plane"]
 
 #: How far above the surface the ball's bottom may be at a bounce's lowest sample [m].
 SURFACE_BAND = 0.05
@@ -194,6 +198,7 @@ class SurfacePlane:
     points : how many contact points.
     tilted : whether the plane is tilted (chosen, or forced).
     bic : ``{"flat": ..., "plane": ...}`` of the two fits.
+    slope_covariance : the covariance of ``(slope_x, slope_y)`` [(m/m)^2] (zeros for a horizontal plane).
     """
 
     height: float
@@ -204,6 +209,7 @@ class SurfacePlane:
     points: int
     tilted: bool
     bic: dict
+    slope_covariance: tuple[tuple[float, float], tuple[float, float]] = ((0.0, 0.0), (0.0, 0.0))
 
     @property
     def normal(self) -> np.ndarray:
@@ -223,7 +229,8 @@ class SurfacePlane:
     def to_dict(self) -> dict:
         return {"contact_height_m": self.height, "centroid_m": list(self.centroid), "slopes": list(self.slopes),
                 "stderr": list(self.stderr), "rms_m": self.rms, "points": self.points, "tilted": self.tilted,
-                "tilt_rad": self.tilt, "normal": self.normal.tolist(), "bic": self.bic}
+                "tilt_rad": self.tilt, "normal": self.normal.tolist(), "bic": self.bic,
+                "slope_covariance": [list(row) for row in self.slope_covariance]}
 
 
 def surface_plane(points: np.ndarray, *, slopes: int = 2, mode: str = "auto") -> SurfacePlane:
@@ -247,16 +254,20 @@ def surface_plane(points: np.ndarray, *, slopes: int = 2, mode: str = "auto") ->
         sigma2 = rss / (n - k)
         cov = sigma2 * np.linalg.pinv(design.T @ design)
         bic = n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
-        fits[name] = (coef, np.sqrt(np.diag(cov)), math.sqrt(rss / n), bic)
+        fits[name] = (coef, np.sqrt(np.diag(cov)), math.sqrt(rss / n), bic, cov)
     if "flat" not in fits:
         z = float(np.mean(pts[:, 2]))
         return SurfacePlane(z, centroid, (0.0, 0.0), (math.nan, 0.0, 0.0), 0.0, n, False, {})
     bic = {name: f[3] for name, f in fits.items()}
     tilted = "plane" in fits and slopes > 0 and (mode == "plane" or (mode == "auto" and bic["plane"] < bic["flat"]))
-    coef, se, rms, _ = fits["plane" if tilted else "flat"]
+    coef, se, rms, _, cov = fits["plane" if tilted else "flat"]
     slope = (float(coef[1]), float(coef[2]) if slopes > 1 else 0.0) if tilted else (0.0, 0.0)
     stderr = (float(se[0]), float(se[1]) if tilted else 0.0, float(se[2]) if tilted and slopes > 1 else 0.0)
-    return SurfacePlane(float(coef[0]), centroid, slope, stderr, rms, n, tilted, bic)
+    slope_cov = np.zeros((2, 2))
+    if tilted:
+        slope_cov[:slopes, :slopes] = cov[1:, 1:]
+    return SurfacePlane(float(coef[0]), centroid, slope, stderr, rms, n, tilted, bic,
+                        tuple(tuple(float(v) for v in row) for row in slope_cov))
 
 
 def _surface_frame(normal: np.ndarray) -> np.ndarray:
@@ -266,6 +277,63 @@ def _surface_frame(normal: np.ndarray) -> np.ndarray:
     t1 = np.array([1.0, 0.0, 0.0]) - n[0] * n
     t1 /= np.linalg.norm(t1)
     return np.vstack([t1, np.cross(n, t1), n])
+
+
+def restitution_against(v_in: np.ndarray, v_out: np.ndarray, slopes) -> np.ndarray:
+    """The normal restitution ``-(v_out . m) / (v_in . m)`` (B,) of velocities ``v_in``, ``v_out`` (B, 3)
+    [m/s] against a plane rising by ``slopes = (slope_x, slope_y)`` [m/m]: ``m = (-slope_x, -slope_y, 1)``
+    is the gradient of ``z - slope_x x - slope_y y`` (the plane's normal up to its length, which cancels).
+    Read with that gradient, ``e_n`` does not change under an affine distortion of the tracks' frame
+    (a rotation, a shear, a scale error of one axis): the velocities and the plane of the contact
+    points are distorted together."""
+    m = np.array([-float(slopes[0]), -float(slopes[1]), 1.0])
+    return -(np.atleast_2d(v_out) @ m) / (np.atleast_2d(v_in) @ m)
+
+
+def restitution_slope_gradient(v_in: np.ndarray, v_out: np.ndarray, slopes) -> np.ndarray:
+    """``d e_n / d (slope_x, slope_y)`` (B, 2) of :func:`restitution_against` [per m/m]."""
+    v_in, v_out = np.atleast_2d(v_in), np.atleast_2d(v_out)
+    m = np.array([-float(slopes[0]), -float(slopes[1]), 1.0])
+    a, b = v_in @ m, v_out @ m
+    return np.column_stack([(v_out[:, k] * a - b * v_in[:, k]) / a ** 2 for k in (0, 1)])
+
+
+def _law_surface_share(law: LawFit, speeds: np.ndarray, v_in: np.ndarray, v_out: np.ndarray, se: np.ndarray,
+                       slopes, slope_cov: np.ndarray, confidence: float) -> dict[str, float]:
+    """The standard deviation that the surface plane's slopes give each parameter of a normal law: the
+    law refitted (its scatter ``tau`` kept) with every bounce's ``e_n`` read against the plane moved by
+    one standard error of each slope, the derivatives combined with the slopes' covariance. The error
+    of the slopes is common to all bounces: pooling does not average it down."""
+    gradients = np.zeros((len(law.params), 2))
+    for k in (0, 1):
+        step = math.sqrt(max(float(slope_cov[k, k]), 0.0))
+        if step == 0.0:
+            continue
+        shift = np.zeros(2)
+        shift[k] = step
+        moved = [fit_normal_law(law.name, speeds, restitution_against(v_in, v_out, np.asarray(slopes) + sign * shift),
+                                se, confidence=confidence, tau=law.extra["tau"]) for sign in (1.0, -1.0)]
+        for j, p in enumerate(law.params):
+            gradients[j, k] = (moved[0][p.name].value - moved[1][p.name].value) / (2.0 * step)
+    return {p.name: math.sqrt(max(float(g @ slope_cov @ g), 0.0)) for p, g in zip(law.params, gradients)}
+
+
+#: The note of a restitution whose interval carries the surface plane's uncertainty.
+_SURFACE_SHARE_NOTE = "with the surface plane's share {:.2g} (the slopes' covariance through the normal)"
+
+
+def _with_share(p: Parameter, share: float) -> Parameter:
+    """``p`` with the standard deviation ``share`` added in quadrature to its standard error and its
+    interval's two sides widened in the same ratio (``p`` unchanged when ``share`` is 0 or ``p`` has no
+    finite standard error)."""
+    if not (share > 0.0 and math.isfinite(share) and math.isfinite(p.stderr) and p.stderr > 0.0):
+        return p
+    stderr = math.hypot(p.stderr, share)
+    ratio = stderr / p.stderr
+    low, high = p.interval
+    note = "; ".join(x for x in (p.note, _SURFACE_SHARE_NOTE.format(share)) if x)
+    return replace(p, stderr=stderr, interval=(p.value - (p.value - low) * ratio, p.value + (high - p.value) * ratio),
+                   note=note)
 
 
 def _row(b: _Bounce, status: str, reason: str) -> dict:
@@ -486,13 +554,45 @@ def analyse_tracks(tracks: Sequence[Track], ball: TrackedBall = TABLE_TENNIS_BAL
     speeds = np.array([f["vn_in"].value for f in fits])
     e = np.array([f["e_n"].value for f in fits])
     se = np.array([f["e_n"].stderr for f in fits])
+    # the surface plane's share: a tilted plane's slopes are estimates, and e_n is read against their normal
+    slopes_now = np.array(plane.slopes if plane is not None else (0.0, 0.0), dtype=float)
+    tilted = plane is not None and plane.tilted
+    slope_cov = np.array(plane.slope_covariance, dtype=float) if tilted else np.zeros((2, 2))
+    carry = bool(np.any(slope_cov != 0.0))
+    v_in_xyz = np.array([f.details["v_in"] for f in fits])
+    v_out_xyz = np.array([f.details["v_out"] for f in fits])
+    share = np.zeros(len(fits))
+    if carry:
+        grad = restitution_slope_gradient(v_in_xyz, v_out_xyz, slopes_now)
+        share = np.sqrt(np.maximum(np.einsum("bi,ij,bj->b", grad, slope_cov, grad), 0.0))
+    surface_e = {k: _with_share(f["e_n"], float(d)) for k, f, d in zip(labels, fits, share)}
+    for k, d in zip(labels, share):
+        row = table.index[table["bounce"] == k][0]
+        p = surface_e[k]
+        table.loc[row, "e_n_fit_stderr"] = table.loc[row, "e_n_stderr"]
+        table.loc[row, "e_n_surface_stderr"] = float(d)
+        table.loc[row, "e_n_stderr"], (table.loc[row, "e_n_low"], table.loc[row, "e_n_high"]) = p.stderr, p.interval
+    surface_share: dict = {"carried": carry, "slope_covariance": slope_cov.tolist(),
+                           "per_bounce_median": float(np.median(share)) if share.size else 0.0, "laws": {}}
+
+    def with_surface(law: LawFit, inside: np.ndarray) -> LawFit:
+        if not carry:
+            return law
+        shares = _law_surface_share(law, speeds[inside], v_in_xyz[inside], v_out_xyz[inside], se[inside], slopes_now,
+                                    slope_cov, confidence)
+        return replace(law, params=tuple(_with_share(p, shares[p.name]) for p in law.params),
+                       extra={**law.extra, "surface_share": shares})
+
+    everyone = np.ones(len(fits), dtype=bool)
     laws: dict[str, dict[str, LawFit]] = {"normal": {}, "tangential": {}}
     comparisons, selected, checks = {}, {}, []
     for name in NORMAL_LAWS:
         try:
-            laws["normal"][name] = fit_normal_law(name, speeds, e, se, confidence=confidence)
+            laws["normal"][name] = with_surface(fit_normal_law(name, speeds, e, se, confidence=confidence), everyone)
         except ValueError as exc:
             notes.append(f"normal law {name}: {exc}")
+        else:
+            surface_share["laws"][name] = laws["normal"][name].extra.get("surface_share", {})
     v_in = np.array([f.details["v_in"] for f in fits]) @ frame.T
     v_out = np.array([f.details["v_out"] for f in fits]) @ frame.T
     w_in = np.array([f.details["spin_in"] for f in fits]) @ frame.T
@@ -530,10 +630,15 @@ def analyse_tracks(tracks: Sequence[Track], ball: TrackedBall = TABLE_TENNIS_BAL
     in_band = [lab for lab, v in zip(labels, speeds) if speed_band[0] <= v <= speed_band[1]]
     band_param = None
     if band_fit is not None:
+        band_fit = with_surface(band_fit, (speeds >= speed_band[0]) & (speeds <= speed_band[1]))
+        band_share = band_fit.extra.get("surface_share", {}).get("e", 0.0)
+        surface_share["e_n_speed_band"] = band_share
         p = band_fit["e"]
         band_param = Parameter("e_n_speed_band", p.value, p.stderr, p.interval, p.confidence, False, "",
                                f"constant law on the {n_band} bounces at {speed_band[0]:g}-{speed_band[1]:g} m/s; "
-                               "statistical interval (the air model's share in e_n_speed_band_air)")
+                               "statistical interval" + (f" with the surface plane's share {band_share:.2g}"
+                                                         if band_share > 0 else "")
+                               + " (the air model's share in e_n_speed_band_air)")
         params.append(band_param)
     else:
         notes.append(f"fewer than two bounces at {speed_band[0]:g}-{speed_band[1]:g} m/s: no restitution there")
@@ -586,7 +691,7 @@ def analyse_tracks(tracks: Sequence[Track], ball: TrackedBall = TABLE_TENNIS_BAL
         new_fits = []
         for k, f in zip(labels, fits):
             lo_s, hi_s = _systematic(shifts[k])
-            p = f["e_n"]
+            p = surface_e[k]
             air = Parameter("e_n_air", p.value, p.stderr, (p.interval[0] + lo_s, p.interval[1] + hi_s), p.confidence,
                             False, "", f"the statistical interval widened by the air model's share {lo_s:+.4f}/"
                                        f"{hi_s:+.4f} (C_D {DRAG_RANGE[0]:g}-{DRAG_RANGE[1]:g}, lift scale "
@@ -606,6 +711,9 @@ def analyse_tracks(tracks: Sequence[Track], ball: TrackedBall = TABLE_TENNIS_BAL
                                     False, "", f"e_n_speed_band's interval widened by the air model's share "
                                                f"{sys_lo:+.4f}/{sys_hi:+.4f} (C_D {DRAG_RANGE[0]:g}-{DRAG_RANGE[1]:g}"
                                                f", lift scale {lift_range[0]:.3g}-{lift_range[1]:.3g})"))
+    fits = [replace(f, params=tuple(surface_e[k] if q.name == "e_n" else q for q in f.params.values()))
+            for k, f in zip(labels, fits)]
+    details["surface_share"] = surface_share
     details["bounce_fits"] = [f.to_dict() for f in fits]
     if rule:
         band = rule_band(ball)

@@ -195,6 +195,11 @@ def _print_report(result, args, share) -> None:
         print(f"  {name:<24} {_num(p.value)} [{_num(lo)}, {high}] {p.unit}".rstrip())
     sel = result.details["selected"]
     print(f"  selected by {s['criterion']}: normal {sel.get('normal')}, tangential {sel.get('tangential')}")
+    surface_share = result.details.get("surface_share", {})
+    if surface_share.get("carried"):
+        print(f"  the surface plane's share (its slopes' errors through the normal, in the intervals above): "
+              f"e_n_speed_band {_num(surface_share.get('e_n_speed_band', math.nan), '.2g')}, per bounce "
+              f"{_num(surface_share['per_bounce_median'], '.2g')} (median)")
     rule = result.details.get("rule")
     if rule:
         line = (f"  table-tennis rule (30.5 cm -> 22-25 cm): e_n {_num(rule['e_low'])}-{_num(rule['e_high'])} at "
