@@ -1,16 +1,21 @@
 """Build step of impactid: the package metadata is in pyproject.toml; this file adds one step to the build.
 
 After the sources are copied into the build folder, the numba kernels of the rigs named by
-``IMPACTID_PRECOMPILE`` are compiled there (``impactid.warmup`` run on the built package, in a
-subprocess of the build's Python) into ``impactid/_precompiled``, which the wheel then carries: the
-first command after ``pip install .`` loads them instead of compiling for about 40 s
-(:mod:`impactid._kernel_cache`, docs/simulator.md "Compile time").
+``IMPACTID_PRECOMPILE`` are compiled there (``impactid.warmup`` run on the built package, one
+subprocess of the build's Python per rig) into ``impactid/_precompiled``, which the wheel then
+carries: the first command after ``pip install .`` loads them instead of compiling for about 40 s
+(:mod:`impactid._kernel_cache`, docs/simulator.md "Kernels compiled at installation").
 
-``IMPACTID_PRECOMPILE``: unset, rig P (``pivoted-follower``: the rig of ``impactid estimate --example``);
-``all``, every rig (about 3 min more of building); a comma-separated list of rig names; ``0`` or
-``none``, nothing. The step is best effort: when it fails, the build says so and goes on, and the
-kernels compile on first use as before. An editable install (``pip install -e .``) compiles nothing
-here (its kernels are cached beside the sources on first use).
+``IMPACTID_PRECOMPILE`` (read by ``tools/_impactid_build.py``, the build backend, which also asks for
+the build requirements this needs): unset, rig P (``pivoted-follower``: the rig of ``impactid
+estimate --example``); ``all``, every rig (about 3 min more of building); a comma-separated list of
+rig names; ``0`` or ``none``, nothing. The step is best effort: a rig whose compilation fails is
+reported and left to compile on first use, the others are kept. A wheel with compiled kernels holds
+machine code for this CPU type and Python, so it is tagged for this platform and Python, not as a
+pure-Python wheel. An editable install (``pip install -e .``) compiles nothing here (its kernels
+are cached beside the sources on first use). The warm-up runs without the builder's ``NUMBA_*``
+settings (an optimisation level, bounds checks or debug information would otherwise reach every
+user's kernels: numba's cache key does not hold them).
 """
 
 from __future__ import annotations
@@ -22,15 +27,21 @@ import sys
 import tempfile
 from pathlib import Path
 
-from setuptools import setup
+from setuptools import Distribution, setup
 from setuptools.command.build_py import build_py
+
+sys.path.insert(0, str(Path(__file__).resolve().parent / "tools"))
+from _impactid_build import precompile_rigs  # noqa: E402 - the backend's folder, put on the path above
 
 _WARMUP = """
 import sys
 from impactid import warmup
-names = sys.argv[1].split(",")
-warmup.warm_up(warmup.all_models() if names == ["all"] else names, lambda line: print("impactid build:", line))
+names = warmup.all_models() if sys.argv[1] == "all" else [sys.argv[1]]
+warmup.warm_up(names, lambda line: print("impactid build:", line, flush=True))
 """
+
+#: Longest a rig's compilation may take in the build [s].
+TIMEOUT_S = 1800
 
 
 class BuildWithKernels(build_py):
@@ -42,22 +53,36 @@ class BuildWithKernels(build_py):
             return
         target = Path(self.build_lib).resolve() / "impactid" / "_precompiled"
         shutil.rmtree(target, ignore_errors=True)  # never ship a previous build's files
-        rigs = os.environ.get("IMPACTID_PRECOMPILE", "pivoted-follower").strip()
-        if rigs.lower() in {"", "0", "none", "no", "false", "off"}:
+        rigs = precompile_rigs()
+        if not rigs:
             return
-        with tempfile.TemporaryDirectory(prefix="impactid-build-") as scratch:
-            env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
-            env.update(IMPACTID_PRECOMPILE_DIR=str(target), IMPACTID_CACHE_DIR=scratch,  # recordings: scratch
-                       IMPACTID_COMPILE_NOTICE="0",
-                       # the built package first; pip's isolated build environment reaches its build requirements
-                       # through PYTHONPATH (its sitecustomize), which is kept
-                       PYTHONPATH=os.pathsep.join(filter(None, [str(target.parents[1]), os.environ.get("PYTHONPATH")])))
-            print(f"impactid build: compiling the kernels of {rigs} (IMPACTID_PRECOMPILE=0 skips this)", flush=True)
-            result = subprocess.run([sys.executable, "-c", _WARMUP, rigs], env=env, cwd=scratch)
-        if result.returncode != 0:
-            shutil.rmtree(target, ignore_errors=True)
-            print("impactid build: WARNING: the kernels could not be compiled now; they compile on first use",
-                  flush=True)
+        print(f"impactid build: compiling the kernels of {', '.join(rigs)} (IMPACTID_PRECOMPILE=0 skips this)",
+              flush=True)
+        for rig in rigs:
+            with tempfile.TemporaryDirectory(prefix="impactid-build-") as scratch:
+                env = {key: value for key, value in os.environ.items() if not key.startswith("NUMBA_")}
+                env.update(IMPACTID_PRECOMPILE_DIR=str(target), IMPACTID_CACHE_DIR=scratch,  # recordings: scratch
+                           IMPACTID_COMPILE_NOTICE="0",
+                           # the built package first; pip's isolated build environment reaches its build
+                           # requirements through PYTHONPATH (its sitecustomize), which is kept
+                           PYTHONPATH=os.pathsep.join(filter(None, [str(target.parents[1]),
+                                                                    os.environ.get("PYTHONPATH")])))
+                try:
+                    code = subprocess.run([sys.executable, "-c", _WARMUP, rig], env=env, cwd=scratch,
+                                          timeout=TIMEOUT_S).returncode
+                except subprocess.TimeoutExpired:
+                    code = f"no end after {TIMEOUT_S} s"
+            if code != 0:  # what was compiled is kept: each cache entry is complete (numba writes them whole)
+                print(f"impactid build: WARNING: the kernels of {rig} could not all be compiled now ({code}); "
+                      "what is missing compiles on first use", flush=True)
 
 
-setup(cmdclass={"build_py": BuildWithKernels})
+class KernelDistribution(Distribution):
+    """A distribution whose wheel holds compiled kernels when the build compiles them: tagged for this
+    platform and Python (machine code for this CPU type and Python), not as pure Python."""
+
+    def has_ext_modules(self) -> bool:
+        return bool(precompile_rigs()) or super().has_ext_modules()
+
+
+setup(cmdclass={"build_py": BuildWithKernels}, distclass=KernelDistribution)

@@ -10,18 +10,21 @@ the cache folder numba would use anyway, where numba loads them as its own: noth
 
 Three things make a cache built on one path valid on another:
 
-* **The stamp is the source's content.** numba stamps its cache with the source file's modification
-  time (up to numba 0.6x) or its content (later): a copied file gets a new modification time. The
-  locators below stamp impactid's kernels with the SHA-256 of the source file and the versions of
-  numba, llvmlite and NumPy, so that a cache is used exactly when it was compiled from the same
-  source by the same compiler for the same NumPy, wherever the file lies. (numba itself checks its
-  own version, the CPU type and the Python version.)
+* **The stamp is the sources' content.** numba stamps its cache with the source file's modification
+  time (up to numba 0.6x) or its content (later): a copied file gets a new modification time, and
+  neither sees an edit of a module whose code the kernel inlined (numba #8926). The locators below
+  stamp impactid's kernels with the SHA-256 of the kernel's source file and of every impactid source
+  whose code it uses, directly or not (:func:`source_files`: its imports, followed), and with the
+  versions of numba, llvmlite and NumPy. So a cache is used exactly when it was compiled from the
+  same sources by the same compiler for the same NumPy, wherever the files lie, and an upgrade that
+  changes a kernel's callee invalidates it. (numba itself checks its own version, the CPU type and
+  the Python version.)
 * **The cache folder stays numba's choice** (``NUMBA_CACHE_DIR``, ``__pycache__`` beside the
-  package, the user's cache folder): the shipped files are only copied there (:func:`seed`), so a
-  read-only installation works, and a signature that was not shipped is compiled and saved there as
-  before.
-* **A copy is atomic** (a temporary name, then a rename): two processes starting together (pytest's
-  workers) never read half a file.
+  package, the user's cache folder): the shipped files are only placed there (:func:`seed`: a hard
+  link where the file system allows, else a copy), so a read-only installation works, and a
+  signature that was not shipped is compiled and saved there as before.
+* **Placing is atomic** (a temporary name, then a rename): two processes starting together
+  (pytest's workers) never read half a file.
 
 A cache that does not fit (another CPU type, another numba or NumPy, an edited source) is not copied,
 and the kernel compiles on first use as it did without it, with the notice of
@@ -36,6 +39,7 @@ files from another folder (tests).
 
 from __future__ import annotations
 
+import ast
 import functools
 import hashlib
 import os
@@ -88,16 +92,78 @@ def _file_digest(path: str, mtime_ns: int, size: int) -> str:
         return hashlib.sha256(f.read()).hexdigest()
 
 
+def _digest(path: Path) -> str:
+    st = path.stat()
+    return _file_digest(str(path), st.st_mtime_ns, st.st_size)
+
+
+def _module_file(dotted: str) -> Path | None:
+    """The source file of impactid module ``dotted`` (a package's ``__init__.py``), or None if it is not one."""
+    parts = dotted.split(".")
+    if parts[0] != "impactid":
+        return None
+    base = PACKAGE_DIR.joinpath(*parts[1:])
+    for candidate in (base.with_suffix(".py"), base / "__init__.py"):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+@functools.cache
+def _imports(path: str, mtime_ns: int, size: int) -> tuple[str, ...]:
+    """The impactid modules whose code a source file uses: ``import X.Y`` gives ``X.Y``; ``from X import a``
+    gives ``X.a`` when that is a module, else ``X`` (where ``a`` is defined). Import statements at any
+    depth of the file count (a function's own imports too)."""
+    tree = ast.parse(Path(path).read_text(encoding="utf-8"), filename=path)
+    found: list[str] = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            for alias in node.names:
+                submodule = f"{node.module}.{alias.name}"
+                found.append(submodule if _module_file(submodule) is not None else node.module)
+    return tuple(dict.fromkeys(name for name in found if name == "impactid" or name.startswith("impactid.")))
+
+
+def source_files(py_file: str) -> list[Path]:
+    """``py_file`` and every impactid source file whose code it uses, directly or through another (:func:`_imports`).
+
+    A kernel's machine code holds what it inlined from the modules it imports (the integrator core,
+    the rig's geometry), so its cache must follow those files too, not only its own: numba stamps only
+    the kernel's own file, and an edit of a callee's module is not seen (numba #8926). A package's
+    ``__init__`` counts only where a name is imported from it.
+    """
+    start = Path(py_file).resolve()
+    seen: dict[Path, None] = {}
+    queue = [start]
+    while queue:
+        path = queue.pop()
+        if path in seen:
+            continue
+        seen[path] = None
+        st = path.stat()
+        for name in _imports(str(path), st.st_mtime_ns, st.st_size):
+            module = _module_file(name)
+            if module is not None and module not in seen:
+                queue.append(module)
+    return sorted(seen)
+
+
 def content_stamp(py_file: str) -> tuple[str, ...]:
-    """The stamp of a kernel's cache: the source's SHA-256 and the compiler's and NumPy's versions.
+    """The stamp of a kernel's cache: the SHA-256 of its source and of every impactid source it imports
+    (:func:`source_files`), and the compiler's and NumPy's versions.
 
     Parameters
     ----------
     py_file : the kernel's source file.
     """
-    st = os.stat(py_file)
-    return ("impactid-kernel-cache-1", _file_digest(py_file, st.st_mtime_ns, st.st_size),
-            numba.__version__, llvmlite.__version__, numpy.__version__)
+    digest = hashlib.sha256()
+    for path in source_files(py_file):
+        rel = path.relative_to(PACKAGE_DIR) if path.is_relative_to(PACKAGE_DIR) else path
+        digest.update(f"{rel.as_posix()}\0{_digest(path)}\0".encode())
+    return ("impactid-kernel-cache-2", digest.hexdigest(), numba.__version__, llvmlite.__version__,
+            numpy.__version__)
 
 
 def _read_index(path: Path) -> tuple[object, list[str]] | None:
@@ -120,10 +186,22 @@ def _same_bytes(a: Path, b: Path) -> bool:
         return False
 
 
-def _copy_atomic(source: Path, target: Path) -> None:
+def _same_size(a: Path, b: Path) -> bool:
+    try:
+        return a.stat().st_size == b.stat().st_size
+    except OSError:
+        return False
+
+
+def _place(source: Path, target: Path) -> None:
+    """Put ``source`` at ``target`` atomically: a hard link where the file system allows (no second copy of
+    the machine code in the installation), else a copy; by a temporary name, then a rename."""
     temporary = target.with_name(f"{target.name}.tmp.{uuid.uuid4().hex[:12]}")
     try:
-        shutil.copyfile(source, temporary)
+        try:
+            os.link(source, temporary)
+        except OSError:
+            shutil.copyfile(source, temporary)
         os.replace(temporary, target)
     finally:
         if temporary.exists():
@@ -164,15 +242,17 @@ def seed(cache_path: str | os.PathLike[str], py_file: str) -> int:
             if shipped is None or shipped[0] != stamp:
                 continue
             target = target_dir / index.name
-            if target.exists() and _same_bytes(index, target):
-                continue  # copied before (the common case: no unpickling)
+            if _same_bytes(index, target) and all(_same_size(source_dir / name, target_dir / name)
+                                                  for name in shipped[1]):
+                continue  # placed before (the common case: no unpickling)
             present = _read_index(target)
-            if present is not None and present[0] == stamp:
-                continue
+            if present is not None and present[0] == stamp and all((target_dir / name).is_file()
+                                                                   for name in present[1]):
+                continue  # compiled here for the same sources (perhaps with more signatures): numba's own
             try:
                 for name in shipped[1]:
-                    _copy_atomic(source_dir / name, target_dir / name)
-                _copy_atomic(index, target_dir / index.name)
+                    _place(source_dir / name, target_dir / name)
+                _place(index, target)
             except OSError:
                 return copied
             copied += 1

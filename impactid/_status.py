@@ -5,17 +5,22 @@ silent. On a terminal, :class:`StatusLine` writes one line on stderr once nothin
 :data:`QUIET_S` seconds, ``impactid: estimate: fitting the contact law (4 s)``, rewritten in place
 every :data:`TICK_S` seconds and erased before anything else is printed (and when the command
 ends), so that the command's output is exactly what it would be without it. What the command is
-doing comes from :func:`stage` (the pipeline names its steps); without one the line says "working".
+doing comes from :func:`stage` (:class:`impactid.pipeline.Pipeline` names its steps: reading,
+finding and reconstructing the impacts, fitting); without one the line says "working". The line is
+cut to the terminal's width and erased with spaces between carriage returns (no escape sequence,
+which an old console would print).
 
 Only on a terminal: when stderr is a file or a pipe (logs, CI, tests) nothing is written, so the
 output of a command is unchanged. A line that another writer left open (the compile notice of
-:mod:`impactid.compilation` draws its own progress) is never drawn over. ``IMPACTID_PROGRESS=0``
-turns the status line off.
+:mod:`impactid.compilation` draws its own progress, a progress bar) is never drawn over.
+``IMPACTID_PROGRESS=0`` turns the status line off. Writes to ``sys.stdout.buffer`` bypass it (no
+command writes there while it runs).
 """
 
 from __future__ import annotations
 
 import os
+import shutil
 import sys
 import threading
 import time
@@ -30,7 +35,12 @@ QUIET_S = 1.0
 #: Seconds between two updates of the status line.
 TICK_S = 0.5
 
-_ERASE = "\r\033[K"
+
+
+def _erase(length: int) -> str:
+    """Carriage return, spaces over ``length`` characters, carriage return: no terminal escape sequence,
+    so that every console erases it (a console without ANSI support would print ``\\033[K``)."""
+    return "\r" + " " * length + "\r" if length else ""
 
 
 class _Watched:
@@ -73,14 +83,16 @@ class StatusLine:
         self._clock = clock
         self._start = self._last = clock()
         self._open = False  # another writer's line is not ended
-        self._drawn = False
+        self._drawn = 0  # length of the drawn line (0: none)
         self._stage = "working"
         self._done = threading.Event()
         self._thread: threading.Thread | None = None
 
     def text(self) -> str:
-        """The line's text now."""
-        return f"impactid: {self.command}: {self._stage} ({self._clock() - self._start:.0f} s)"
+        """The line's text now, cut to the terminal's width (a wrapped line could not be erased)."""
+        text = f"impactid: {self.command}: {self._stage} ({self._clock() - self._start:.0f} s)"
+        width = max(shutil.get_terminal_size(fallback=(80, 24)).columns - 1, 10)
+        return text if len(text) <= width else text[: width - 3] + "..."
 
     def set_stage(self, what: str) -> None:
         with self.lock:
@@ -89,8 +101,8 @@ class StatusLine:
     def erase(self) -> None:
         """Erase the drawn line (the caller holds :attr:`lock`)."""
         if self._drawn:
-            self._stream.write(_ERASE)
-            self._drawn = False
+            self._stream.write(_erase(self._drawn))
+            self._drawn = 0
 
     def noted(self, text: str) -> None:
         """Something was written (the caller holds :attr:`lock`)."""
@@ -103,12 +115,13 @@ class StatusLine:
         with self.lock:
             if self._open or self._clock() - self._last < self._quiet:
                 return
+            text = self.text()
             try:
-                self._stream.write(_ERASE + self.text())
+                self._stream.write(_erase(self._drawn) + text)
                 self._stream.flush()
             except (OSError, ValueError):
                 return
-            self._drawn = True
+            self._drawn = len(text)
 
     def _run(self) -> None:
         while not self._done.wait(self._tick):

@@ -32,6 +32,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from impactid import _status
 from impactid.errors import ImpactidError
 from impactid.io import Recording, RecordingError, check_memory, read_recording
 from impactid.rigs.base import Estimator, OptionError, PreparedRecording, estimate_options, options_record
@@ -234,12 +235,14 @@ class Pipeline:
             for recordings of different rig models (naming both), a rig impactid estimates nothing
             from (naming those it does), an option that rig's estimate does not have.
         """
+        _status.stage("reading the recordings")  # what a terminal's status line says (impactid._status)
         recs = read_recordings(recordings, rig=rig)
         model = recordings_model(recs)
         rig_estimator(model, recs[0].source or "recording 1")
         self.bind(model)  # the options are checked before anything is measured
         prepared, left_out = [], []
         for k, rec in enumerate(recs):
+            _status.stage(f"finding and reconstructing the impacts of recording {k + 1} of {len(recs)}")
             try:
                 prepared.append(self.prepare(rec, name=f"recording {k + 1}"))
             except ImpactidError as exc:
@@ -279,6 +282,7 @@ class Pipeline:
         if other is not None:
             raise ImpactidError(_mixed(first.source, first.model, other.source, other.model))
         est = rig_estimator(first.model, first.source)
+        _status.stage("fitting the contact law")
         result = est.fit(prepared, self.bind(first.model).option_values(), progress)
         if warn:
             for message in dict.fromkeys(est.notes(result)):

@@ -121,3 +121,38 @@ def test_a_current_shipped_index_is_copied_once_with_its_data(tmp_path, monkeypa
 def test_files_outside_the_package_are_left_to_numba(tmp_path):
     assert _kernel_cache.seed(tmp_path, str(tmp_path / "elsewhere.py")) == 0
     assert _kernel_cache._UserProvided.from_function(None, str(tmp_path / "elsewhere.py")) is None
+
+
+def test_the_stamp_follows_the_modules_a_kernel_inlines():
+    """An upgrade that changes only a callee's module (the integrator core, the rig's geometry) must not
+    load the old machine code: those files are part of the stamp."""
+    from impactid.rigs.pivoted import kernel
+
+    files = {p.relative_to(_kernel_cache.PACKAGE_DIR).as_posix() for p in _kernel_cache.source_files(kernel.__file__)}
+    assert {"rigs/pivoted/kernel.py", "rigs/pivoted/parameters.py", "simulate/dp5.py"} <= files
+    assert "rigs/pivoted/__init__.py" not in files  # a package's __init__ only where a name comes from it
+
+
+def test_seeding_links_instead_of_copying_where_it_can(tmp_path, monkeypatch):
+    shipped = _fake_shipped(tmp_path, _kernel_cache.content_stamp(_scan.__file__))
+    monkeypatch.setenv(_kernel_cache.SHIPPED_ENV, str(shipped))
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    assert _kernel_cache.seed(cache, _scan.__file__) == 1
+    source = next(shipped.rglob("_scan.fake-1.py311.1.nbc"))
+    assert (cache / source.name).stat().st_ino == source.stat().st_ino  # one file, two names
+
+
+def test_the_build_reads_which_rigs_to_compile():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    try:
+        from _impactid_build import DEFAULT_RIGS, precompile_rigs
+    finally:
+        sys.path.pop(0)
+    assert precompile_rigs({}) == list(DEFAULT_RIGS)
+    for value in ("1", "yes", "true", "on"):
+        assert precompile_rigs({"IMPACTID_PRECOMPILE": value}) == list(DEFAULT_RIGS)
+    for value in ("0", "none", "off", ""):
+        assert precompile_rigs({"IMPACTID_PRECOMPILE": value}) == []
+    assert precompile_rigs({"IMPACTID_PRECOMPILE": "all"}) == ["all"]
+    assert precompile_rigs({"IMPACTID_PRECOMPILE": "drop-impact, flat-follower"}) == ["drop-impact", "flat-follower"]
