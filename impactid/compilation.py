@@ -71,6 +71,8 @@ KERNELS: dict[str, KernelGroup] = {
     "impactid.rigs.finger_follower.kernel": KernelGroup("the finger-follower simulator", 17.0),
     "impactid.rigs.cycloidal.kernel": KernelGroup("the cycloidal valve-train simulator", 14.0),
     "impactid._scan": KernelGroup("the recording checks", 2.0),
+    "impactid.events": KernelGroup("the event detector", 1.0),
+    "impactid.signal": KernelGroup("the signal integrals", 1.0),
     "impactid.simulate.dp5": KernelGroup("the integrator core", 1.0),
 }
 

@@ -50,8 +50,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from numba import njit
 from scipy import optimize
 
+from impactid import compilation
 from impactid._scan import extreme_stats
 from impactid.io import CLIP_RUN, Recording, RecordingError
 from impactid.signal import noise_floor, true_runs
@@ -61,6 +63,8 @@ __all__ = ["BASELINE_GAP", "BASELINE_LENGTH", "CONTACT_END_BASELINE_S", "CONTACT
            "NOISY_ONSET", "ONSET_FIT", "ONSET_FITS", "PATTERN_SHARE", "PERIOD_TOLERANCE", "RIDING_FRACTION",
            "TAIL_BLOCK", "TAIL_SNR",
            "EventTable", "EventWarning", "NoImpactsError", "find_events", "separation_before"]
+
+compilation.install()  # before the kernels (impactid.compilation)
 
 #: Samples skipped between a baseline window and the pulse, and the baseline window length.
 BASELINE_GAP = 16
@@ -138,7 +142,16 @@ class _Quadratic:
     centre: float
 
     def __call__(self, at) -> np.ndarray:
-        return np.polyval(self.coeffs, np.asarray(at) - self.centre)
+        return _horner(self.coeffs, np.asarray(at) - self.centre)
+
+
+def _horner(coeffs: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``numpy.polyval(coeffs, x)`` for finite ``x`` (the same operations in the same order, without its
+    array of zeros to start from): a baseline is evaluated on every event's few samples."""
+    y = coeffs[0] * x + coeffs[1]
+    for c in coeffs[2:]:
+        y = y * x + c
+    return y
 
 
 @functools.lru_cache(maxsize=64)
@@ -243,7 +256,7 @@ def _polynomial_baseline(x: np.ndarray, lo: int, hi: int, degree: int):
     centre = 0.5 * (lo + hi)
     scale = max(0.5 * (hi - lo), 1.0)
     coeffs = _polyfit(x[lo:hi], degree, scale)
-    return lambda at: np.polyval(coeffs, (np.asarray(at) - centre) / scale)
+    return lambda at: _horner(coeffs, (np.asarray(at) - centre) / scale)
 
 
 def _tail_samples(deviation: np.ndarray, threshold: float, block_threshold: float) -> np.ndarray:
@@ -335,6 +348,82 @@ def _contact_end(x: np.ndarray, ka: int, threshold: float, block_threshold: floa
     return (int(span[last]) + 1 if last >= 0 else ka), baseline
 
 
+#: :func:`_power_law_start`'s answers that are not a start: no power law (the caller's fallback), and no
+#: convergence (what SciPy's ``brentq`` raises).
+_NO_POWER_LAW = -2.0
+_NOT_CONVERGED = -1.0
+
+
+@njit(nogil=True, cache=True)
+def _start_mismatch(s, r1, r2, r3):  # pragma: no cover - compiled
+    """The exponents of the two sample pairs differ by this when the start lies ``s`` samples before the
+    first (:func:`_power_law_start`)."""
+    p12 = math.log(r2 / r1) / math.log((1.0 + s) / s)
+    p23 = math.log(r3 / r2) / math.log((2.0 + s) / (1.0 + s))
+    return p12 - p23
+
+
+@njit(nogil=True, cache=True)
+def _power_law_start(r1, r2, r3):  # pragma: no cover - compiled
+    """Where ``c s^p`` through the deviations ``0 < r1 < r2 < r3`` of three consecutive samples starts: ``s`` in
+    (0, 1) samples before the first (both pairs of samples giving one exponent ``p``, in [0.5, 4]), by
+    Brent's method on ``[1e-6, 1 - 1e-9]`` (``xtol`` 1e-12; the steps of SciPy's ``brentq``, the same
+    numbers: tests/test_events_compiled.py); :data:`_NO_POWER_LAW` when the bracket holds no root, a mismatch is
+    not a number or the exponent is out of range; :data:`_NOT_CONVERGED` after 100 iterations."""
+    lo, hi = 1e-6, 1.0 - 1e-9
+    if not _start_mismatch(lo, r1, r2, r3) * _start_mismatch(hi, r1, r2, r3) < 0.0:
+        return _NO_POWER_LAW
+    xtol, rtol = 1e-12, 4.0 * np.finfo(np.float64).eps
+    xpre, xcur = lo, hi
+    fpre, fcur = _start_mismatch(xpre, r1, r2, r3), _start_mismatch(xcur, r1, r2, r3)
+    if math.isnan(fpre) or math.isnan(fcur):
+        return _NO_POWER_LAW
+    xblk = fblk = spre = scur = 0.0
+    root = math.nan
+    if fpre == 0.0:
+        root = xpre
+    elif fcur == 0.0:
+        root = xcur
+    else:
+        for _ in range(100):
+            if fpre != 0.0 and fcur != 0.0 and (fpre < 0.0) != (fcur < 0.0):
+                xblk, fblk = xpre, fpre
+                spre = scur = xcur - xpre
+            if abs(fblk) < abs(fcur):
+                xpre, xcur, xblk = xcur, xblk, xcur
+                fpre, fcur, fblk = fcur, fblk, fcur
+            delta = (xtol + rtol * abs(xcur)) / 2.0
+            sbis = (xblk - xcur) / 2.0
+            if fcur == 0.0 or abs(sbis) < delta:
+                root = xcur
+                break
+            if abs(spre) > delta and abs(fcur) < abs(fpre):
+                if xpre == xblk:  # interpolate
+                    stry = -fcur * (xcur - xpre) / (fcur - fpre)
+                else:  # extrapolate
+                    dpre = (fpre - fcur) / (xpre - xcur)
+                    dblk = (fblk - fcur) / (xblk - xcur)
+                    stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre))
+                if 2.0 * abs(stry) < min(abs(spre), 3.0 * abs(sbis) - delta):
+                    spre, scur = scur, stry  # a good short step
+                else:
+                    spre = scur = sbis
+            else:
+                spre = scur = sbis
+            xpre, fpre = xcur, fcur
+            if abs(scur) > delta:
+                xcur += scur
+            else:
+                xcur += delta if sbis > 0.0 else -delta
+            fcur = _start_mismatch(xcur, r1, r2, r3)
+            if math.isnan(fcur):
+                return _NO_POWER_LAW
+        else:
+            return _NOT_CONVERGED
+    p = math.log(r2 / r1) / math.log((1.0 + root) / root)
+    return root if 0.5 <= p <= 4.0 else _NO_POWER_LAW
+
+
 def _subsample_start(r: np.ndarray, k_first: int, direction: int) -> float:
     """Sub-sample start of a power-law rise ``c |t - t0|^p`` from three deviations ``r``.
 
@@ -345,21 +434,11 @@ def _subsample_start(r: np.ndarray, k_first: int, direction: int) -> float:
     r1, r2, r3 = (abs(v) for v in r[:3])
     if not (0.0 < r1 < r2 < r3):
         return k_first - 0.5 * direction
-
-    def mismatch(s):  # s = distance of the start before k_first, in samples, in (0, 1)
-        p12 = math.log(r2 / r1) / math.log((1.0 + s) / s)
-        p23 = math.log(r3 / r2) / math.log((2.0 + s) / (1.0 + s))
-        return p12 - p23
-
-    try:
-        lo, hi = 1e-6, 1.0 - 1e-9
-        if mismatch(lo) * mismatch(hi) < 0.0:
-            s = optimize.brentq(mismatch, lo, hi, xtol=1e-12)
-            p = math.log(r2 / r1) / math.log((1.0 + s) / s)
-            if 0.5 <= p <= 4.0:
-                return k_first - s * direction
-    except (ValueError, ZeroDivisionError):
-        pass
+    s = _power_law_start(float(r1), float(r2), float(r3))
+    if s == _NOT_CONVERGED:
+        raise RuntimeError("the sub-sample start did not converge in 100 iterations")
+    if s >= 0.0:
+        return k_first - s * direction
     rho = (r2 / r1) ** (1.0 / 1.5)  # (1 + s) / s = rho
     if rho > 1.0:
         s = 1.0 / (rho - 1.0)
@@ -636,8 +715,7 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
             if np.all(dev_i > 0):
                 t_on = t_sep = float(np.sum(np.arange(k0, ka) * dev_i) / np.sum(dev_i))
                 fit_onset = False
-        at_extreme = np.isin(x[k0:ka], saturated)
-        flags["clipped"] = bool(at_extreme.sum() >= CLIP_RUN)
+        flags["clipped"] = bool(saturated.size and np.isin(x[k0:ka], saturated).sum() >= CLIP_RUN)
         if fit_onset:
             to_fit.append((len(rows), before, k0, peak, t_on))
         rows.append(dict(onset_index=k0, t_onset=recording.start_time_s + t_on / rate, separation_index=ka,

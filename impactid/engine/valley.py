@@ -6,7 +6,8 @@ It minimises the sum of squares of the **per-event residual vector** ``r(x)`` (`
 reference indentation: coordinates in which the ``beta``-``n`` valley is nearly straight.
 
 Search. A 41-point scan of ``log10 c`` over its bounds at the starting ``n`` (1.5, or the fixed
-``n``) brackets the valley; from each of its lowest local minima (at most three: with friction a
+``n``) brackets the valley (on a representative part of the events when the caller gives ``scan``: the
+scan only chooses the starts); from each of its lowest local minima (at most three: with friction a
 plateau or a second minimum of chattering laws can compete with the narrow true minimum) scipy's
 trust-region reflective ``least_squares`` (bounded) converges in a few Gauss–Newton steps. The
 lowest end point is kept, unless another fits as well at another ``c`` (within the 95 % threshold
@@ -134,7 +135,8 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
                       choose: Callable[[list[np.ndarray]], int | None] | None = None,
                       rss_tolerance: float = 0.0,
                       per_event_jacobian: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
-                      | None = None) -> LeastSquaresFit:
+                      | None = None,
+                      scan: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None) -> LeastSquaresFit:
     """Minimise the sum of squares of the per-event residuals over ``(log10 c, n)``.
 
     Parameters
@@ -153,6 +155,10 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
     per_event_jacobian : ``per_event_jacobian(log10_c, n) -> (r, J)``, the residuals ``(k, m_all)`` of
         ``per_event`` with their derivatives ``(k, m_all, 2)`` by ``(log10 c, n)`` (forward
         sensitivities); None to difference ``per_event`` instead.
+    scan : ``scan(log10_c, n) -> (k,)``, the start scan's cost at ``k`` points from a representative part
+        of the events (its local minima only choose the starts; a part costs a fraction of the runs); the
+        events used are then those with a residual at the scan's best point. None: the sum of squares of
+        ``per_event`` over the events with a residual at every scan point.
 
     Returns
     -------
@@ -163,12 +169,20 @@ def fit_least_squares(per_event: Callable[[np.ndarray, np.ndarray], np.ndarray],
     n_lo, n_hi = (float(v) for v in n_bounds)
     n0 = float(fix_n) if fix_n is not None else min(max(float(n_start), n_lo), n_hi)
     grid = np.linspace(lc_lo, lc_hi, START_SCAN_POINTS)
-    scan = per_event(grid, np.full(grid.size, n0))
-    used = np.all(np.isfinite(scan), axis=0)  # NaN: an event without this residual (no force data)
-    if not used.any():
-        raise ValueError("no event has a residual at the starting point")
-    cost = np.sum(scan[:, used] ** 2, axis=1)
-    evaluations = grid.size
+    if scan is None:
+        values = per_event(grid, np.full(grid.size, n0))
+        used = np.all(np.isfinite(values), axis=0)  # NaN: an event without this residual (no force data)
+        if not used.any():
+            raise ValueError("no event has a residual at the starting point")
+        cost = np.sum(values[:, used] ** 2, axis=1)
+        evaluations = grid.size
+    else:
+        cost = np.asarray(scan(grid, np.full(grid.size, n0)), dtype=float)
+        best = int(np.argmin(np.where(np.isfinite(cost), cost, np.inf)))
+        used = np.all(np.isfinite(per_event(grid[best:best + 1], np.full(1, n0))), axis=0)
+        if not used.any():
+            raise ValueError("no event has a residual at the starting point")
+        evaluations = grid.size + 1
     starts = [[float(grid[k])] if fix_n is not None else [float(grid[k]), n0] for k in _local_minima(cost)]
     for attempt in range(3):
         ends = []

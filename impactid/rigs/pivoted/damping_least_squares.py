@@ -163,14 +163,27 @@ def gauss_newton_search(problem: DampingProblem, obj: DampingObjective, systemat
     """The Gauss–Newton fit of the per-event residuals (:func:`impactid.engine.valley.fit_least_squares`).
 
     ``systematic`` (the residual's systematic error per event) sets the sum of squares within which
-    minima count as equally good; those are told apart by :func:`by_contact_duration`.
+    minima count as equally good; those are told apart by :func:`by_contact_duration`. The start scan
+    simulates a part of the events (:meth:`~impactid.rigs.pivoted.damping_objective.DampingObjective.scan_part`)
+    where there are more than :data:`~impactid.rigs.pivoted.damping_objective.SCAN_EVENTS`.
     """
     fix_n = problem.fix_n
+    part = obj.scan_part()
+
+    def scan(logc, n):  # the start scan on a part of the events; its simulations count in the fit's
+        before = part.n_simulations
+        cost = part.scan_cost(logc, n)
+        obj.n_simulations += part.n_simulations - before
+        obj.n_failed += part.n_failed
+        part.n_failed = 0
+        return cost
+
     return fit_least_squares(obj.per_event, fix_n=fix_n, lc_bounds=problem.log10_c_bounds, n_bounds=problem.n_bounds,
                              progress=progress,
                              choose=lambda points: by_contact_duration(obj, problem.sets, points, fix_n, notes),
                              rss_tolerance=obj.n_events * systematic ** 2,
-                             per_event_jacobian=obj.per_event_and_jacobian if sensitivities else None)
+                             per_event_jacobian=obj.per_event_and_jacobian if sensitivities else None,
+                             scan=scan if part is not None else None)
 
 
 def by_contact_duration(obj: DampingObjective, sets: Sequence, points, fix_n: float | None,
