@@ -39,11 +39,11 @@ files from another folder (tests).
 
 from __future__ import annotations
 
-import ast
 import functools
 import hashlib
 import os
 import pickle
+import re
 import shutil
 import threading
 import uuid
@@ -109,21 +109,27 @@ def _module_file(dotted: str) -> Path | None:
     return None
 
 
+_IMPORT = re.compile(r"^[ \t]*import[ \t]+(impactid(?:\.\w+)*)", re.M)
+_FROM_IMPORT = re.compile(r"^[ \t]*from[ \t]+(impactid(?:\.\w+)*)[ \t]+import[ \t]+(\([^)]*\)|[^\n]*)", re.M)
+
+
 @functools.cache
 def _imports(path: str, mtime_ns: int, size: int) -> tuple[str, ...]:
     """The impactid modules whose code a source file uses: ``import X.Y`` gives ``X.Y``; ``from X import a``
     gives ``X.a`` when that is a module, else ``X`` (where ``a`` is defined). Import statements at any
-    depth of the file count (a function's own imports too)."""
-    tree = ast.parse(Path(path).read_text(encoding="utf-8"), filename=path)
-    found: list[str] = []
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Import):
-            found += [alias.name for alias in node.names]
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            for alias in node.names:
-                submodule = f"{node.module}.{alias.name}"
-                found.append(submodule if _module_file(submodule) is not None else node.module)
-    return tuple(dict.fromkeys(name for name in found if name == "impactid" or name.startswith("impactid.")))
+    depth of the file count (a function's own imports too); read by two regular expressions, not by
+    parsing the file (a tenth of the time; a docstring line that reads like an import only adds a file
+    to the stamp, which errs on the safe side)."""
+    text = Path(path).read_text(encoding="utf-8")
+    found = list(_IMPORT.findall(text))
+    for module, names in _FROM_IMPORT.findall(text):
+        for name in names.strip("()").split(","):
+            name = name.split("#")[0].split(" as ")[0].strip().strip("()\\ \t\n")
+            if not name:
+                continue
+            submodule = f"{module}.{name}"
+            found.append(submodule if _module_file(submodule) is not None else module)
+    return tuple(dict.fromkeys(found))
 
 
 def source_files(py_file: str) -> list[Path]:
@@ -151,13 +157,23 @@ def source_files(py_file: str) -> list[Path]:
 
 
 def content_stamp(py_file: str) -> tuple[str, ...]:
-    """The stamp of a kernel's cache: the SHA-256 of its source and of every impactid source it imports
+    """The stamp of a kernel's cache: the SHA-256 of its source and of every impactid source it uses
     (:func:`source_files`), and the compiler's and NumPy's versions.
+
+    Computed once per source file and process (numba asks for it once per kernel: dozens of kernels
+    share a module); an edit of the kernel's own file during the process is seen, one of another
+    module it uses is seen by the next process.
 
     Parameters
     ----------
     py_file : the kernel's source file.
     """
+    st = os.stat(py_file)
+    return _stamp(str(Path(py_file).resolve()), st.st_mtime_ns, st.st_size)
+
+
+@functools.cache
+def _stamp(py_file: str, mtime_ns: int, size: int) -> tuple[str, ...]:
     digest = hashlib.sha256()
     for path in source_files(py_file):
         rel = path.relative_to(PACKAGE_DIR) if path.is_relative_to(PACKAGE_DIR) else path
