@@ -17,13 +17,6 @@ per-event scatter). Where the bias is significant, :func:`impactid.pipeline.esti
 measured ``alpha_m`` by it, fits again, and widens the intervals by half the correction plus two
 standard errors of the calibration (the calibration reproduced 50 to 100 % of the actual bias in
 the envelope validation; an anti-alias filter the calibration cannot know of accounts for the rest).
-
-The same replay measures the pipeline's bias of the **onset state**: the cam-phase anchor fixes one cam
-phase per recording, and the replay's phase against the simulation's own (known) one is its bias
-(:attr:`PipelineBias.cam_phase`; with the other anchors none is measured). It is corrected only where
-the contacts span at least :data:`MIN_PHASE_SAMPLES` samples: with fewer, the phase's bias is set by where
-the samples fall on the contacts (which the law moves) and by the acquisition's anti-alias filter (which a
-recording does not describe), so the replay's bias is not the recording's.
 """
 
 from __future__ import annotations
@@ -40,8 +33,7 @@ from impactid.events import find_events
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.signal import noise_floor
 
-__all__ = ["CACHE_SIZE", "MIN_EVENTS", "MIN_PHASE_SAMPLES", "PipelineBias", "RecordingSampling", "calibration_duration",
-           "pipeline_bias"]
+__all__ = ["CACHE_SIZE", "MIN_EVENTS", "PipelineBias", "RecordingSampling", "calibration_duration", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
 #: of rig P need about 35 s; docs/estimation.md).
@@ -57,12 +49,6 @@ MIN_EVENTS = 64
 #: Calibrations kept per process (:func:`pipeline_bias` is cached on its rig, operating point, law,
 #: sampling and methods: a campaign's fits of one operating point measure it once).
 CACHE_SIZE = 64
-#: Fewest samples per measured contact (median) at which the cam phase's bias is corrected. Measured on the
-#: envelope validation's noise-free recordings at the true law: with 61 to 150 samples per contact the replay's
-#: phase bias was the recording's to within 1-7 % (5 recordings); with 15 to 34 samples (51.2 and 102.4 kHz
-#: after an anti-alias filter) it was off by 50-220 %, with the opposite sign in two of four, and through the
-#: package's own anti-alias filter it matched at the true law but not at a law 3 % off (docs/estimation.md).
-MIN_PHASE_SAMPLES = 50
 
 
 @dataclass(frozen=True)
@@ -72,38 +58,19 @@ class PipelineBias:
     ``alpha_m`` is the mean over the calibration's events of ``alpha_m(measured) / alpha_m(true) - 1``,
     ``stderr`` its standard error (the per-event scatter over the square root of the number of
     events), ``events`` how many were compared.
-
-    The onset state's part (the cam-phase anchor; NaN with the other anchors): ``cam_phase`` is the
-    replay's reconstructed cam phase minus the simulation's own [rad], ``cam_phase_stderr`` the
-    reconstruction's standard error of it [rad], and ``alpha_m_at_phase`` the mean relative error of
-    ``alpha_m`` left once the onsets are moved to the right phase (every onset stays on the gap zero,
-    as :meth:`~impactid.rigs.pivoted.residuals.EventSet.shift_phase` moves them), with the standard error
-    ``stderr_at_phase``.
     """
 
     alpha_m: float
     stderr: float
     events: int
-    cam_phase: float = math.nan
-    cam_phase_stderr: float = math.nan
-    alpha_m_at_phase: float = math.nan
-    stderr_at_phase: float = math.nan
 
     @property
     def significant(self) -> bool:
         """Whether the bias stands out of its own uncertainty (more than two standard errors)."""
         return bool(math.isfinite(self.alpha_m) and abs(self.alpha_m) > 2.0 * self.stderr)
 
-    @property
-    def phase_significant(self) -> bool:
-        """Whether the cam phase's bias stands out of its own uncertainty (more than two standard errors)."""
-        return bool(math.isfinite(self.cam_phase) and math.isfinite(self.cam_phase_stderr)
-                    and abs(self.cam_phase) > 2.0 * self.cam_phase_stderr)
-
     def to_dict(self) -> dict:
-        return {"alpha_m": self.alpha_m, "stderr": self.stderr, "events": self.events, "cam_phase": self.cam_phase,
-                "cam_phase_stderr": self.cam_phase_stderr, "alpha_m_at_phase": self.alpha_m_at_phase,
-                "stderr_at_phase": self.stderr_at_phase}
+        return {"alpha_m": self.alpha_m, "stderr": self.stderr, "events": self.events}
 
 
 @dataclass(frozen=True)
@@ -158,7 +125,7 @@ def calibration_duration(sampling: RecordingSampling) -> float:
 
 
 def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase", seed: int = 0) -> PipelineBias:
-    """Bias of the reconstructed ``alpha_m`` and cam phase at the recording's sampling, on the model at ``law``.
+    """Bias of the reconstructed ``alpha_m`` at the recording's sampling, on the model at ``law``.
 
     The model's recording is :func:`calibration_duration` long (``MIN_EVENTS + 1`` cam revolutions),
     whatever the measurement's length; the result is cached per process on what decides it (the rig,
@@ -175,8 +142,8 @@ def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase"
     Returns
     -------
     PipelineBias
-        the mean relative error of ``alpha_m`` [-], its standard error [-], the events compared and the
-        cam phase's bias (NaN, NaN, 0 when the calibration cannot run).
+        the mean relative error of ``alpha_m`` [-], its standard error [-] and the events compared
+        (NaN, NaN, 0 when the calibration cannot run).
     """
     sampling = recording if isinstance(recording, RecordingSampling) else RecordingSampling.of(recording)
     # the measurement's duration does not decide the calibration: one cache entry per operating point
@@ -227,43 +194,10 @@ def _measure_bias(sampling: RecordingSampling, law, integration: str, anchor: st
     known = np.isfinite(t_onset) & np.isfinite(t_next)
     lo = np.searchsorted(apex_t, np.where(known, t_onset, np.inf), side="right")
     hi = np.where(known, np.searchsorted(apex_t, np.where(known, t_next, -np.inf), side="left"), 0)
-    compared = np.array([i for i in range(alpha_m.size) if hi[i] > lo[i]], dtype=int)
-    apex = np.array([float(np.max(apex_a[lo[i]:hi[i]])) for i in compared])
-    errors = alpha_m[compared] / apex - 1.0
-    keep = np.isfinite(errors)
-    if np.count_nonzero(keep) < 2:
-        return PipelineBias(math.nan, math.nan, int(np.count_nonzero(keep)))
-    phase, phase_se, at_phase, at_phase_se = _phase_bias(recon, synthetic.truth, sampling, compared[keep], apex[keep])
-    return PipelineBias(float(np.mean(errors[keep])), _stderr(errors[keep]), int(np.count_nonzero(keep)),
-                        cam_phase=phase, cam_phase_stderr=phase_se, alpha_m_at_phase=at_phase,
-                        stderr_at_phase=at_phase_se)
-
-
-def _stderr(values: np.ndarray) -> float:
-    """The standard error of the mean of ``values``."""
-    return float(np.std(values, ddof=1) / math.sqrt(values.size))
-
-
-def _phase_bias(recon, truth, sampling: RecordingSampling, rows: np.ndarray, apex: np.ndarray):
-    """The replay's cam-phase bias [rad], its standard error, and the relative error of ``alpha_m`` (mean and
-    standard error) at the rows ``rows`` of the reconstruction table once every onset is moved to the right
-    phase; NaNs where the anchor fixes no common phase."""
-    if not (math.isfinite(recon.cam_phase) and math.isfinite(recon.cam_phase_stderr)):
-        return math.nan, math.nan, math.nan, math.nan
-    tab = recon.table
-    theta = tab["theta_onset"].to_numpy(dtype=float)[rows]
-    t_onset = tab["t_onset"].to_numpy(dtype=float)[rows]
-    wrapped = np.angle(np.exp(1j * (theta - float(truth["theta_ref"]) - 2.0 * math.pi * sampling.cam_speed_hz
-                                    * t_onset)))
-    wrapped = wrapped[np.isfinite(wrapped)]
-    if wrapped.size == 0:
-        return math.nan, math.nan, math.nan, math.nan
-    bias = float(np.median(wrapped))  # one phase for all onsets: every event shows the same
-    # the onsets moved to the right phase stay on the gap zero; alpha_m moves with the onset angle
-    shift = np.asarray(sampling.rig.contact_angle(theta - bias), dtype=float) \
-        - tab["alpha_onset"].to_numpy(dtype=float)[rows]
-    errors = (tab["alpha_m"].to_numpy(dtype=float)[rows] + shift) / apex - 1.0
+    errors = np.array([alpha_m[i] / float(np.max(apex_a[lo[i]:hi[i]])) - 1.0
+                       for i in range(alpha_m.size) if hi[i] > lo[i]])
     errors = errors[np.isfinite(errors)]
     if errors.size < 2:
-        return bias, float(recon.cam_phase_stderr), math.nan, math.nan
-    return bias, float(recon.cam_phase_stderr), float(np.mean(errors)), _stderr(errors)
+        return PipelineBias(math.nan, math.nan, int(errors.size))
+    return PipelineBias(float(np.mean(errors)), float(np.std(errors, ddof=1) / math.sqrt(errors.size)),
+                        int(errors.size))

@@ -29,7 +29,7 @@ from impactid.errors import ImpactidError
 from impactid.rigs.base import Estimator, PreparedRecording, options_record, pipeline_provenance
 from impactid.rigs.pivoted import figures
 from impactid.rigs.pivoted.arguments import ARGUMENTS, MAX_GRID_POINTS, TITLE
-from impactid.rigs.pivoted.calibration import MIN_PHASE_SAMPLES, PipelineBias, RecordingSampling, pipeline_bias
+from impactid.rigs.pivoted.calibration import RecordingSampling, pipeline_bias
 from impactid.rigs.pivoted.estimates import (
     BOOTSTRAP_RESAMPLES,
     BOOTSTRAP_SEED,
@@ -62,8 +62,8 @@ __all__ = ["ESTIMATOR", "MAX_GRID_POINTS", "OPTIONS", "PreparedImpacts", "check_
 #: * ``integration``, ``anchor``: per-event kinematics (:func:`impactid.rigs.pivoted.reconstruct.reconstruct`);
 #: * ``c_bounds``: bounds of ``c = beta delta_ref^n`` [N s/m]; ``n_bounds``: bounds of ``n`` [-];
 #: * ``landscape``: also compute the objective landscape (for plots);
-#: * ``calibrate``: measure and correct the pipeline's bias of the cam phase and of alpha_m on the model's own
-#:   recording (:mod:`impactid.rigs.pivoted.calibration`; lambda1 only);
+#: * ``calibrate``: measure and correct the pipeline's alpha_m bias on the model's own recording
+#:   (:mod:`impactid.rigs.pivoted.calibration`; lambda1 only);
 #: * ``residual_floor``: the residual's noise floor (None: the calibrated default of the residual);
 #: * ``separability_width``: widest interval of ``n`` with which ``beta, n`` count as separable [-];
 #: * ``bootstrap_resamples``, ``bootstrap_seed``: the bootstrap over events.
@@ -237,59 +237,27 @@ def _usable(prepared: Sequence[PreparedRecording]) -> tuple[list[PreparedRecordi
 
 
 def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
-    """Measure the pipeline's bias of each recording's cam phase and alpha_m at the first estimate
-    (:mod:`impactid.rigs.pivoted.calibration`), correct what is significant and moves the residuals by more
-    than :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD` (the cam phase first, then alpha_m
-    by the bias left at the corrected phase) and fit again: the intervals' indifference at least half the
-    largest alpha_m correction plus two of its standard errors, each corrected recording's cam-phase standard
-    error widened (in quadrature) by half its phase correction plus two of the calibration's standard errors."""
+    """Measure the pipeline's alpha_m bias at the first estimate (:mod:`impactid.rigs.pivoted.calibration`); where it
+    exceeds :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD`, correct the measured alpha_m and fit
+    again, with the intervals' indifference at least half the largest correction."""
     law = HuntCrossley(beta=damping.beta, n=damping.n)
-    corrected, record, systematic = [], [], []
-    for sampling, es in zip(samplings, sets):
-        bias = pipeline_bias(sampling, law, integration=integration, anchor=anchor)
-        phase_use = _phase_moves_residuals(es, bias, law)
-        if phase_use:
-            widened = math.hypot(es.phase_stderr if math.isfinite(es.phase_stderr) else 0.0,
-                                 0.5 * abs(bias.cam_phase) + 2.0 * bias.cam_phase_stderr)
-            es = replace(es.shift_phase(-bias.cam_phase), phase_stderr=widened)
-        alpha, stderr = (bias.alpha_m_at_phase, bias.stderr_at_phase) if phase_use else (bias.alpha_m, bias.stderr)
-        alpha_use = bool(math.isfinite(alpha) and abs(alpha) > 2.0 * stderr and abs(alpha) > CALIBRATION_THRESHOLD)
-        if alpha_use:
-            es = es.scale_alpha_m(1.0 / (1.0 + alpha))
-            systematic.append(0.5 * abs(alpha) + 2.0 * stderr)
-        corrected.append(es)
-        record.append(dict(source=es.source, **bias.to_dict(), cam_phase_corrected=phase_use,
-                           alpha_m_corrected=alpha_use))
-    if not any(r["cam_phase_corrected"] or r["alpha_m_corrected"] for r in record):
+    biases = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
+    record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
+    applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
+    if not any(applied):
         return damping, sets, record, 0.0
-    systematic = max(systematic, default=0.0)
+    corrected = [s.scale_alpha_m(1.0 / (1.0 + b.alpha_m)) if use else s for s, b, use in zip(sets, biases, applied)]
+    systematic = max(0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use)
     again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
-    note = (f"the pipeline's bias of the cam phase and of alpha_m at these recordings' sampling, measured on the "
-            f"model's own recording at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
-            + ", ".join(f"{r['cam_phase']:+.2e} +- {r['cam_phase_stderr']:.1e} rad and {r['alpha_m']:+.2e} +- "
-                        f"{r['stderr']:.1e} ({r['source']})" for r in record if math.isfinite(r["alpha_m"]))
-            + "; the cam phase, then alpha_m (by the bias left at the corrected phase) were corrected where the bias "
-              "is significant and moves the residuals, and the fit repeated, with the intervals widened by half "
-              "each correction plus two standard errors of the calibration")
+    note = (f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own recording "
+            f"at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
+            + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
+                        if math.isfinite(b.alpha_m))
+            + "; alpha_m was corrected where the bias is significant and the fit repeated, with the intervals "
+              "widened by half the correction plus two standard errors")
     again = replace(again, warnings=again.warnings + (note,), n_simulations=again.n_simulations + damping.n_simulations,
                     seconds=again.seconds + damping.seconds)
     return again, corrected, record, systematic
-
-
-def _phase_moves_residuals(es: EventSet, bias: PipelineBias, law: HuntCrossley) -> bool:
-    """Whether the cam phase's bias is to be corrected: the contacts span at least
-    :data:`~impactid.rigs.pivoted.calibration.MIN_PHASE_SAMPLES` samples (median), the bias is significant and
-    correcting it moves the mean lambda1 at ``law`` by more than
-    :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD`."""
-    durations = np.asarray(es.contact_duration if es.contact_duration is not None else [], dtype=float)
-    durations = durations[np.isfinite(durations)]
-    if not (bias.phase_significant and durations.size
-            and float(np.median(durations)) * es.sample_rate_hz >= MIN_PHASE_SAMPLES):
-        return False
-    trial = np.array([[law.beta, law.n]])
-    change = es.shift_phase(-bias.cam_phase).residuals(trial)[0] - es.residuals(trial)[0]
-    change = change[np.isfinite(change)]
-    return bool(change.size and abs(float(np.mean(change))) > CALIBRATION_THRESHOLD)
 
 
 def _with_reference_interval(damping, sets, fit_options: dict, systematic: float):
