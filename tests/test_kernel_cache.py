@@ -106,12 +106,19 @@ def test_a_shipped_index_of_another_source_is_not_copied(tmp_path, monkeypatch):
     assert not list((tmp_path / "cache").iterdir())
 
 
-def test_a_current_shipped_index_is_copied_once_with_its_data(tmp_path, monkeypatch):
+@pytest.fixture
+def seeded(tmp_path, monkeypatch) -> tuple[Path, Path]:
+    """A shipped folder with a current index of ``_scan``, and a cache folder it was seeded into (once)."""
     shipped = _fake_shipped(tmp_path, _kernel_cache.content_stamp(_scan.__file__))
     monkeypatch.setenv(_kernel_cache.SHIPPED_ENV, str(shipped))
     cache = tmp_path / "cache"
     cache.mkdir()
     assert _kernel_cache.seed(cache, _scan.__file__) == 1
+    return shipped, cache
+
+
+def test_a_current_shipped_index_is_copied_once_with_its_data(tmp_path, seeded):
+    cache = seeded[1]
     assert sorted(p.name for p in cache.iterdir()) == ["_scan.fake-1.py311.1.nbc", "_scan.fake-1.py311.nbi"]
     # a second process finds the copy current and copies nothing
     shutil.copytree(cache, tmp_path / "again")
@@ -133,12 +140,8 @@ def test_the_stamp_follows_the_modules_a_kernel_inlines():
     assert "rigs/pivoted/__init__.py" not in files  # a package's __init__ only where a name comes from it
 
 
-def test_seeding_links_instead_of_copying_where_it_can(tmp_path, monkeypatch):
-    shipped = _fake_shipped(tmp_path, _kernel_cache.content_stamp(_scan.__file__))
-    monkeypatch.setenv(_kernel_cache.SHIPPED_ENV, str(shipped))
-    cache = tmp_path / "cache"
-    cache.mkdir()
-    assert _kernel_cache.seed(cache, _scan.__file__) == 1
+def test_seeding_links_instead_of_copying_where_it_can(seeded):
+    shipped, cache = seeded
     source = next(shipped.rglob("_scan.fake-1.py311.1.nbc"))
     assert (cache / source.name).stat().st_ino == source.stat().st_ino  # one file, two names
 
