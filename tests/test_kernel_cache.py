@@ -159,3 +159,32 @@ def test_the_build_reads_which_rigs_to_compile():
         assert precompile_rigs({"IMPACTID_PRECOMPILE": value}) == []
     assert precompile_rigs({"IMPACTID_PRECOMPILE": "all"}) == ["all"]
     assert precompile_rigs({"IMPACTID_PRECOMPILE": "drop-impact, flat-follower"}) == ["drop-impact", "flat-follower"]
+
+
+_CHECK_MODULE = """
+import importlib, sys
+from numba.core.registry import CPUDispatcher
+from impactid import _kernel_cache
+module = importlib.import_module(sys.argv[1])
+for name, obj in vars(module).items():
+    cache = getattr(obj, "_cache", None) if isinstance(obj, CPUDispatcher) else None
+    if cache is not None and hasattr(cache, "_impl") and obj.py_func.__module__ == module.__name__:
+        assert type(cache._impl.locator) in _kernel_cache.LOCATORS, f"{module.__name__}.{name}"
+"""
+
+
+@pytest.mark.slow
+def test_each_kernel_module_installs_the_locators_itself():
+    """Imported first, in a fresh interpreter: a kernel module must install impactid's locators before it
+    defines its kernels, whatever else was imported before (the in-process test above sees the modules in
+    one order only; numba 0.60's CI pass imported ``rigs.cycloidal.cam`` first and found its kernels on
+    numba's locator)."""
+    modules = sorted({f"impactid.{p.relative_to(_kernel_cache.PACKAGE_DIR).with_suffix('').as_posix()}"
+                      .replace("/", ".") for p in _kernel_cache.PACKAGE_DIR.rglob("*.py")
+                      if "njit" in p.read_text(encoding="utf-8") and p.name != "__init__.py"})
+    assert "impactid.rigs.cycloidal.cam" in modules
+    env = {k: v for k, v in os.environ.items() if k not in {_kernel_cache.BUILD_ENV, "NUMBA_DISABLE_JIT"}}
+    for module in modules:
+        done = subprocess.run([sys.executable, "-c", _CHECK_MODULE, module], env=env, capture_output=True,
+                              text=True, timeout=300)
+        assert done.returncode == 0, f"{module}: {done.stderr[-800:]}"

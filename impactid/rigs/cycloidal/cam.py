@@ -33,6 +33,10 @@ import numpy as np
 from numba import njit
 from scipy import optimize
 
+from impactid import compilation
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
+
 __all__ = ["contact_offset", "entraining_velocity", "lift", "lift_scalar", "max_radius_of_curvature",
            "min_radius_of_curvature", "radius_of_curvature", "rigid_jump_speed", "sliding_velocity",
            "valve_acceleration", "valve_jerk", "valve_velocity", "zero_entrainment_angles"]

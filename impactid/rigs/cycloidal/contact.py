@@ -46,6 +46,10 @@ from types import MappingProxyType
 import numpy as np
 from numba import njit
 
+from impactid import compilation
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
+
 __all__ = ["EHL_CONSTANTS", "TABLE3_RANGES", "WS_MODES", "FilmEvaluation", "FilmScheme", "RangeFlags", "ehl_film",
            "ehl_groups", "ehl_validity", "film_scheme", "hertz_approach", "hertz_half_width", "hertz_load",
            "hertz_max_pressure", "hertz_load_scalar"]

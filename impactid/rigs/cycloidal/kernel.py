@@ -59,11 +59,14 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from impactid import compilation
 from impactid.rigs.cycloidal.cam import lift_scalar
 from impactid.rigs.cycloidal.contact import hertz_load_scalar
 from impactid.rigs.valvespring import surge_accelerations as _surge_py
 from impactid.simulate import dp5
 from impactid.simulate.dp5 import BAD_INPUT, EVENTS_FULL, MAX_STEPS, NONFINITE, OK, STATUS_MESSAGES, STEP_UNDERFLOW
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["BAD_INPUT", "CONTACT_GAIN", "CONTACT_LOSS", "EVENTS_FULL", "EVENT_NAMES", "MAX_STEPS", "NONFINITE", "OK",
            "SEAT_CLOSING", "SEAT_LIFTOFF", "SEAT_REENGAGE", "SEAT_SLACK", "SEAT_NAMES", "STATUS_MESSAGES",

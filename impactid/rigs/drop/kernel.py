@@ -72,8 +72,11 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from impactid import compilation
 from impactid.simulate import dp5
 from impactid.simulate.dp5 import BAD_INPUT, EVENTS_FULL, MAX_STEPS, NONFINITE, OK, STATUS_MESSAGES, STEP_UNDERFLOW
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["BAD_INPUT", "CONTACT", "END_FORCE", "END_OPEN", "END_REST", "END_SURFACE", "EVENTS_FULL", "FREE",
            "KIND_ONSET", "KIND_RECONTACT", "MAX_STEPS", "NONFINITE", "N_GCOL", "N_ICOL", "N_PAR", "N_SENS", "OK",

@@ -46,7 +46,10 @@ import numpy as np
 from numba import njit
 from scipy.interpolate import CubicSpline
 
+from impactid import compilation
 from impactid.errors import RigParameterError
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["BaseGeometry", "CycloidalLift", "Kinematics", "LiftTable", "base_geometry", "build_kinematics",
            "contact_kinematics", "cycloidal_lift", "lift_from_rig", "read_lift", "write_lift"]

@@ -67,6 +67,7 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from impactid import compilation
 from impactid.rigs import valvespring as _spring
 from impactid.simulate import dp5
 from impactid.simulate.dp5 import (
@@ -78,6 +79,8 @@ from impactid.simulate.dp5 import (
     SAMPLES_FULL,
     STEP_UNDERFLOW,
 )
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["BAD_INPUT", "EVENTS_FULL", "MAX_STEPS", "NONFINITE", "N_ECOL", "N_PAR", "OK", "SAMPLES_FULL",
            "STATUS_MESSAGES", "STEP_UNDERFLOW", "SWITCH_NAMES", "ZENO", "evaluate", "initial_signs", "integrate",

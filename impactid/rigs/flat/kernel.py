@@ -39,9 +39,12 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
+from impactid import compilation
 from impactid.rigs.flat import parameters as _geo
 from impactid.simulate import dp5
 from impactid.simulate.dp5 import BAD_INPUT, MAX_STEPS, NONFINITE, OK, STATUS_MESSAGES, STEP_UNDERFLOW
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 _jit = njit(cache=True, inline="always")
 #: The core's stage functions: compiled once and inlined by LLVM (``forceinline``), with the flags of

@@ -24,7 +24,10 @@ import numpy as np
 from numba import njit, prange
 from scipy import stats
 
+from impactid import compilation
 from impactid.rigs.pivoted import kernel as K
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["FREE_FLIGHT_CLEAN", "FREE_FLIGHT_CLEAN_SWING", "FREE_FLIGHT_MISFIT", "FREE_FLIGHT_SIGNIFICANCE",
            "FREE_FLIGHT_STEPS", "FreeFlightFit", "free_accelerations", "free_flight", "free_flight_fit",

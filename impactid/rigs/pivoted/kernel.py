@@ -46,8 +46,11 @@ from collections import namedtuple
 import numpy as np
 from numba import njit, prange
 
+from impactid import compilation
 from impactid.rigs.pivoted import parameters as _geo
 from impactid.simulate import dp5
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["KIND_COMPLIANT", "KIND_RESTITUTION", "NO_GRID_SENS", "NO_SENS", "NO_SENS_MAX", "N_CCOL", "N_LAW", "N_RIG",
            "N_SENS", "N_SUM", "STATUS_MESSAGES", "RunEnd", "acceleration", "batch_events", "contact_force",

@@ -91,6 +91,7 @@ import pandas as pd
 from numba import njit
 from scipy import optimize
 
+from impactid import compilation
 from impactid.errors import ImpactidError
 from impactid.events import (
     BASELINE_GAP,
@@ -116,6 +117,8 @@ from impactid.rigs.pivoted.anchors import (
 from impactid.rigs.pivoted.freeflight import free_flight_fit
 from impactid.rigs.pivoted.runs import pack_rig
 from impactid.signal import EventSpan, PowerLawEdge, detrend_integrate, get_integrator, sampled_model_correction
+
+compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
            "EDGE_SNR", "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "RELEASE_EVENTS",
