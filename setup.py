@@ -8,9 +8,10 @@ carries: the first command after ``pip install .`` loads them instead of compili
 
 ``IMPACTID_PRECOMPILE`` (read by ``tools/_impactid_build.py``, the build backend, which also asks for
 the build requirements this needs): unset, rig P (``pivoted-follower``: the rig of ``impactid
-estimate --example``); ``all``, every rig (about 3 min more of building); a comma-separated list of
-rig names; ``0`` or ``none``, nothing. The step is best effort: a rig whose compilation fails is
-reported and left to compile on first use, the others are kept. A wheel with compiled kernels holds
+estimate --example``); ``all``, every rig (two rigs at a time: about a minute and a half more of
+building on two cores); a comma-separated list of rig names; ``0`` or ``none``, nothing. The step is
+best effort: a rig whose compilation fails is reported and left to compile on first use, the others
+are kept. A wheel with compiled kernels holds
 machine code for this CPU type and Python, so it is tagged for this platform and Python, not as a
 pure-Python wheel. An editable install (``pip install -e .``) compiles nothing here (its kernels
 are cached beside the sources on first use). The warm-up runs without the builder's ``NUMBA_*``
@@ -25,6 +26,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from setuptools import Distribution, setup
@@ -36,10 +38,11 @@ from _impactid_build import precompile_rigs  # noqa: E402 - the backend's folder
 _WARMUP = """
 import sys
 from impactid import warmup
-names = warmup.all_models() if sys.argv[1] == "all" else [sys.argv[1]]
-warmup.warm_up(names, lambda line: print("impactid build:", line, flush=True))
+warmup.warm_up([sys.argv[1]], lambda line: print("impactid build:", line, flush=True))
 """
 
+#: The rigs whose kernels take longest to compile (docs/simulator.md, "Compile time": about 55 and 40 s).
+_LONGEST = ("drop-impact", "pivoted-follower")
 #: Longest a rig's compilation may take in the build [s].
 TIMEOUT_S = 1800
 
@@ -58,23 +61,44 @@ class BuildWithKernels(build_py):
             return
         print(f"impactid build: compiling the kernels of {', '.join(rigs)} (IMPACTID_PRECOMPILE=0 skips this)",
               flush=True)
-        for rig in rigs:
-            with tempfile.TemporaryDirectory(prefix="impactid-build-") as scratch:
-                env = {key: value for key, value in os.environ.items() if not key.startswith("NUMBA_")}
-                env.update(IMPACTID_PRECOMPILE_DIR=str(target), IMPACTID_CACHE_DIR=scratch,  # recordings: scratch
-                           IMPACTID_COMPILE_NOTICE="0",
-                           # the built package first; pip's isolated build environment reaches its build
-                           # requirements through PYTHONPATH (its sitecustomize), which is kept
-                           PYTHONPATH=os.pathsep.join(filter(None, [str(target.parents[1]),
-                                                                    os.environ.get("PYTHONPATH")])))
-                try:
-                    code = subprocess.run([sys.executable, "-c", _WARMUP, rig], env=env, cwd=scratch,
-                                          timeout=TIMEOUT_S).returncode
-                except subprocess.TimeoutExpired:
-                    code = f"no end after {TIMEOUT_S} s"
-            if code != 0:  # what was compiled is kept: each cache entry is complete (numba writes them whole)
-                print(f"impactid build: WARNING: the kernels of {rig} could not all be compiled now ({code}); "
-                      "what is missing compiles on first use", flush=True)
+        if rigs == ["all"]:
+            rigs = self._all_rigs(target.parents[1])
+            rigs.sort(key=lambda name: name not in _LONGEST)  # the longest compilations first: they set the end
+        # the rigs side by side, as many at a time as there are cores (each compilation is one thread)
+        pending, running = list(rigs), {}
+        with tempfile.TemporaryDirectory(prefix="impactid-build-") as scratch:
+            env = {key: value for key, value in os.environ.items() if not key.startswith("NUMBA_")}
+            env.update(IMPACTID_PRECOMPILE_DIR=str(target), IMPACTID_COMPILE_NOTICE="0",
+                       # the built package first; pip's isolated build environment reaches its build
+                       # requirements through PYTHONPATH (its sitecustomize), which is kept
+                       PYTHONPATH=os.pathsep.join(filter(None, [str(target.parents[1]), os.environ.get("PYTHONPATH")])))
+            while pending or running:
+                while pending and len(running) < max(os.cpu_count() or 1, 1):
+                    rig = pending.pop(0)
+                    folder = Path(scratch) / rig  # the example recordings of each rig's warm-up: apart
+                    folder.mkdir()
+                    running[rig] = (subprocess.Popen([sys.executable, "-c", _WARMUP, rig], cwd=folder,
+                                                     env={**env, "IMPACTID_CACHE_DIR": str(folder)}), time.monotonic())
+                time.sleep(0.2)
+                for rig, (proc, started) in list(running.items()):
+                    code = proc.poll()
+                    if code is None and time.monotonic() - started > TIMEOUT_S:
+                        proc.kill()
+                        code = f"no end after {TIMEOUT_S} s"
+                    if code is None:
+                        continue
+                    del running[rig]
+                    if code != 0:  # what was compiled is kept: each cache entry is complete
+                        print(f"impactid build: WARNING: the kernels of {rig} could not all be compiled now "
+                              f"({code}); what is missing compiles on first use", flush=True)
+
+    @staticmethod
+    def _all_rigs(built: Path) -> list[str]:
+        """Every registered rig of the built package (its registry, read by the build's Python)."""
+        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(built), os.environ.get("PYTHONPATH")]))}
+        names = subprocess.run([sys.executable, "-c", "from impactid import warmup; print(*warmup.all_models())"],
+                               env=env, capture_output=True, text=True, timeout=300).stdout.split()
+        return names
 
 
 class KernelDistribution(Distribution):
