@@ -256,6 +256,14 @@ def command_inputs(args, recordings: Sequence, extra: Sequence = ()) -> list:
     return files + [f for f in extra if f]
 
 
+def check_out_suffix(path: str, suffixes, what: str) -> None:
+    """Refuse a ``--out`` whose suffix (any case) is not one of ``suffixes``: the formats a synthetic ``what``
+    ("a drop", "a track") is written in, chosen by the file's suffix."""
+    if Path(path).suffix.lower() not in suffixes:
+        raise UsageError(f"argument --out: {what} is written as {', '.join(suffixes)} (by the file's suffix), "
+                         f"got {path!r}")
+
+
 def check_outputs(args, inputs: Sequence, *, out: str = "out", out_is_dir: bool = False) -> None:
     """Check ``--out``, ``--plots`` and ``--report`` before the computation starts."""
     if getattr(args, out, None) is not None:  # an empty path is refused, not taken for "no output"

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import argparse
 import math
-from pathlib import Path
 
 from impactid.commandline import (
     FIGURE_FORMAT,
@@ -22,6 +21,7 @@ from impactid.commandline import (
     SEED,
     SYNTH_OUT,
     UsageError,
+    check_out_suffix,
     check_outputs,
     nonnegative,
     pair,
@@ -172,10 +172,7 @@ def run_synth(args, model) -> int:
         if not (0.0 < e0 <= 1.0 and gamma >= 0.0 and e0 - gamma * math.sqrt(2.0 * 9.81 * height) > 0.3):
             raise UsageError(f"argument --bounce-law: e = {e0:g} - {gamma:g} v needs 0 < E0 <= 1, GAMMA >= 0 and e "
                              f"above 0.3 at the first impact (a drop with a few bounces at least)")
-    suffix = Path(args.out).suffix.lower()
-    if suffix not in SYNTH_SUFFIXES:
-        raise UsageError(f"argument --out: a drop is written as {', '.join(SYNTH_SUFFIXES)} (by the file's suffix), "
-                         f"got {args.out!r}")
+    check_out_suffix(args.out, SYNTH_SUFFIXES, "a drop")
     check_outputs(args, [])
     faults = STOPWATCH_FAULTS if args.faults else {}
     drop = synth_drop(law, params, seed=args.seed, ball=ball, height=height, jitter=args.jitter, **faults)

@@ -18,6 +18,7 @@ import numpy as np
 from impactid._files import StagedFiles, check_output
 from impactid.commandline import (
     UsageError,
+    check_out_suffix,
     check_outputs,
     deliver,
     figure_format,
@@ -225,10 +226,7 @@ def run_synth(args) -> int:
     returns the exit code."""
     refuse_other_rigs_options(args, argument_dests(SYNTH.arguments), command="synth", model_name=MODEL_NAME,
                               hints=_SYNTH_HINTS)
-    suffix = Path(args.out).suffix.lower()
-    if suffix not in SYNTH_SUFFIXES:
-        raise UsageError(f"argument --out: a table of impacts is written as {', '.join(SYNTH_SUFFIXES)} (by the "
-                         f"file's suffix), got {args.out!r}")
+    check_out_suffix(args.out, SYNTH_SUFFIXES, "a table of impacts")
     body = args.resolved_rig.rig
     law, values = _synth_law(args)
     low, high = DEFAULT_APPROACH_SPEEDS if args.approach_speeds is None else args.approach_speeds

@@ -13,6 +13,7 @@ from pathlib import Path
 from impactid._files import check_distinct_inputs
 from impactid.commandline import (
     UsageError,
+    check_out_suffix,
     check_outputs,
     deliver,
     figure_format,
@@ -164,10 +165,7 @@ def run_synth(args) -> int:
     a surface, as CSV, TSV or a Tracker export, for ``impactid tracks analyse``; returns the exit code."""
     refuse_other_rigs_options(args, argument_dests(SYNTH.arguments), command="synth", model_name=MODEL_NAME,
                               hints=_SYNTH_HINTS)
-    suffix = Path(args.out).suffix.lower()
-    if suffix not in SYNTH_SUFFIXES:
-        raise UsageError(f"argument --out: a track is written as {', '.join(SYNTH_SUFFIXES)} (by the file's suffix), "
-                         f"got {args.out!r}")
+    check_out_suffix(args.out, SYNTH_SUFFIXES, "a track")
     values = _synth_values(args)
     check_outputs(args, [])
     try:
