@@ -1073,6 +1073,44 @@ def _check_complete_riff(path: Path, head: bytes, size: int) -> None:
                           "is there with an audio editor to analyse it)")
 
 
+#: An Ogg page: the capture pattern, the header (27 bytes with the capture pattern) and at most 255 segments of at
+#: most 255 bytes each (RFC 3533, section 6).
+_OGG_CAPTURE, _OGG_HEADER, _OGG_MAX_PAGE = b"OggS", 27, 27 + 255 + 255 * 255
+#: The header-type flag of a stream's last page (RFC 3533: "end of stream").
+_OGG_END_OF_STREAM = 0x04
+
+
+def _check_complete_ogg(path: Path, size: int) -> None:
+    """Refuse an Ogg file whose last page is cut or is not a stream's last page (RFC 3533).
+
+    An Ogg stream ends with a page flagged *end of stream*; a copy or a recording cut short ends
+    inside a page or after a page without the flag, and libsndfile then decodes the pages that are
+    there without a word (it has no announced length to compare with, unlike WAV and FLAC). The last
+    page is the last capture pattern within one page's length of the end whose header and segment
+    table account for exactly the bytes up to the end of the file.
+    """
+    with open(path, "rb") as handle:
+        handle.seek(max(0, size - _OGG_MAX_PAGE))
+        tail = handle.read()
+    base = size - len(tail)
+    start = tail.rfind(_OGG_CAPTURE)
+    while start >= 0:
+        header = tail[start:start + _OGG_HEADER]
+        if len(header) == _OGG_HEADER and header[4] == 0:  # stream structure version 0
+            n_segments = header[26]
+            table = tail[start + _OGG_HEADER:start + _OGG_HEADER + n_segments]
+            if len(table) == n_segments and start + _OGG_HEADER + n_segments + sum(table) == len(tail):
+                if header[5] & _OGG_END_OF_STREAM:
+                    return
+                raise BounceFileError(f"{path}: truncated OGG file: its last page (at byte {base + start:,}) is not "
+                                      "the stream's last (no end-of-stream flag): a copy or a recording cut short; "
+                                      "re-save what is there with an audio editor to analyse it")
+        start = tail.rfind(_OGG_CAPTURE, 0, start)
+    raise BounceFileError(f"{path}: truncated OGG file: it ends inside a page ({size:,} bytes; no complete page "
+                          "reaches the end): a copy or a recording cut short; re-save what is there with an audio "
+                          "editor to analyse it")
+
+
 def _audio_steps(frames: int, channels: int, rate: float) -> str:
     return (f"analysing its {frames / max(rate, 1):,.0f} s of audio ({frames:,} frames x {channels} channel(s) at "
             f"{rate:g} Hz)")
@@ -1180,6 +1218,8 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
         _check_complete_riff(path, head, size)
     if soundfile is not None:
         audio = _read_soundfile(path, kind)
+        if kind == "OGG":  # after the decoder: a file that is not Ogg at all keeps its "not readable" message
+            _check_complete_ogg(path, size)
     elif kind == "WAV" and head[:4] == b"RIFF":
         audio = _read_scipy_wav(path, size)
     else:

@@ -132,6 +132,26 @@ def test_damaged_and_cut_flac_are_refused(tmp_path, capsys):
         read_bounces(cut)
 
 
+@needs_soundfile
+def test_cut_ogg_is_refused_inside_a_page_and_at_a_page_boundary(tmp_path, capsys):
+    # libsndfile decodes the pages of a cut Ogg stream without a word (no announced length): the reader checks
+    # that the file ends with a complete page flagged end-of-stream
+    samples, _ = _room_drop(5)
+    full = tmp_path / "full.ogg"
+    soundfile.write(full, samples, RATE, format="OGG", subtype="VORBIS")
+    data = full.read_bytes()
+    assert read_bounces(full).times.size >= 5
+    inside = tmp_path / "inside.ogg"
+    inside.write_bytes(data[: 2 * len(data) // 3])
+    boundary = tmp_path / "boundary.ogg"
+    boundary.write_bytes(data[: data.rfind(b"OggS")])  # the last page dropped whole: every page left is complete
+    for path, token in ((inside, "ends inside a page"), (boundary, "no end-of-stream flag")):
+        code, out, err = _run(["bounces", path], capsys)
+        lines = err.strip().splitlines()
+        assert code == 2 and out == "" and len(lines) == 1, err
+        assert str(path) in lines[0] and "truncated OGG file" in lines[0] and token in lines[0], lines[0]
+
+
 @pytest.mark.parametrize("name,token", [("text.flac", "not a FLAC file"), ("text.ogg", "not a OGG file"),
                                         ("text.wav", "not a WAV file")])
 def test_a_name_that_promises_audio_without_its_content(tmp_path, name, token):
