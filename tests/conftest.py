@@ -7,8 +7,42 @@ no test, and importing impactid (numba, SciPy) would cost it 3 s before the work
 from __future__ import annotations
 
 import functools
+import os
+import sysconfig
+from pathlib import Path
 
 import pytest
+
+#: numba's cache files that ``pip install`` compiled into the installed package (``impactid/_kernel_cache.py``)
+SHIPPED_ENV = "IMPACTID_SHIPPED_KERNELS"
+
+
+def installed_kernels() -> Path | None:
+    """The installed impactid's folder of kernels compiled at installation, if it has one.
+
+    ``python -m pytest`` in a checkout imports the checkout's ``impactid``, not the installed copy, so
+    that the kernels ``pip install ".[test]"`` compiled (rig P's by default) would be compiled again by
+    every test worker. They are the checkout's kernels when the sources are the same: the kernel cache
+    stamps each file with its sources' SHA-256 and ignores a shipped file whose stamp differs, so
+    pointing the tests at them is safe after any edit (the edited kernels compile, the others load).
+    """
+    for key in ("platlib", "purelib"):  # the wheel is platform-tagged when it holds compiled kernels
+        folder = Path(sysconfig.get_paths()[key]) / "impactid" / "_precompiled"
+        if folder.is_dir():
+            return folder
+    return None
+
+
+def pytest_configure(config):
+    """Point the session (and, by inheritance, the xdist workers) at the installed package's kernels.
+
+    Runs before the workers start; an explicit ``IMPACTID_SHIPPED_KERNELS`` (CI sets it) is kept.
+    """
+    if not os.environ.get(SHIPPED_ENV):
+        folder = installed_kernels()
+        if folder is not None:
+            os.environ[SHIPPED_ENV] = str(folder)
+
 
 #: Table 2 operating points of Sundar, Dreyer & Singh (2016): (e/r_c, cam speed [Hz])
 TABLE2_POINTS = [(0.05, 23.0), (0.10, 18.0), (0.15, 17.0), (0.20, 16.0), (0.25, 15.0)]
