@@ -234,8 +234,17 @@ def summarise_general(frame: pd.DataFrame) -> list[str]:
     lines = ["## General motion", "",
              "The n-fixed fit (at the true n) of each general-motion case; errors and coverage over the estimates; "
              "*confident wrong*: more than 5 % off with an interval that excludes the truth.", "",
+             "*Settling*: impactid's simulator settles each case again from the static equilibrium and from ten "
+             "starts 1e-13 to 1e-9 rad away from it; *sensitive*: some start (a difference of rounding, not of the "
+             "experiment) settles to another motion in the recorded second (impacts per revolution, or median "
+             "approach speed beyond 1 %: coexisting motions with a chaotic transient between them, or irregular "
+             "motion), so that another machine, compiler or kernel build may record another motion for that case; "
+             "the motions found, with how many starts gave each. *robust*: all starts agree (a sample, not a "
+             "proof). On one machine every recording is the same in any process, worker or order "
+             "(benchmarks/envelope_case.py, `settling_check`).", "",
              "| class | cases | estimate | refusal | error | not recorded | within 1 % | within 5 % | covered | "
-             "median abs err | max abs err | confident wrong |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "median abs err | max abs err | confident wrong | sensitive settling |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for klass in G.GENERAL_CLASSES:
         part = frame[frame["klass"] == klass]
         if part.empty:
@@ -248,12 +257,12 @@ def summarise_general(frame: pd.DataFrame) -> list[str]:
         lines.append(f"| {klass} | {part['id'].nunique()} | {counts.get('estimate', 0)} | {counts.get('refusal', 0)} "
                      f"| {counts.get('error', 0)} | {int((part['fit'] == 'generation').sum())} | "
                      f"{_share(err.abs() <= 0.01)} | {_share(err.abs() <= 0.05)} | {_share(cov)} | {_pct(err, 50)} | "
-                     f"{_pct(err, 100)} | {int(part['confident_wrong'].sum())} |")
+                     f"{_pct(err, 100)} | {int(part['confident_wrong'].sum())} | {_sensitive(part)} |")
     lines += ["", "Per case (true motion from the recording's truth: impacts per revolution, median restitution, "
               "approach speed and contact time):", "",
-              "| case | class | generator | e/r_c | Hz | n | impacts/rev | xi | v_a m/s | contact ms | outcome | "
-              "beta error | interval (rel.) | verdict | confident wrong |",
-              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+              "| case | class | generator | e/r_c | Hz | n | impacts/rev | xi | v_a m/s | contact ms | settling | "
+              "outcome | beta error | interval (rel.) | verdict | confident wrong |",
+              "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for _, r in frame.iterrows():
         if r["status"] == "estimate":
             outcome, error, interval = "estimate", f"{100 * r['beta_error']:+.2f} %", _interval(r)
@@ -261,9 +270,26 @@ def summarise_general(frame: pd.DataFrame) -> list[str]:
             outcome, error, interval = f"{r['status']}: {str(r['reason'])[:140]}", "-", "-"
         lines.append(f"| {r['id']} | {r['klass']} | {r['generator']} | {r['e_over_rc']:.3g} | {r['cam_speed_hz']:.3g} "
                      f"| {r['n']:.3g} | {_num(r, 'impacts_per_revolution')} | {_num(r, 'xi')} | {_num(r, 'v_a')} | "
-                     f"{_num(r, 'contact_ms')} | {outcome} | {error} | {interval} | {_text(r, 'verdict')} | "
+                     f"{_num(r, 'contact_ms')} | {_settling(r)} | {outcome} | {error} | {interval} | "
+                     f"{_text(r, 'verdict')} | "
                      f"{'**yes**' if r['confident_wrong'] else 'no'} |")
     return lines
+
+
+def _sensitive(part: pd.DataFrame) -> str:
+    """How many cases of a class settle to a motion that depends on round-off, ``-`` for rows without the check."""
+    if "settling" not in part:
+        return "-"
+    settling = part.drop_duplicates("id")["settling"]
+    checked = settling.isin(("robust", "sensitive"))
+    return f"{int((settling == 'sensitive').sum())}/{int(checked.sum())}" if checked.any() else "-"
+
+
+def _settling(row) -> str:
+    """A case's settling (:func:`benchmarks.envelope_case.settling_check`): robust, or sensitive with the motion
+    (impacts per revolution at the median approach speed) each start settled to."""
+    value = _text(row, "settling")
+    return f"**sensitive**: {_text(row, 'settled_motions')}" if value == "sensitive" else value
 
 
 def _interval(row) -> str:

@@ -66,14 +66,27 @@ _jit = njit(cache=True, inline="always")
 #: reassociation, no reciprocal approximations, no approximate library functions, and NaN and
 #: infinity keep their meaning (the integrator rejects a non-finite trial step). With it a step
 #: takes about 7 % less (docs/simulator.md, "Speed").
-_STEP_FLAGS = {"cache": True, "error_model": "numpy", "fastmath": {"contract": True}}
+#:
+#: And LLVM's ``alwaysinline`` (``forceinline``), so that the same inputs give the same bits whether the
+#: kernels were just compiled or loaded from the cache. Where contraction is allowed, which products fuse
+#: depends on the optimisation the code went through, and numba keeps two compilations of a called
+#: kernel: its own, and the copy linked into each caller and optimised again there. A caller that calls
+#: the step by symbol runs whichever copy the JIT resolved first: the step's own where the step was
+#: compiled or loaded as a kernel in the process (a fresh compilation compiles it while typing
+#: ``integrate``), the caller's where ``integrate`` came from the cache alone. The two differ at
+#: round-off, and a run of 150 s through a chaotic transient then ends on another attractor (the
+#: envelope validation's pk00: 0.7 impacts per revolution after a fresh compilation, 1 from the cache;
+#: benchmarks/envelope_notes.md). Inlined into its caller, a step has one compilation per caller, the one
+#: cached with it. Every function compiled with contraction must therefore be inlined
+#: (tests/rigs/pivoted/test_kernel_determinism.py checks it).
+_STEP_FLAGS = {"cache": True, "error_model": "numpy", "fastmath": {"contract": True}, "forceinline": True}
 #: Compilation flags of the functions the step functions call once per stage (``_begin``, ``_stage``,
-#: ``_sensitivity_stage``): the step's own flags, so that their arithmetic is the step's, and LLVM's
-#: ``alwaysinline`` (``forceinline``) instead of numba's IR inlining (``inline="always"``): each is
-#: typed and lowered once and LLVM inlines the compiled body at every stage, where numba would
-#: re-type the whole body at each of the seven call sites (that made ``_dp5_step`` 25 s and
-#: ``_sensitivity_step`` 20 s of a cold start; now about 3 s each: docs/simulator.md, "Compile time").
-_STAGE_FLAGS = {**_STEP_FLAGS, "forceinline": True}
+#: ``_sensitivity_stage``): the step's own flags, so that their arithmetic is the step's, with its
+#: ``alwaysinline`` instead of numba's IR inlining (``inline="always"``): each is typed and lowered once
+#: and LLVM inlines the compiled body at every stage, where numba would re-type the whole body at each of
+#: the seven call sites (that made ``_dp5_step`` 25 s and ``_sensitivity_step`` 20 s of a cold start; now
+#: about 3 s each: docs/simulator.md, "Compile time").
+_STAGE_FLAGS = _STEP_FLAGS
 #: Flags of the small helpers the integrator and the observables call at several places (``acceleration``,
 #: ``_trig_at``, ``_dense``, ``_dense_sensitivity``, ``_row_for``): their callers' (default) flags, inlined
 #: by LLVM rather than re-typed by numba at each call (a quarter of ``integrate``'s own compile time).
