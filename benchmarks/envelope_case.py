@@ -515,7 +515,8 @@ def damping_values(result, beta: float, n: float | None = None) -> dict:
     wrong = confident_wrong(d.beta, d.beta_interval, beta)
     if n is not None:
         values.update(n=d.n, n_lo=d.n_interval[0], n_hi=d.n_interval[1], n_error=d.n - n,
-                      n_covered=bool(d.n_interval[0] <= n <= d.n_interval[1]), separable=d.separable)
+                      n_covered=bool(d.n_interval[0] <= n <= d.n_interval[1]), separable=d.separable,
+                      left_out=any("left out of the joint fit" in w for w in notes))
         wrong = wrong or confident_wrong(d.n, d.n_interval, n)
     values["confident_wrong"] = bool(wrong)
     return values
