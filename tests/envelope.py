@@ -271,7 +271,9 @@ def run_case(case: Case, joint: bool = True) -> dict:
                               "beta_covered": bool(d.beta_interval[0] <= case.beta <= d.beta_interval[1]),
                               "n_covered": bool(d.n_interval[0] <= case.n <= d.n_interval[1]),
                               "failed_simulations": d.n_failed_simulations,
-                              "verdict": str((d.model_check or {}).get("verdict", "not checked"))}
+                              "verdict": str((d.model_check or {}).get("verdict", "not checked")),
+                              "left_out": any("left out of the joint fit" in w
+                                              for w in tuple(result.warnings) + tuple(d.warnings))}
                 if not d.separable:
                     out.reason = "not separable: " + next((w for w in d.warnings if "not separable" in w), "")
             outcomes.append(out)
