@@ -1341,7 +1341,8 @@ def _fit_rise_onset(angular: np.ndarray, k0: int, onset_guess: float, separation
         for q in exponents:
             d_last = v0 * t_last
             damping = max(contact[-1] - a0 * d_last ** 1.5, 0.1 * contact[-1]) / (d_last ** q * v0)
-            starts.append(np.array([-s0, math.log(v0), math.log(a0), math.log(damping), q]))
+            if damping > 0.0 and math.isfinite(damping):  # not where the window's last sample is past the pulse
+                starts.append(np.array([-s0, math.log(v0), math.log(a0), math.log(damping), q]))
     fit = None
     reach = np.array([0.0, 12.0, 12.0, 12.0, 0.0])
     for start in starts:

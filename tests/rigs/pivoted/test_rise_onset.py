@@ -68,3 +68,12 @@ def test_hertzian_rise_is_kept_and_noise_is_left_to_the_detector():
     assert _fit_rise_onset(noisy, 100, 99.6, 250.0, 1.0 / 204800.0, SUNDAR2016, 1e3) == (None, None)
     assert _rise_exponent(noisy, 100, 99.6, 1e3) is None
     assert math.isfinite(true_onset)
+
+
+def test_a_window_past_the_pulse_is_no_error():
+    """At a low sampling rate the head model's 16 samples can reach past a short pulse (its last samples below
+    the baseline): the starts that would need a negative damping coefficient are skipped, not a math error."""
+    angular, true_onset = _pulse(0.4, 1.36, 20.0)
+    angular[115] = 30.0 - 1.0e4  # the window's last sample below the baseline (the pulse's area stays positive)
+    onset, law = _fit_rise_onset(angular, 100, 99.6, 250.0, 1.0 / 204800.0, SUNDAR2016, 1e-6)
+    assert (onset is None) == (law is None)
