@@ -78,9 +78,11 @@ def as_accurate(candidate, ours):
     return all(e <= max(o, f) for e, o, f in zip(candidate, ours, ERROR_FLOORS))
 
 
-def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int, int]:
+def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int, int, list[tuple[int, int]]]:
     """Time [us] of the compiled kernel alone for the S1 event (arguments packed and tables allocated
-    once, outside the timing), and its accepted and rejected steps."""
+    once, outside the timing), its accepted and rejected steps, and those steps per phase: (accepted,
+    rejected) before the contact, in it and in the free flight after it (integrations that stop at the
+    first contact's start and end, whose step counts the whole run's are the sums of)."""
     from impactid.rigs.pivoted import kernel as K
     from impactid.rigs.pivoted.runs import pack_law, pack_rig
 
@@ -90,14 +92,22 @@ def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int,
     grid, modes = np.empty(0), np.empty(0, dtype=np.int8)
     contacts, apexes = np.empty((64, K.N_CCOL)), np.empty((0, 2))
 
-    def run():
-        return K.integrate(0.0, a0, ad0, -1, t_end, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
+    def run(until=t_end):
+        return K.integrate(0.0, a0, ad0, -1, until, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
                            tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes, False,
                            K.NO_SENS, K.NO_SENS_MAX, K.NO_GRID_SENS)
 
     law_vec = law_vec.copy()  # writable, as the package passes it (the same compiled signature)
     end = run()
-    return best_time(run, repeat=repeat) * 1e6, int(end.n_steps), int(end.n_rejected)
+    t_start, t_stop = float(contacts[0, K.C_T_START]), float(contacts[0, K.C_T_END])
+    counts = [(0, 0)]
+    for until in (t_start, t_stop):
+        part = run(until)
+        counts.append((int(part.n_steps), int(part.n_rejected)))
+    counts.append((int(end.n_steps), int(end.n_rejected)))
+    phases = [(b[0] - a[0], b[1] - a[1]) for a, b in zip(counts[:-1], counts[1:])]
+    run()  # the timed runs start as the first did (the contact table refilled)
+    return best_time(run, repeat=repeat) * 1e6, int(end.n_steps), int(end.n_rejected), phases
 
 
 PAGE_INTRO = """\
@@ -187,10 +197,11 @@ def run(args) -> int:
         print(f"  RATIO {rtol:.0e}: best solve_ivp ({best[1]} rtol {best[2]:.0e}) / compiled = {ratio:.0f}x")
         if label:
             ratio_default, us_default = ratio, t_ours * 1e6
+            best_method, best_rtol, contact_ms = best[1], best[2], 1e3 * ev.contact_duration
     if ratio_default is not None:
         print(f"\nAT DEFAULT TOLERANCES: {ratio_default:.0f}x faster than solve_ivp (target >= 200x), "
               f"{us_default:.1f} us per event (target <= 100 us on one core)")
-        kernel_us, steps, rejected = _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat)
+        kernel_us, steps, rejected, phases = _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat)
         best_us = ratio_default * us_default
         met = ratio_default >= 1000.0
         print(f"{'met ' if met else 'MISS'}  TARGET at least 1000x faster than the best equally accurate solve_ivp: "
@@ -199,6 +210,18 @@ def run(args) -> int:
               f"preallocated tables) takes {kernel_us:.1f} us ({100 * kernel_us / us_default:.0f} %): {steps} "
               f"accepted and {rejected} rejected DP5 steps, {1e3 * kernel_us / (steps + rejected):.0f} ns per "
               f"step; the Python around it {us_default - kernel_us:.1f} us")
+        print(f"      steps per phase (accepted + rejected): before the contact {phases[0][0]} + {phases[0][1]}, "
+              f"in the {contact_ms:.2f} ms contact {phases[1][0]} + {phases[1][1]}, in the "
+              f"{1e3 * t_end - contact_ms:.1f} ms of free flight {phases[2][0]} + {phases[2][1]}")
+        best_run = ref.run_hybrid(a0, ad0, th0, hz, t_end, p, law.beta, law.n, rig.mu, rtol=best_rtol,
+                                  atol=best_rtol * 1e-3, method=best_method)
+        evaluations = 6 * (steps + rejected)  # DP5 with first-same-as-last: six new stages per attempted step
+        ivp_ns = 1e3 * best_us / best_run["nfev"]
+        print(f"      where the ratio comes from: solve_ivp {best_method} made {best_run['nfev']} right-hand-side "
+              f"evaluations ({ivp_ns / 1e3:.1f} us each with its step's Python), the compiled kernel about "
+              f"{evaluations} (six per attempted step; {1e3 * kernel_us / evaluations:.0f} ns each with its "
+              f"step's work): {best_run['nfev'] / evaluations:.2f}x the evaluations at "
+              f"{ivp_ns / (1e3 * kernel_us / evaluations):.0f}x the cost each")
         if not met:
             where = ("so the miss is in the compiled steps, not in the per-event Python" if kernel_us > best_us / 1000
                      else "so the kernel alone would meet it: the miss is in the per-event Python")
