@@ -1087,7 +1087,8 @@ def _check_complete_ogg(path: Path, size: int) -> None:
     inside a page or after a page without the flag, and libsndfile then decodes the pages that are
     there without a word (it has no announced length to compare with, unlike WAV and FLAC). The last
     page is the last capture pattern within one page's length of the end whose header and segment
-    table account for exactly the bytes up to the end of the file.
+    table account for the bytes that follow it: up to the end of the file, or up to bytes that hold no
+    capture pattern (a tag or padding some writers append after the stream, which is ignored).
     """
     with open(path, "rb") as handle:
         handle.seek(max(0, size - _OGG_MAX_PAGE))
@@ -1099,16 +1100,20 @@ def _check_complete_ogg(path: Path, size: int) -> None:
         if len(header) == _OGG_HEADER and header[4] == 0:  # stream structure version 0
             n_segments = header[26]
             table = tail[start + _OGG_HEADER:start + _OGG_HEADER + n_segments]
-            if len(table) == n_segments and start + _OGG_HEADER + n_segments + sum(table) == len(tail):
-                if header[5] & _OGG_END_OF_STREAM:
-                    return
-                raise BounceFileError(f"{path}: truncated OGG file: its last page (at byte {base + start:,}) is not "
-                                      "the stream's last (no end-of-stream flag): a copy or a recording cut short; "
-                                      "re-save what is there with an audio editor to analyse it")
+            page_end = start + _OGG_HEADER + n_segments + sum(table)
+            if len(table) == n_segments and page_end <= len(tail):
+                if not header[5] & _OGG_END_OF_STREAM:
+                    raise BounceFileError(f"{path}: truncated OGG file: its last page (at byte {base + start:,}) is "
+                                          "not the stream's last (no end-of-stream flag): a copy or a recording cut "
+                                          "short; re-save what is there with an audio editor to analyse it")
+                return
+            if _OGG_CAPTURE not in tail[start + 1:]:  # the last page begun: it runs past the end of the file
+                raise BounceFileError(f"{path}: truncated OGG file: it ends inside a page (the page at byte "
+                                      f"{base + start:,} runs past its {size:,} bytes): a copy or a recording cut "
+                                      "short; re-save what is there with an audio editor to analyse it")
         start = tail.rfind(_OGG_CAPTURE, 0, start)
-    raise BounceFileError(f"{path}: truncated OGG file: it ends inside a page ({size:,} bytes; no complete page "
-                          "reaches the end): a copy or a recording cut short; re-save what is there with an audio "
-                          "editor to analyse it")
+    raise BounceFileError(f"{path}: truncated OGG file: no complete page within its last {len(tail):,} bytes: a "
+                          "copy or a recording cut short; re-save what is there with an audio editor to analyse it")
 
 
 def _audio_steps(frames: int, channels: int, rate: float) -> str:

@@ -145,7 +145,13 @@ def test_cut_ogg_is_refused_inside_a_page_and_at_a_page_boundary(tmp_path, capsy
     inside.write_bytes(data[: 2 * len(data) // 3])
     boundary = tmp_path / "boundary.ogg"
     boundary.write_bytes(data[: data.rfind(b"OggS")])  # the last page dropped whole: every page left is complete
-    for path, token in ((inside, "ends inside a page"), (boundary, "no end-of-stream flag")):
+    tagged = tmp_path / "tagged.ogg"  # a complete stream with a tag appended after it: read, the tag ignored
+    tagged.write_bytes(data + b"TAG" + bytes(125))
+    assert read_bounces(tagged).times.size == read_bounces(full).times.size
+    header_cut = tmp_path / "header_cut.ogg"  # cut inside the last page's header: the page before is mid-stream
+    header_cut.write_bytes(data[: data.rfind(b"OggS") + 10])
+    for path, token in ((inside, "ends inside a page"), (boundary, "no end-of-stream flag"),
+                        (header_cut, "no end-of-stream flag")):
         code, out, err = _run(["bounces", path], capsys)
         lines = err.strip().splitlines()
         assert code == 2 and out == "" and len(lines) == 1, err
