@@ -36,7 +36,7 @@ def installed_kernels() -> Path | None:
 def pytest_configure(config):
     """Point the session (and, by inheritance, the xdist workers) at the installed package's kernels.
 
-    Runs before the workers start; an explicit ``IMPACTID_SHIPPED_KERNELS`` (CI sets it) is kept.
+    Runs before the workers start; an explicit ``IMPACTID_SHIPPED_KERNELS`` is kept.
     """
     if not os.environ.get(SHIPPED_ENV):
         folder = installed_kernels()

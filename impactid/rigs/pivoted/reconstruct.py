@@ -462,7 +462,7 @@ def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: 
     impulsive = table["too_short"].to_numpy(dtype=bool)
     clean = ~(table["overlapping"] | table["clipped"]).to_numpy(dtype=bool)
     heads: list[PulseHead | None] = [None] * len(table)
-    rises: list[tuple[int, float]] = []
+    rises: list[int] = []
     for p in range(len(table)) if positions is None else positions:
         if p < 0 or p >= len(table) or impulsive[p] or not clean[p] or not math.isfinite(onset[p]):
             continue
@@ -472,14 +472,12 @@ def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: 
             onset[p] = head.onset
             t_onset[p] = recording.start_time_s + head.onset / rate_hz
             continue
-        exponent = _rise_exponent(angular, int(first[p]), float(onset[p]), noise)
-        if exponent is not None:
-            rises.append((p, exponent))
+        rises.append(p)
     # the onsets of resolved pulses whose rise is not one power law (the recording's median exponent of its first
     # two contact samples away from Hertz's 1.5): refined by the head model, each fit started from the last one's law
-    if rises and abs(float(np.median([e for _, e in rises])) - 1.5) > RISE_MODEL_EXPONENT_TOLERANCE:
+    if rises and _rises_not_one_power_law(angular, first, onset, impulsive, clean, noise):
         law = None
-        for p, _ in rises:
+        for p in rises:
             separation = (float(table["t_separation"].iloc[p]) - recording.start_time_s) * rate_hz
             rise, fitted = _fit_rise_onset(angular, int(first[p]), float(onset[p]), separation, 1.0 / rate_hz, rig,
                                            noise, law)
@@ -1259,13 +1257,29 @@ def _fit_pulse_head(angular: np.ndarray, k0: int, onset_guess: float, dt: float,
                      rise_integral=float(rise), misfit=misfit)
 
 
+def _rises_not_one_power_law(angular: np.ndarray, first: np.ndarray, onset: np.ndarray, impulsive: np.ndarray,
+                             clean: np.ndarray, noise: float) -> bool:
+    """Whether a recording's contact rises are not one power law: the median over all its clean, resolved pulses
+    of :func:`_rise_exponent` more than :data:`RISE_MODEL_EXPONENT_TOLERANCE` from Hertz's 1.5. Decided over the
+    whole recording, so that a call for a few pulses (:func:`event_kinematics`) decides as the reconstruction did.
+    ``first`` and ``onset`` [samples] are the pulses' first contact samples and the event detector's onsets."""
+    exponents = []
+    for p in range(first.size):
+        if impulsive[p] or not clean[p] or not math.isfinite(onset[p]):
+            continue
+        exponent = _rise_exponent(angular, int(first[p]), float(onset[p]), noise)
+        if exponent is not None:
+            exponents.append(exponent)
+    return bool(exponents) and abs(float(np.median(exponents)) - 1.5) > RISE_MODEL_EXPONENT_TOLERANCE
+
+
 def _rise_exponent(angular: np.ndarray, k0: int, onset_guess: float, noise: float) -> float | None:
     """The exponent ``p`` of the power law ``c (t - t0)^p`` through the first two contact samples of a pulse whose
     first contact sample is ``k0`` and whose onset the event detector put at ``onset_guess`` [samples]; None where
     there is no baseline, the first contact sample is below :data:`EDGE_SNR` times the ``noise`` floor [rad/s^2]
     (noisy rises keep the detector's least-squares onset) or the rise does not grow."""
     baseline = _head_baseline(angular, k0)
-    if baseline is None or k0 + RISE_MODEL_SAMPLES > angular.size:
+    if baseline is None or k0 + RISE_MODEL_SAMPLES > angular.size or not math.isfinite(onset_guess):
         return None
     contact = angular[k0:k0 + 2] - baseline(np.arange(k0, k0 + 2))
     if not (contact[0] > EDGE_SNR * noise and contact[1] > contact[0]):
@@ -1281,8 +1295,8 @@ def _fit_rise_onset(angular: np.ndarray, k0: int, onset_guess: float, separation
     Hunt–Crossley head model (:class:`PulseHead`'s, :func:`_head_model`) fitted to its first
     :data:`RISE_MODEL_SAMPLES` contact samples; None where the first contact sample is below :data:`EDGE_SNR`
     times the ``noise`` floor [rad/s^2] (the event detector's least-squares onset is the one for noisy rises),
-    the model does not fit (rms misfit above :data:`RISE_MODEL_MISFIT`) or puts the onset outside the sample
-    interval before ``k0``.
+    the noise floor exceeds :data:`RISE_MODEL_MISFIT` of the peak (no fit could be that close), the model does not
+    fit (rms misfit above :data:`RISE_MODEL_MISFIT`) or puts the onset outside the sample interval before ``k0``.
 
     The event detector takes the onset from a single power law ``c (t - t0)^p`` through the first three contact
     samples (Hertz: ``p = 1.5`` at first touch). The Hunt–Crossley force ``k_H delta^1.5 + beta delta^n delta'``
@@ -1312,6 +1326,8 @@ def _fit_rise_onset(angular: np.ndarray, k0: int, onset_guess: float, separation
     if not (contact[0] > EDGE_SNR * noise and contact[1] > contact[0]):
         return None, None
     peak = float(np.max(np.abs(contact)))
+    if not noise <= RISE_MODEL_MISFIT * peak:  # the model could not fit within the misfit asked: no time spent
+        return None, None
     times = (idx - k0) * dt
     lever = HEAD_MODEL_LEVER
     s0 = min(max(k0 - onset_guess, 0.02), 0.98)
