@@ -1168,6 +1168,22 @@ def _head_model(t0, v0, a_coef, b_coef, q, lever, times, substeps, out_acc, out_
         out_rate[k] = v
 
 
+def _head_residual(times: np.ndarray, deviation: np.ndarray, peak: float, dt: float):
+    """The residuals of the head model (:func:`_head_model`) against ``deviation`` [rad/s^2] at ``times`` [s], in
+    fractions of ``peak``, as a function of its parameters ``x``: the onset [samples of ``dt``], the logs of the
+    approach speed and of the two coefficients, the exponent (a non-finite value counts as 1e6)."""
+    acc = np.empty(times.size)
+    rate = np.empty(times.size)
+
+    def residual(x):
+        _head_model(x[0] * dt, math.exp(x[1]), math.exp(x[2]), math.exp(x[3]), x[4], HEAD_MODEL_LEVER, times,
+                    HEAD_MODEL_SUBSTEPS, acc, rate)
+        out = (acc - deviation) / peak
+        return np.where(np.isfinite(out), out, 1e6)
+
+    return residual
+
+
 def _head_baseline(angular: np.ndarray, k0: int):
     """The free-flight baseline under a pulse whose first contact sample is ``k0``: the least-squares
     line through the :data:`HEAD_BASELINE_SAMPLES` samples before it (a function of sample indices),
@@ -1212,14 +1228,7 @@ def _fit_pulse_head(angular: np.ndarray, k0: int, onset_guess: float, dt: float,
     a0 = lever * rig.k_H / rig.I_b
     t_peak = (j_peak + s0) * dt
     d_peak, v_peak = 0.5 * v0 * t_peak, 0.5 * v0
-    acc = np.empty(times.size)
-    rate = np.empty(times.size)
-
-    def residual(x):
-        _head_model(x[0] * dt, math.exp(x[1]), math.exp(x[2]), math.exp(x[3]), x[4], lever, times,
-                    HEAD_MODEL_SUBSTEPS, acc, rate)
-        out = (acc - dev) / peak
-        return np.where(np.isfinite(out), out, 1e6)
+    residual = _head_residual(times, dev, peak, dt)
 
     fit = None
     for q in (q0, 1.5) if abs(q0 - 1.5) > 0.05 else (q0,):  # the damping-dominated and the Hertzian start
@@ -1339,14 +1348,7 @@ def _fit_rise_onset(angular: np.ndarray, k0: int, onset_guess: float, separation
         return None, None
     a0 = lever * rig.k_H / rig.I_b
     t_last = (RISE_MODEL_SAMPLES - 1 + s0) * dt
-    acc = np.empty(times.size)
-    rate = np.empty(times.size)
-
-    def residual(x):
-        _head_model(x[0] * dt, math.exp(x[1]), math.exp(x[2]), math.exp(x[3]), x[4], lever, times,
-                    HEAD_MODEL_SUBSTEPS, acc, rate)
-        out = (acc - dev) / peak
-        return np.where(np.isfinite(out), out, 1e6)
+    residual = _head_residual(times, dev, peak, dt)
 
     # the fit has local minima: started from the last pulse's law, then from the plastic and the elastic approach
     # speed and from half of the plastic one, each with the damping-dominated and the Hertzian exponent, until one
