@@ -1042,6 +1042,8 @@ _DTYPE_SCALE = {"int16": 2.0 ** -15, "int32": 2.0 ** -31, "int64": 2.0 ** -63, "
 #: Most positive sample of each encoding [full scale]: samples at or above it are clipped.
 _FULL_SCALE = {"uint8": 127 / 128, "int8": 127 / 128, "int16": 32767 / 32768, "int24": (2 ** 23 - 1) / 2 ** 23,
                "int32": (2 ** 31 - 1) / 2 ** 31}
+#: libsndfile's frame count of a file whose length it cannot tell (SF_COUNT_MAX, 2^63 - 1), and above.
+_UNKNOWN_FRAMES = 2 ** 62
 #: RIFF sizes that streaming writers leave when they do not know the length.
 _UNKNOWN_RIFF_SIZES = (0, 0xFFFFFFFF)
 
@@ -1132,6 +1134,10 @@ def _read_soundfile(path: Path, kind: str) -> Audio:
     frames, channels, rate = int(info.frames), int(info.channels), float(info.samplerate)
     if channels <= 0 or rate <= 0:
         raise BounceFileError(f"{path}: {kind} header gives {channels} channel(s) at {rate:g} Hz")
+    if frames >= _UNKNOWN_FRAMES:
+        raise BounceFileError(f"{path}: the decoder cannot tell the length of this {kind} file (libsndfile "
+                              f"{soundfile.__libsndfile_version__}; bytes after its stream, or a damaged end); "
+                              "re-save it with an audio editor, or update soundfile")
     dtype, encoding = _SUBTYPES.get(info.subtype, ("float32", str(info.subtype).lower()))
     itemsize = np.dtype(dtype).itemsize
     _check_memory(path, frames * channels * itemsize + memory_needed(frames, channels, itemsize),
@@ -1222,9 +1228,9 @@ def read_audio(path: str | os.PathLike[str]) -> Audio:
     if kind == "WAV":
         _check_complete_riff(path, head, size)
     if soundfile is not None:
-        audio = _read_soundfile(path, kind)
-        if kind == "OGG":  # after the decoder: a file that is not Ogg at all keeps its "not readable" message
+        if kind == "OGG":  # before the decoder, which cannot tell the length of a cut stream (libsndfile 1.2.0)
             _check_complete_ogg(path, size)
+        audio = _read_soundfile(path, kind)
     elif kind == "WAV" and head[:4] == b"RIFF":
         audio = _read_scipy_wav(path, size)
     else:
