@@ -255,10 +255,6 @@ def general_recording(case: E.Case, settle: float = SETTLE_GENERAL_S):
     chaotic (pk00: 1 or 0.7 impacts per revolution); another machine, compiler or kernel build may then
     record the other one. :func:`settling_check` says which cases are so, and the validation's page shows
     it beside each case (benchmarks/envelope_notes.md, "Reproducible recordings")."""
-    import math as _math
-
-    from impactid import SUNDAR2016, HuntCrossley
-    from impactid.rigs.pivoted.runs import simulate
     from impactid.rigs.pivoted.synth import synth_pivoted
     from tests.rigs.pivoted import reference_recordings as RR
 
@@ -279,7 +275,7 @@ def general_recording(case: E.Case, settle: float = SETTLE_GENERAL_S):
     state = simulate(rig, case.cam_speed_hz, law, t_section, t_eval=[t_section], mu=case.mu)
     hc = RR._law({"kind": "hunt-crossley", "beta": case.beta, "n": case.n})
     orbit = RR.PeriodicOrbit(state=np.array([state.alpha[0], state.alpha_dot[0]]),
-                             section_phase=(2 * _math.pi * case.cam_speed_hz * t_section) % (2 * _math.pi),
+                             section_phase=(2 * math.pi * case.cam_speed_hz * t_section) % (2 * math.pi),
                              cam_speed_hz=float(case.cam_speed_hz), period=period, law=hc, mu=case.mu,
                              multipliers=np.zeros(2, complex), jacobian=np.eye(2), residual=np.zeros(2),
                              contacts_per_revolution=0, contacts=[])
@@ -516,7 +512,7 @@ def damping_values(result, beta: float, n: float | None = None) -> dict:
     if n is not None:
         values.update(n=d.n, n_lo=d.n_interval[0], n_hi=d.n_interval[1], n_error=d.n - n,
                       n_covered=bool(d.n_interval[0] <= n <= d.n_interval[1]), separable=d.separable,
-                      left_out=any("left out of the joint fit" in w for w in notes))
+                      left_out=E.left_out_of_joint_fit(notes))
         wrong = wrong or confident_wrong(d.n, d.n_interval, n)
     values["confident_wrong"] = bool(wrong)
     return values

@@ -84,6 +84,12 @@ class Case:
                            accel_drift=self.accel_drift, decimation=self.decimation, seed=self.seed)
 
 
+def left_out_of_joint_fit(notes) -> bool:
+    """Whether a joint fit's notes say that a recording was left out of it (``impactid.rigs.pivoted.estimation``'s
+    note of a partial fit: the other recordings' fit, the unusable one named)."""
+    return any("left out of the joint fit" in note for note in notes)
+
+
 def _period1(e_over_rc: float, cam_speed_hz: float, law, mu: float) -> bool:
     from impactid.rigs.pivoted.regimes import classify_regime
 
@@ -272,8 +278,7 @@ def run_case(case: Case, joint: bool = True) -> dict:
                               "n_covered": bool(d.n_interval[0] <= case.n <= d.n_interval[1]),
                               "failed_simulations": d.n_failed_simulations,
                               "verdict": str((d.model_check or {}).get("verdict", "not checked")),
-                              "left_out": any("left out of the joint fit" in w
-                                              for w in tuple(result.warnings) + tuple(d.warnings))}
+                              "left_out": left_out_of_joint_fit(tuple(result.warnings) + tuple(d.warnings))}
                 if not d.separable:
                     out.reason = "not separable: " + next((w for w in d.warnings if "not separable" in w), "")
             outcomes.append(out)

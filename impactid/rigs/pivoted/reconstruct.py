@@ -1124,7 +1124,7 @@ RISE_MODEL_MISFIT = 1e-4
 #: first two contact samples (:func:`_rise_exponent`) more than this away from Hertz's 1.5. A Hunt–Crossley force
 #: with ``n`` at or above 1.5 starts as Hertz's power (its damping term rises as fast or faster), the three-sample
 #: law is then unbiased (noise-free envelope cases with n 1.58-1.73: exponents 1.500-1.515, the head model's onsets
-#: within 0.007 samples of the detector's), and the fit, 20-50 ms a pulse, is not run.
+#: within 0.007 samples of the detector's), and the fit, 5-6 ms a pulse, is not run.
 RISE_MODEL_EXPONENT_TOLERANCE = 0.05
 
 
@@ -1184,6 +1184,12 @@ def _head_residual(times: np.ndarray, deviation: np.ndarray, peak: float, dt: fl
     return residual
 
 
+def _two_sample_exponent(first: float, second: float, s: float) -> float:
+    """The exponent ``p`` of the power law ``c (t - t0)^p`` through a pulse's first two contact samples ``first``
+    and ``second`` (above its baseline) when its onset lies ``s`` samples before the first."""
+    return math.log(second / first) / math.log((1.0 + s) / s)
+
+
 def _head_baseline(angular: np.ndarray, k0: int):
     """The free-flight baseline under a pulse whose first contact sample is ``k0``: the least-squares
     line through the :data:`HEAD_BASELINE_SAMPLES` samples before it (a function of sample indices),
@@ -1221,7 +1227,7 @@ def _fit_pulse_head(angular: np.ndarray, k0: int, onset_guess: float, dt: float,
     s0 = min(max(k0 - onset_guess, 0.05), 0.95)
     q0 = 1.3
     if contact[0] > 0.0 and contact[1] > contact[0]:
-        q0 = min(max(math.log(contact[1] / contact[0]) / math.log((1.0 + s0) / s0), 0.8), 2.5)
+        q0 = min(max(_two_sample_exponent(contact[0], contact[1], s0), 0.8), 2.5)
     v0 = lever * float(np.sum(dev)) * dt
     if not v0 > 0.0:
         return None
@@ -1294,7 +1300,7 @@ def _rise_exponent(angular: np.ndarray, k0: int, onset_guess: float, noise: floa
     if not (contact[0] > EDGE_SNR * noise and contact[1] > contact[0]):
         return None
     s0 = min(max(k0 - onset_guess, 0.02), 0.98)
-    return math.log(contact[1] / contact[0]) / math.log((1.0 + s0) / s0)
+    return _two_sample_exponent(contact[0], contact[1], s0)
 
 
 def _fit_rise_onset(angular: np.ndarray, k0: int, onset_guess: float, separation: float, dt: float,
@@ -1340,7 +1346,7 @@ def _fit_rise_onset(angular: np.ndarray, k0: int, onset_guess: float, separation
     times = (idx - k0) * dt
     lever = HEAD_MODEL_LEVER
     s0 = min(max(k0 - onset_guess, 0.02), 0.98)
-    q0 = min(max(math.log(contact[1] / contact[0]) / math.log((1.0 + s0) / s0), 0.8), 2.5)
+    q0 = min(max(_two_sample_exponent(contact[0], contact[1], s0), 0.8), 2.5)
     # the approach speed from the pulse's rate change: between once (plastic) and twice (elastic) the speed
     area = np.arange(k0, end)
     change = lever * float(np.sum(angular[area] - baseline(area))) * dt
