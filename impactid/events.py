@@ -211,6 +211,31 @@ MAX_TAIL_MOVES = 64
 #: rides the cam after it (the envelope's riding cases: 16 % and 32 %; nearly plastic impacts of the
 #: documented laws, restitution down to 0.0017: at most 6 %, a 4.9 ms contact at 12 Hz).
 RIDING_FRACTION = 0.1
+#: A rise whose clear part starts at this fraction of the pulse's peak (:func:`_ringing_level`) ...
+RINGING_CLEAR = 0.01
+#: ... and the onset threshold this many times the largest deviation before it, where the deviation
+#: before it goes negative beyond the threshold (the ringing of a linear-phase anti-alias filter).
+RINGING_FACTOR = 2.0
+
+
+def _ringing_level(dev: np.ndarray, threshold: float, peak: float) -> float:
+    """The onset threshold that a band-limited (anti-alias filtered) rise needs: ``RINGING_FACTOR`` times the
+    largest deviation before the rise's clear part where that deviation swings below ``-threshold``, else 0.
+
+    A contact only pushes (the pulse is positive): a deviation below the free-flight baseline by more than the
+    noise just before the rise is the ringing that a linear-phase anti-alias filter puts ahead of a sharp
+    rise (it alternates in sign, at 1e-4 to 1e-3 of the peak for 51.2 kHz recordings of a 0.5 ms contact);
+    its positive lobes are not contact, and the first contact sample is the first above them.
+    """
+    clear = np.flatnonzero(dev > RINGING_CLEAR * abs(peak))
+    if clear.size == 0 or clear[0] == 0:
+        return 0.0
+    ahead = dev[:clear[0]]
+    if not np.any(ahead < -threshold):
+        return 0.0
+    return RINGING_FACTOR * float(np.max(np.abs(ahead)))
+
+
 #: Most events in one period of the motion the pattern check looks for (:func:`_motion_pattern`).
 MAX_PATTERN_EVENTS = 12
 #: Share of the onsets that must recur for a pattern to be the motion's (the rest: a transient).
@@ -660,7 +685,7 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
     to_fit: list[tuple[int, _Quadratic, int, float, float]] = []  # (row, baseline, k0, peak, guess) of noisy rises
     for cs, ce in zip(starts, ends):
         peak_index = cs + int(np.argmax(x[cs:ce]))
-        flags = {"truncated": False, "too_short": False, "overlapping": False, "clipped": False}
+        flags = {"truncated": False, "too_short": False, "overlapping": False, "clipped": False, "ringing": False}
         # onset: baseline before the core
         b_lo, b_hi = cs - BASELINE_GAP - BASELINE_LENGTH, cs - BASELINE_GAP
         search = np.arange(b_hi, cs + 1)
@@ -674,6 +699,9 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         dev = x[search] - base
         peak = float(x[peak_index] - base[-1])
         othr = float(onset_threshold) if onset_threshold is not None else max(5.0 * sigma, 1e-6 * abs(peak))
+        ringing = _ringing_level(dev, othr, peak) if onset_threshold is None else 0.0
+        flags["ringing"] = ringing > othr
+        othr = max(othr, ringing)
         below = np.flatnonzero(dev <= othr)
         k0 = int(search[below[-1]] + 1) if below.size else int(search[0])
         rise = x[k0:k0 + 3] - before(np.arange(k0, k0 + 3))
@@ -736,7 +764,8 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
                              f"{recording.units.get(channel, '')} above the median {level:.4g}; noise floor "
                              f"{sigma:.3g})")
     table = pd.DataFrame(rows, columns=["onset_index", "t_onset", "separation_index", "t_separation", "peak",
-                                        "contact_samples", "truncated", "too_short", "overlapping", "clipped"])
+                                        "contact_samples", "truncated", "too_short", "overlapping", "clipped",
+                                        "ringing"])
     table["onset_index"] = table["onset_index"].astype(np.int64)
     table["separation_index"] = table["separation_index"].astype(np.int64)
     table.insert(4, "t_next", np.append(table["t_onset"].to_numpy()[1:], np.nan))

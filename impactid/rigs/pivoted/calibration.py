@@ -63,14 +63,24 @@ class PipelineBias:
     alpha_m: float
     stderr: float
     events: int
+    phase: float = math.nan
+    phase_stderr: float = math.nan
 
     @property
     def significant(self) -> bool:
         """Whether the bias stands out of its own uncertainty (more than two standard errors)."""
         return bool(math.isfinite(self.alpha_m) and abs(self.alpha_m) > 2.0 * self.stderr)
 
+    @property
+    def phase_measured(self) -> bool:
+        """Whether a cam-phase bias was measured (band-limited recordings only, with its standard error)."""
+        return bool(math.isfinite(self.phase) and math.isfinite(self.phase_stderr))
+
     def to_dict(self) -> dict:
-        return {"alpha_m": self.alpha_m, "stderr": self.stderr, "events": self.events}
+        out = {"alpha_m": self.alpha_m, "stderr": self.stderr, "events": self.events}
+        if math.isfinite(self.phase):
+            out.update(phase=self.phase, phase_stderr=self.phase_stderr)
+        return out
 
 
 @dataclass(frozen=True)
@@ -95,9 +105,12 @@ class RecordingSampling:
     start_time_s: float
     duration: float
     noise_fraction: float
+    decimation: int = 1
+    onset_fraction: float = math.nan
 
     @classmethod
-    def of(cls, recording, noise_sigma: float | None = None) -> RecordingSampling:
+    def of(cls, recording, noise_sigma: float | None = None, band_limited: bool = False,
+           onset_time_s: float = math.nan) -> RecordingSampling:
         """The sampling of a :class:`~impactid.io.Recording` (with a rig, a cam speed and ``accel_tangential``).
 
         ``noise_sigma`` is the accelerometer's noise floor [m/s^2] where it is known already (the
@@ -108,9 +121,25 @@ class RecordingSampling:
         sigma = noise_floor(accel) if noise_sigma is None else float(noise_sigma)
         lo, hi = recording.channel_range("accel_tangential")  # the largest magnitude, without a pass over it
         fraction = sigma / max(abs(lo), abs(hi), 1e-300)
+        rate = float(recording.sample_rate_hz)
         return cls(rig=recording.rig, cam_speed_hz=float(recording.require_cam_speed()),
-                   sample_rate_hz=float(recording.sample_rate_hz), start_time_s=float(recording.start_time_s),
-                   duration=float(recording.duration), noise_fraction=float(fraction))
+                   sample_rate_hz=rate, start_time_s=float(recording.start_time_s),
+                   duration=float(recording.duration), noise_fraction=float(fraction),
+                   decimation=band_limited_decimation(rate) if band_limited else 1,
+                   onset_fraction=((float(onset_time_s) - float(recording.start_time_s)) * rate) % 1.0
+                   if band_limited and math.isfinite(onset_time_s) else math.nan)
+
+
+#: The rate [Hz] at which the calibration of a band-limited recording simulates before its anti-alias
+#: filter and decimation (:func:`band_limited_decimation`).
+FILTER_SOURCE_RATE_HZ = 204_800.0
+
+
+def band_limited_decimation(sample_rate_hz: float) -> int:
+    """The decimation factor with which the calibration reproduces a band-limited recording at
+    ``sample_rate_hz`` [Hz]: simulated at :data:`FILTER_SOURCE_RATE_HZ` or more, then low-passed by a
+    linear-phase filter at the recording's Nyquist frequency and decimated (at least 2)."""
+    return max(2, int(math.ceil(FILTER_SOURCE_RATE_HZ / float(sample_rate_hz) - 1e-9)))
 
 
 def calibration_duration(sampling: RecordingSampling) -> float:
@@ -149,7 +178,8 @@ def pipeline_bias(recording, law, *, integration="rk", anchor: str = "cam-phase"
     # the measurement's duration does not decide the calibration: one cache entry per operating point
     key = RecordingSampling(rig=sampling.rig, cam_speed_hz=sampling.cam_speed_hz,
                             sample_rate_hz=sampling.sample_rate_hz, start_time_s=max(sampling.start_time_s, SETTLE_S),
-                            duration=calibration_duration(sampling), noise_fraction=sampling.noise_fraction)
+                            duration=calibration_duration(sampling), noise_fraction=sampling.noise_fraction,
+                            decimation=sampling.decimation, onset_fraction=sampling.onset_fraction)
     try:
         hash((key, law))
     except TypeError:  # an unhashable rig or law (not the package's own): measured without the cache
@@ -171,18 +201,34 @@ def _measure_bias(sampling: RecordingSampling, law, integration: str, anchor: st
     from impactid.rigs.pivoted.synth import synth_pivoted
     from impactid.synth import SensorModel
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        synthetic = synth_pivoted(sampling.rig, sampling.cam_speed_hz, law, sampling.duration,
-                                  settle_s=sampling.start_time_s, sample_rate_hz=sampling.sample_rate_hz,
-                                  mu=sampling.rig.mu,
-                                  sensors=SensorModel(noise={"accel_tangential": sampling.noise_fraction}, seed=seed),
-                                  channels=("accel_tangential",))
-        try:
-            recon = reconstruct(synthetic.recording, find_events(synthetic.recording, warn=False),
-                                integration=integration, anchor=anchor, warn=False)
-        except Exception:  # noqa: BLE001 - a calibration that cannot run leaves the estimate as it is
-            return PipelineBias(math.nan, math.nan, 0)
+    def model_recording(start_time_s: float):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            synthetic = synth_pivoted(sampling.rig, sampling.cam_speed_hz, law, sampling.duration,
+                                      settle_s=start_time_s, sample_rate_hz=sampling.sample_rate_hz,
+                                      mu=sampling.rig.mu,
+                                      sensors=SensorModel(noise={"accel_tangential": sampling.noise_fraction},
+                                                          seed=seed, decimation=sampling.decimation),
+                                      channels=("accel_tangential",))
+            try:
+                return synthetic, reconstruct(synthetic.recording, find_events(synthetic.recording, warn=False),
+                                              integration=integration, anchor=anchor, warn=False)
+            except Exception:  # noqa: BLE001 - a calibration that cannot run leaves the estimate as it is
+                return synthetic, None
+
+    start = sampling.start_time_s
+    synthetic, recon = model_recording(start)
+    if recon is not None and sampling.decimation > 1 and math.isfinite(sampling.onset_fraction) and len(recon.table):
+        # a band-limited onset's error depends on where the onset falls between two samples, and in periodic
+        # motion the onsets fall at a few recurring places: the model's recording is sampled again with its
+        # onsets where the measurement's are (the sampling grid moved by the difference)
+        first = (float(recon.table["t_onset"].iloc[0]) - start) * sampling.sample_rate_hz
+        shift = (sampling.onset_fraction - first) % 1.0
+        shift = shift - 1.0 if shift > 0.5 else shift
+        start = start - shift / sampling.sample_rate_hz
+        synthetic, recon = model_recording(start)
+    if recon is None:
+        return PipelineBias(math.nan, math.nan, 0)
     apex_t = np.asarray(synthetic.truth["apexes"]["t"], dtype=float)
     apex_a = np.asarray(synthetic.truth["apexes"]["alpha"], dtype=float)
     order = np.argsort(apex_t, kind="stable")
@@ -197,7 +243,13 @@ def _measure_bias(sampling: RecordingSampling, law, integration: str, anchor: st
     errors = np.array([alpha_m[i] / float(np.max(apex_a[lo[i]:hi[i]])) - 1.0
                        for i in range(alpha_m.size) if hi[i] > lo[i]])
     errors = errors[np.isfinite(errors)]
+    phase, phase_stderr = math.nan, math.nan
+    if sampling.decimation > 1 and math.isfinite(recon.cam_phase):
+        # the recording's cam phase is Theta at its first sample; the simulation's is theta_ref (0) at t = 0
+        true_phase = 2.0 * math.pi * sampling.cam_speed_hz * start
+        phase = float(np.angle(np.exp(1j * (recon.cam_phase - true_phase))))
+        phase_stderr = float(recon.cam_phase_stderr)
     if errors.size < 2:
-        return PipelineBias(math.nan, math.nan, int(errors.size))
+        return PipelineBias(math.nan, math.nan, int(errors.size), phase, phase_stderr)
     return PipelineBias(float(np.mean(errors)), float(np.std(errors, ddof=1) / math.sqrt(errors.size)),
-                        int(errors.size))
+                        int(errors.size), phase, phase_stderr)

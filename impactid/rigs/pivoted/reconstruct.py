@@ -223,6 +223,15 @@ class Reconstruction:
         return len(self.table)
 
     @property
+    def band_limited(self) -> bool:
+        """Whether the recording is band-limited: most of its used pulses' rises are preceded by the ringing of
+        a linear-phase anti-alias filter (the event detector's ``ringing`` flag)."""
+        table = self.events.table
+        if "ringing" not in table or len(self.table) == 0:
+            return False
+        return bool(table.loc[self.table.index, "ringing"].to_numpy(dtype=bool).mean() > 0.5)
+
+    @property
     def operating_point(self) -> dict:
         """The recording's operating point: cam speed [Hz] and eccentricity ratio ``e/r_c``."""
         return {"cam_speed_hz": self.cam_speed_hz, "e_over_rc": self.rig.e_over_rc}
@@ -401,6 +410,10 @@ def _integrate_events(recording: Recording, rig: RigParameters, events: EventTab
     accs = [w.acceleration for w in windows]
     angle_onset, rate_onset, rate_after = _onset_states(angular, k0, ka, onset_offset, head_change, impulsive,
                                                         angles, rates, accs, dt)
+    band = np.array([math.isfinite(w.onset_rate) for w in windows], dtype=bool)
+    if band.any():
+        rate_onset = np.where(band, [w.onset_rate for w in windows], rate_onset)
+        angle_onset = np.where(band, [w.onset_angle for w in windows], angle_onset)
     free_samples = k1 - ka
     delay = np.maximum(ANCHOR_MARGIN, np.minimum(round(ANCHOR_SEPARATION_DELAY * rate_hz), free_samples // 4))
     return EventWindows(
@@ -447,6 +460,7 @@ class _Pulses:
     impulsive: np.ndarray
     period_end: np.ndarray
     heads: tuple
+    ringing: np.ndarray | None = None
 
 
 def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: RigParameters, noise: float,
@@ -465,6 +479,8 @@ def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: 
     rises: list[int] = []
     for p in range(len(table)) if positions is None else positions:
         if p < 0 or p >= len(table) or impulsive[p] or not clean[p] or not math.isfinite(onset[p]):
+            continue
+        if "ringing" in table and bool(table["ringing"].iloc[p]):
             continue
         head = _fit_pulse_head(angular, int(first[p]), float(onset[p]), 1.0 / rate_hz, rig, noise)
         if head is not None:
@@ -487,7 +503,8 @@ def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: 
                 t_onset[p] = recording.start_time_s + rise / rate_hz
     return _Pulses(first=first, onset=onset, t_onset=t_onset,
                    separation=(table["t_separation"].to_numpy() - recording.start_time_s) * rate_hz,
-                   impulsive=impulsive, period_end=table["period_end"].to_numpy(), heads=tuple(heads))
+                   impulsive=impulsive, period_end=table["period_end"].to_numpy(), heads=tuple(heads),
+                   ringing=table["ringing"].to_numpy(dtype=bool) if "ringing" in table else None)
 
 
 @dataclass(frozen=True)
@@ -505,6 +522,8 @@ class _WindowIntegral:
     next_offset: float
     head_rate_change: float
     tail_rate_change: float
+    onset_rate: float = math.nan
+    onset_angle: float = math.nan
 
 
 def _window_integral(angular: np.ndarray, pulses: _Pulses, position: int, dt: float, integration,
@@ -524,6 +543,8 @@ def _window_integral(angular: np.ndarray, pulses: _Pulses, position: int, dt: fl
     onset_offset = float(k0 - pulses.onset[p])
     next_offset = float(k1 - pulses.onset[p + 1])
     end_offset = float(kend - pulses.onset[q])
+    if pulses.ringing is not None and pulses.ringing[p] and k0 - RINGING_LEAD - RINGING_FIT >= 0:
+        return _band_limited_window(angular, k0, k1, kend, onset_offset, next_offset, end_offset, dt, integration)
     n = kend - k0
     edges: list[PowerLawEdge] = []
     correction = None
@@ -553,6 +574,46 @@ def _window_integral(angular: np.ndarray, pulses: _Pulses, position: int, dt: fl
         _free_tail_rate_change(angular, np.array([k1]), np.array([next_offset]), dt)[0])
     return _WindowIntegral(acceleration=add[:own], rate=rate[:own], angle=angle[:own], onset_offset=onset_offset,
                            next_offset=next_offset, head_rate_change=head_change, tail_rate_change=tail_change)
+
+
+#: Samples before the first contact sample where a band-limited (anti-alias filtered) event's window starts,
+#: clear of the filter's ringing ahead of the rise (:func:`_band_limited_window`) ...
+RINGING_LEAD = 24
+#: ... and the samples of free flight before that, to which the free-flight acceleration is fitted.
+RINGING_FIT = 48
+
+
+def _band_limited_window(angular, k0, k1, kend, onset_offset, next_offset, end_offset, dt, integration):
+    """The window of a band-limited event: one period from :data:`RINGING_LEAD` samples before the first
+    contact sample (free flight, clear of the filter's ringing), integrated without edge corrections
+    (the quadrature of a band-limited pulse needs none), and the onset state carried from the window's
+    start to the onset along the free-flight acceleration (a quadratic fitted to the
+    :data:`RINGING_FIT` samples before it)."""
+    lead = RINGING_LEAD
+    lo = k0 - lead
+    n = kend - k0
+    a = np.asarray(angular[lo:kend], dtype=float)
+    tail = 1.0 - end_offset + onset_offset
+    span = EventSpan(head=0.0, tail=tail, head_rate_change=0.0, tail_rate_change=float(a[n - 1]) * tail * dt)
+    add_p, rate_p, _ = detrend_integrate(a[:n], dt, integration, span=span)
+    bias = float(a[0] - add_p[0])
+    integral = get_integrator(integration)
+    add = a - bias
+    rate = integral(add, dt) + float(rate_p[0])
+    angle = integral(rate, dt)
+    # free flight before the window: acceleration c0 + c1 u + c2 u^2, u in samples from the window's start
+    u_fit = np.arange(-RINGING_FIT, 0, dtype=float)
+    c2, c1, c0 = np.polyfit(u_fit, np.asarray(angular[lo - RINGING_FIT:lo], dtype=float) - bias, 2)
+    s_on = lead - onset_offset
+    onset_rate = float(rate[0]) + dt * (c0 * s_on + c1 * s_on ** 2 / 2.0 + c2 * s_on ** 3 / 3.0)
+    onset_angle = float(angle[0]) + dt * (float(rate[0]) * s_on
+                                          + dt * (c0 * s_on ** 2 / 2.0 + c1 * s_on ** 3 / 6.0 + c2 * s_on ** 4 / 12.0))
+    own = k1 - k0
+    head_change = float(rate[lead]) - onset_rate
+    tail_change = float(add[lead + own - 1] + bias) * (1.0 - next_offset) * dt
+    return _WindowIntegral(acceleration=add[lead:lead + own], rate=rate[lead:lead + own], angle=angle[lead:lead + own],
+                           onset_offset=onset_offset, next_offset=next_offset, head_rate_change=head_change,
+                           tail_rate_change=tail_change, onset_rate=onset_rate, onset_angle=onset_angle)
 
 
 def _onset_states(angular: np.ndarray, k0: np.ndarray, ka: np.ndarray, onset_offset: np.ndarray,
