@@ -12,7 +12,8 @@ against a local free-flight baseline:
    ``max(10 sigma, 2 % of the largest excursion)``), merged across gaps of up to :data:`CORE_GAP` samples;
 3. **onset** of each pulse: a quadratic free-flight baseline is fitted to the 64 samples that end
    16 samples before the core; the first contact sample is the first of the samples from which
-   the deviation stays above ``onset_threshold`` (default ``max(5 sigma, 1e-6 x peak)``). The
+   the deviation stays above ``onset_threshold`` (default ``max(5 sigma, 1e-6 x peak)``, raised above the
+   ringing that a linear-phase anti-alias filter puts ahead of the rise, :func:`_ringing_level`). The
    onset time ``t_onset`` is refined within the preceding sample interval by fitting the rise
    ``c (t - t0)^p`` (Hertz: ``p = 1.5`` at first touch) to the first three contact samples;
 4. **separation** ``t_a``: the same from the other side (baseline after the pulse); then, because a
@@ -29,7 +30,8 @@ against a local free-flight baseline:
 Quality flags per event: ``truncated`` (no room for a baseline before the pulse, or no next
 onset: not usable), ``too_short`` (fewer than 3 samples of contact: an impulse, i.e. an
 instantaneous impact; its time is the centroid of the pulse and the reconstruction treats it as
-a velocity jump), ``overlapping`` (the next
+a velocity jump), ``ringing`` (the rise is preceded by an anti-alias filter's ringing: a band-limited
+recording, docs/estimation.md), ``overlapping`` (the next
 pulse starts within the post-contact baseline window), ``clipped`` (the pulse reaches the
 channel's extreme value for 3 or more samples), ``chattering`` (more than one contact within one
 cam revolution), ``periodic`` (the onset recurs one period of the motion later or earlier),
@@ -225,7 +227,8 @@ def _ringing_level(dev: np.ndarray, threshold: float, peak: float) -> float:
     A contact only pushes (the pulse is positive): a deviation below the free-flight baseline by more than the
     noise just before the rise is the ringing that a linear-phase anti-alias filter puts ahead of a sharp
     rise (it alternates in sign, at 1e-4 to 1e-3 of the peak for 51.2 kHz recordings of a 0.5 ms contact);
-    its positive lobes are not contact, and the first contact sample is the first above them.
+    its positive lobes are not contact, and the first contact sample is the first above them. Such a rise's
+    onset is then fitted over the rise (:func:`_fit_onsets`), as a noisy one's is.
     """
     clear = np.flatnonzero(dev > RINGING_CLEAR * abs(peak))
     if clear.size == 0 or clear[0] == 0:
@@ -699,15 +702,17 @@ def find_events(recording: Recording, *, threshold: float | None = None, onset_t
         dev = x[search] - base
         peak = float(x[peak_index] - base[-1])
         othr = float(onset_threshold) if onset_threshold is not None else max(5.0 * sigma, 1e-6 * abs(peak))
+        # a band-limited rise: the first contact sample is the first above the filter's ringing ahead of it (the
+        # separation keeps the threshold: the contact's own low end is not ringing)
         ringing = _ringing_level(dev, othr, peak) if onset_threshold is None else 0.0
         flags["ringing"] = ringing > othr
-        othr = max(othr, ringing)
-        below = np.flatnonzero(dev <= othr)
+        rise_threshold = max(othr, ringing)
+        below = np.flatnonzero(dev <= rise_threshold)
         k0 = int(search[below[-1]] + 1) if below.size else int(search[0])
         rise = x[k0:k0 + 3] - before(np.arange(k0, k0 + 3))
         t_on = _subsample_start(rise, k0, +1)
-        # a noisy rise: its onset is fitted after the loop, all such events at once (_fit_onsets)
-        fit_onset = othr > NOISY_ONSET * abs(peak)
+        # a noisy (or ringing) rise: its onset is fitted after the loop, all such events at once (_fit_onsets)
+        fit_onset = rise_threshold > NOISY_ONSET * abs(peak)
         # separation: baseline after the pulse. The pulse may end with a tensile tail below the
         # baseline (a damping law with n < 1.5 pulls before the gap reopens) that lasts longer
         # than BASELINE_GAP beyond the positive core: the baseline window is moved on until its

@@ -17,6 +17,13 @@ per-event scatter). Where the bias is significant, :func:`impactid.pipeline.esti
 measured ``alpha_m`` by it, fits again, and widens the intervals by half the correction plus two
 standard errors of the calibration (the calibration reproduced 50 to 100 % of the actual bias in
 the envelope validation; an anti-alias filter the calibration cannot know of accounts for the rest).
+
+A band-limited recording (:attr:`~impactid.rigs.pivoted.reconstruct.Reconstruction.band_limited`: its rises are
+preceded by the ringing of a linear-phase anti-alias filter) is reproduced with such a filter
+(:func:`band_limited_decimation`) and with its onsets where the measurement's fall between two samples, and the
+cam phase reconstructed from it, against the simulation's, is also measured (:attr:`PipelineBias.phase`): the
+filter smooths each rise and leaves the onset times an error of a fraction of a sample that the cam-phase anchor
+turns into a phase error (docs/estimation.md, "Band-limited recordings").
 """
 
 from __future__ import annotations
@@ -57,7 +64,9 @@ class PipelineBias:
 
     ``alpha_m`` is the mean over the calibration's events of ``alpha_m(measured) / alpha_m(true) - 1``,
     ``stderr`` its standard error (the per-event scatter over the square root of the number of
-    events), ``events`` how many were compared.
+    events), ``events`` how many were compared. For a band-limited recording also ``phase``, the
+    reconstructed cam phase less the simulation's [rad], and ``phase_stderr``, the reconstruction's standard
+    error of it [rad] (NaN otherwise).
     """
 
     alpha_m: float
@@ -97,6 +106,10 @@ class RecordingSampling:
     start_time_s : time of the first sample [s].
     duration : recorded time [s].
     noise_fraction : the accelerometer's noise floor as a fraction of its largest magnitude [-].
+    decimation : the anti-alias decimation the calibration applies (1: none; a band-limited recording's
+        :func:`band_limited_decimation`).
+    onset_fraction : where a band-limited recording's first used onset falls between two samples [samples,
+        in [0, 1)]; NaN otherwise.
     """
 
     rig: object
@@ -116,6 +129,8 @@ class RecordingSampling:
         ``noise_sigma`` is the accelerometer's noise floor [m/s^2] where it is known already (the
         :attr:`~impactid.events.EventTable.noise_sigma` of the recording's events: the same
         :func:`~impactid.signal.noise_floor`, which takes a second over a 60 s recording); None computes it.
+        ``band_limited``: the recording's rises ring (``Reconstruction.band_limited``), with its first used
+        onset at ``onset_time_s`` [s].
         """
         accel = recording["accel_tangential"]
         sigma = noise_floor(accel) if noise_sigma is None else float(noise_sigma)
