@@ -261,8 +261,9 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
         return fitted, corrected, systematic
 
     again, corrected, systematic = refit(biases, applied, phased)
+    measured_at = law
     # a band-limited recording's phase bias depends on the law's pulse shape: measured again at the corrected
-    # estimate until it agrees with the one applied (within two standard errors)
+    # estimate until it agrees with the one applied (_settled)
     for _ in range(PHASE_CALIBRATION_ROUNDS - 1):
         if not any(phased):
             break
@@ -271,7 +272,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
         if all(not use or not u.phase_measured or _settled(u.phase, b.phase, math.hypot(u.phase_stderr, b.phase_stderr))
                for u, b, use in zip(update, biases, phased)):
             break
-        biases = update
+        biases, measured_at = update, law
         record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
         applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
         phased = [b.phase_measured for b in biases]
@@ -279,7 +280,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
     notes = []
     if any(applied):
         notes.append(f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own "
-                     f"recording at the first estimate (beta {damping.beta:.4g}, n {damping.n:.4g}), is "
+                     f"recording at beta {measured_at.beta:.4g}, n {measured_at.n:.4g}, is "
                      + ", ".join(f"{b.alpha_m:+.2e} +- {b.stderr:.1e} ({s.source})" for s, b in zip(sets, biases)
                                  if math.isfinite(b.alpha_m))
                      + "; alpha_m was corrected where the bias is significant and the fit repeated, with the "
@@ -288,7 +289,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
         notes.append("the recordings " + ", ".join(s.source for s, use in zip(sets, phased) if use)
                      + " are band-limited (a linear-phase anti-alias filter rings ahead of each rise and smooths the "
                        "contact onset): the cam-phase bias of the onsets, measured on the model's own recording "
-                       "through such a filter at the first estimate, is "
+                       f"through such a filter at beta {measured_at.beta:.4g}, n {measured_at.n:.4g}, is "
                      + ", ".join(f"{b.phase:+.2e} +- {b.phase_stderr:.1e} rad ({s.source})"
                                  for s, b, use in zip(sets, biases, phased) if use)
                      + "; the cam phase was corrected by it and its standard error widened by half the correction "
