@@ -286,8 +286,10 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
                      + "; alpha_m was corrected where the bias is significant and the fit repeated, with the "
                        "intervals widened by half the correction plus two standard errors")
     if any(phased):
-        notes.append("the recordings " + ", ".join(s.source for s, use in zip(sets, phased) if use)
-                     + " are band-limited (a linear-phase anti-alias filter rings ahead of each rise and smooths the "
+        limited = [s.source for s, use in zip(sets, phased) if use]
+        notes.append(("the recording " if len(limited) == 1 else "the recordings ") + ", ".join(limited)
+                     + (" is" if len(limited) == 1 else " are")
+                     + " band-limited (a linear-phase anti-alias filter rings ahead of each rise and smooths the "
                        "contact onset): the cam-phase bias of the onsets, measured on the model's own recording "
                        f"through such a filter at beta {measured_at.beta:.4g}, n {measured_at.n:.4g}, is "
                      + ", ".join(f"{b.phase:+.2e} +- {b.phase_stderr:.1e} rad ({s.source})"
