@@ -37,10 +37,11 @@ import numpy as np
 
 from impactid.contact import HuntCrossley
 from impactid.events import find_events
-from impactid.rigs.pivoted.reconstruct import reconstruct
+from impactid.rigs.pivoted.reconstruct import band_limited_decimation, reconstruct
 from impactid.signal import noise_floor
 
-__all__ = ["CACHE_SIZE", "MIN_EVENTS", "PipelineBias", "RecordingSampling", "calibration_duration", "pipeline_bias"]
+__all__ = ["CACHE_SIZE", "MIN_EVENTS", "PipelineBias", "RecordingSampling", "band_limited_decimation",
+           "calibration_duration", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
 #: of rig P need about 35 s; docs/estimation.md).
@@ -144,17 +145,6 @@ class RecordingSampling:
                    onset_fraction=((float(onset_time_s) - float(recording.start_time_s)) * rate) % 1.0
                    if band_limited and math.isfinite(onset_time_s) else math.nan)
 
-
-#: The rate [Hz] at which the calibration of a band-limited recording simulates before its anti-alias
-#: filter and decimation (:func:`band_limited_decimation`).
-FILTER_SOURCE_RATE_HZ = 204_800.0
-
-
-def band_limited_decimation(sample_rate_hz: float) -> int:
-    """The decimation factor with which the calibration reproduces a band-limited recording at
-    ``sample_rate_hz`` [Hz]: simulated at :data:`FILTER_SOURCE_RATE_HZ` or more, then low-passed by a
-    linear-phase filter at the recording's Nyquist frequency and decimated (at least 2)."""
-    return max(2, int(math.ceil(FILTER_SOURCE_RATE_HZ / float(sample_rate_hz) - 1e-9)))
 
 
 def calibration_duration(sampling: RecordingSampling) -> float:

@@ -68,6 +68,7 @@ from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingPro
 from impactid.rigs.pivoted.pulse_check import pulse_check, withhold_for_rig
 from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL, EventSet
 from impactid.rigs.pivoted.runs import simulate_events
+from impactid.synth.sensors import antialias_decimate
 
 __all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "DURATION_REPLAYS", "FAILED_SHARE_NOTED", "N_COMPARED",
            "REPLAY_MARGIN_S",
@@ -190,12 +191,16 @@ def widen_interval(interval: tuple[float, float], centre: float, extra: float) -
 def _replay_grids(s: EventSet) -> list[np.ndarray] | None:
     """Per event, the recording's sample instants from the first contact sample on [s from onset],
     over :data:`REPLAY_SPAN` times the measured contact (at least :data:`REPLAY_MARGIN_S` beyond it,
-    at most the time to the next onset); None without what the detector replay needs."""
+    at most the time to the next onset); None without what the detector replay needs. For a band-limited
+    recording (``s.decimation`` q > 1) the instants are q times denser, the recording's among them at every
+    q-th from the q - 1 that precede the first (those before the onset are left out: the force is zero there,
+    and :func:`detected_durations` puts them back as zeros)."""
     rate, sigma = s.sample_rate_hz, s.noise_sigma
     if s.pulse_peak is None or s.contact_duration is None or not (math.isfinite(rate) and rate > 0.0
                                                                    and math.isfinite(sigma) and sigma >= 0.0):
         return None
     dt = 1.0 / rate
+    q = max(int(s.decimation), 1)
     grids = []
     for ti, measured, t_end in zip(s.t, s.contact_duration, s.t_end):
         first = float(ti[0]) if ti.size else 0.5 * dt
@@ -204,12 +209,14 @@ def _replay_grids(s: EventSet) -> list[np.ndarray] | None:
         measured = float(measured) if math.isfinite(measured) and measured > 0.0 else 0.0
         span = min(max(REPLAY_SPAN * measured, measured + REPLAY_MARGIN_S), float(t_end) * (1.0 - 1e-9))
         count = max(int(math.floor((span - phase) / dt)) + 1, 1)
-        grids.append(phase + dt * np.arange(count))
+        grid = phase + (dt / q) * np.arange(-(q - 1), q * count)
+        grids.append(grid[grid > 0.0] if q > 1 else grid)
     return grids
 
 
 def detected_durations(force: Sequence[np.ndarray], grids: Sequence[np.ndarray], peak: np.ndarray, sigma: float,
-                       rate_hz: float, *, replays: int | None = None, seed: int | None = None) -> np.ndarray:
+                       rate_hz: float, *, replays: int | None = None, seed: int | None = None,
+                       decimation: int = 1) -> np.ndarray:
     """The contact durations the event detector (:func:`impactid.events.find_events`) measures on
     simulated contact pulses with the recording's noise [s].
 
@@ -221,9 +228,15 @@ def detected_durations(force: Sequence[np.ndarray], grids: Sequence[np.ndarray],
     synthetic recording at ``rate_hz``, and each event's duration is the median of its detections
     (0 where no pulse is detected: the replay has no contact the detector sees; NaN where the
     replay failed). Returns (events,) [s].
+
+    ``decimation`` q > 1 (a band-limited recording): the forces are on :func:`_replay_grids`' q times denser
+    instants, and the synthetic recording is low-passed and decimated by q
+    (:func:`impactid.synth.sensors.antialias_decimate`, the filter the calibration assumes) before its noise
+    is added, so that the replayed pulses are stretched by a filter as the measured ones are.
     """
     replays = DURATION_REPLAYS if replays is None else int(replays)
     seed = REPLAY_SEED if seed is None else int(seed)
+    q = max(int(decimation), 1)
     lead = BASELINE_GAP + BASELINE_LENGTH + 64
     tail = int(math.ceil(CONTACT_END_BASELINE_S * rate_hz)) + BASELINE_GAP + BASELINE_LENGTH + 64
     pieces, starts = [], []
@@ -234,16 +247,34 @@ def detected_durations(force: Sequence[np.ndarray], grids: Sequence[np.ndarray],
         top = float(np.max(f)) if f.size else 0.0
         ok = np.all(np.isfinite(f)) and math.isfinite(p)
         scaled.append(None if not ok else (f * (p / top) if top > 0.0 else np.zeros_like(f)))
+    if q > 1:
+        # each dense pulse from its grid's k = -(q - 1) on (the instants before the onset put back as zeros), laid
+        # so that its k = 0, the recording's first sample after the onset, falls on an output sample
+        dense = []
+        for pulse, grid in zip(scaled, grids):
+            if pulse is not None:  # the grid holds q count + q - 1 instants less the m dropped before the onset
+                pulse = np.concatenate([np.zeros((q - 1 - np.asarray(grid).size) % q), pulse])
+            dense.append(pulse)
+        scaled = dense
     for _ in range(replays):
         for pulse in scaled:
-            length = lead + (0 if pulse is None else pulse.size) + tail
-            piece = np.zeros(length)
-            if pulse is not None:
-                piece[lead:lead + pulse.size] = pulse
-            starts.append(position)
+            if q == 1:
+                length = lead + (0 if pulse is None else pulse.size) + tail
+                piece = np.zeros(length)
+                if pulse is not None:
+                    piece[lead:lead + pulse.size] = pulse
+            else:
+                length = q * (lead + tail + (0 if pulse is None else -(-pulse.size // q) + 1))
+                piece = np.zeros(length)
+                if pulse is not None:
+                    at = q * lead - (q - 1)
+                    piece[at:at + pulse.size] = pulse
+            starts.append(position // q)
             pieces.append(piece)
             position += length
     x = np.concatenate(pieces) if pieces else np.zeros(0)
+    if q > 1:
+        x = antialias_decimate(x, q)
     x = x + np.random.default_rng(seed).normal(0.0, sigma, x.size) if sigma > 0.0 else x
     found = np.full(len(starts), 0.0)
     try:
@@ -309,7 +340,7 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
             force = [batch.contact_force[0, batch.grid_offsets[i]:batch.grid_offsets[i + 1]] for i in range(len(s))]
             force = [np.full(1, np.nan) if batch.failed[0, i] else f for i, f in enumerate(force)]
             r_s = detected_durations(force, grids, np.asarray(s.pulse_peak, dtype=float), s.noise_sigma,
-                                     s.sample_rate_hz)
+                                     s.sample_rate_hz, decimation=s.decimation)
             how.add("detector replay")
         measured.append(m_s)
         model.append(f_s)

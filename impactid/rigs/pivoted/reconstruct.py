@@ -122,7 +122,7 @@ compilation.install()  # before the kernels: the kernel cache's locators and the
 
 __all__ = ["ANCHORS", "ANCHOR_MARGIN", "ANCHOR_SEPARATION_DELAY", "CONTACT_ANGLE_MARGIN", "CONTACT_HERTZ_TOLERANCE",
            "EDGE_SNR", "FORCE_BALANCE_TOLERANCE", "HISTORY_MARGIN", "PLAUSIBILITY_EVENTS", "RELEASE_EVENTS",
-           "EventKinematics", "Reconstruction", "reconstruct"]
+           "EventKinematics", "Reconstruction", "band_limited_decimation", "reconstruct"]
 
 #: Samples between a free-flight end point of the return-time anchor and a contact.
 ANCHOR_MARGIN = 8
@@ -574,6 +574,18 @@ def _window_integral(angular: np.ndarray, pulses: _Pulses, position: int, dt: fl
         _free_tail_rate_change(angular, np.array([k1]), np.array([next_offset]), dt)[0])
     return _WindowIntegral(acceleration=add[:own], rate=rate[:own], angle=angle[:own], onset_offset=onset_offset,
                            next_offset=next_offset, head_rate_change=head_change, tail_rate_change=tail_change)
+
+
+#: The rate [Hz] at which the calibration and the model check replay a band-limited recording before its anti-alias
+#: filter and decimation (:func:`band_limited_decimation`).
+FILTER_SOURCE_RATE_HZ = 204_800.0
+
+
+def band_limited_decimation(sample_rate_hz: float) -> int:
+    """The decimation factor with which the calibration and the model check reproduce a band-limited recording at
+    ``sample_rate_hz`` [Hz]: simulated at :data:`FILTER_SOURCE_RATE_HZ` or more, then low-passed by a
+    linear-phase filter at the recording's Nyquist frequency and decimated (at least 2)."""
+    return max(2, int(math.ceil(FILTER_SOURCE_RATE_HZ / float(sample_rate_hz) - 1e-9)))
 
 
 #: Samples before the first contact sample where a band-limited (anti-alias filtered) event's window starts,

@@ -38,7 +38,7 @@ from impactid.errors import ImpactidError
 from impactid.events import MAX_PATTERN_EVENTS
 from impactid.io import RecordingError
 from impactid.rigs.pivoted import PivotedFollowerRig
-from impactid.rigs.pivoted.reconstruct import Reconstruction
+from impactid.rigs.pivoted.reconstruct import Reconstruction, band_limited_decimation
 from impactid.rigs.pivoted.runs import DEFAULT_TOLERANCES, BatchResult, Tolerances, simulate_events
 
 __all__ = ["FAILED_SIMULATION_RESIDUAL", "RESIDUALS", "EventSet", "force_misfit", "loop_area", "residual_name"]
@@ -143,6 +143,8 @@ class EventSet:
     pulse_peak : (n,) the event detector's pulse peak above the free-flight baseline [m/s^2], and
         noise_sigma, sample_rate_hz : the accelerometer's noise floor [m/s^2] and the sample rate [Hz]:
         what the contact-duration check needs to replay the detector on a simulated pulse.
+    decimation : 1, or for a band-limited recording the decimation through which the contact-duration check's
+        replay is low-passed like the recording (``reconstruct.band_limited_decimation``).
     t : per-event sample instants of the contact history [s from onset].
     force : per-event measured contact force on ``t`` [N] (None without force channels).
     indentation : per-event measured indentation on ``t`` [m].
@@ -169,6 +171,7 @@ class EventSet:
     pulse_peak: np.ndarray | None = None
     noise_sigma: float = math.nan
     sample_rate_hz: float = math.nan
+    decimation: int = 1
 
     def __len__(self) -> int:
         return int(self.events.size)
@@ -243,7 +246,8 @@ class EventSet:
                                      else None),
                    pulse_peak=(recon.events.table["peak"].reindex(index).to_numpy(dtype=float)
                                if "peak" in recon.events.table else None),
-                   noise_sigma=float(recon.events.noise_sigma), sample_rate_hz=float(recon.events.sample_rate_hz))
+                   noise_sigma=float(recon.events.noise_sigma), sample_rate_hz=float(recon.events.sample_rate_hz),
+                   decimation=band_limited_decimation(float(recon.events.sample_rate_hz)) if recon.band_limited else 1)
 
     def subset(self, index) -> EventSet:
         """The events at positions ``index`` (an int, slice or index array) of this set."""
