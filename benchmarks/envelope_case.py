@@ -50,6 +50,9 @@ The command-line options, each a diagnostic or an experiment:
 --anchor-study K, --scales S [S ...]
     Anchor and excursion errors over K noise seeds at the given multiples of the case's noise,
     with the detected contact duration.
+--other-filter CUTOFF [CUTOFF ...]
+    Decimated cases: the n-fixed fit on the case's motion through another anti-alias filter than the
+    envelope's (:func:`other_filter_recording`), cut off at these fractions of the Nyquist frequency.
 --variants
     The n-fixed fit with one sensor imperfection at a time (noise, ADC, offset and drift, none);
     for decimated cases also the same rate without the anti-alias filter, and 204.8 kHz.
@@ -104,11 +107,13 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import signal
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from impactid import SUNDAR2016, HuntCrossley  # noqa: E402
+from impactid.io import Recording  # noqa: E402
 from impactid.pipeline import estimate  # noqa: E402
 from impactid.rigs.pivoted.estimates import C_BOUNDS, _Objective, fit_contact_damping, reference_indentation  # noqa: E402
 from impactid.rigs.pivoted.reconstruct import reconstruct  # noqa: E402
@@ -904,6 +909,9 @@ def main(argv=None) -> int:
     parser.add_argument("--joint", action="store_true")
     parser.add_argument("--seeds", type=int, default=0)
     parser.add_argument("--variants", action="store_true")
+    parser.add_argument("--other-filter", type=float, nargs="+", default=[], metavar="CUTOFF",
+                        help="decimated cases: the n-fixed fit through another anti-alias filter, cut off at these "
+                             "fractions of the Nyquist frequency (other_filter_recording)")
     parser.add_argument("--anchor-study", type=int, default=0, metavar="K",
                         help="anchor and excursion errors over K noise seeds at --scales times the case's noise")
     parser.add_argument("--scales", type=float, nargs="+", default=[1.0, 0.5, 0.25])
@@ -1157,10 +1165,41 @@ def main(argv=None) -> int:
             out.pop("notes", None)
             print(f"variant 204.8 kHz: {_fmt(out)}", flush=True)
             report.setdefault("variants", {})["204.8 kHz"] = out
+    for cutoff in args.other_filter:
+        r = other_filter_recording(case, cutoff)
+        out = run_fit([r], case, fix_n=case.n)
+        out.pop("notes", None)
+        print(f"another anti-alias filter (Kaiser beta {OTHER_FILTER_BETA:g}, {OTHER_FILTER_LENGTH} output samples, "
+              f"cut off at {cutoff:g} of the Nyquist frequency): {_fmt(out)}", flush=True)
+        report.setdefault("other_filter", {})[str(cutoff)] = out
     if args.json:
         args.json.write_text(json.dumps(report, indent=1, default=lambda v: v.item() if hasattr(v, "item") else str(v))
                              + "\n")
     return 0
+
+
+#: The other anti-alias filter of ``--other-filter``: a Kaiser-windowed FIR of this beta and this many output
+#: samples (the envelope's, ``scipy.signal.resample_poly``'s default, has beta 5 and 20).
+OTHER_FILTER_BETA = 8.0
+OTHER_FILTER_LENGTH = 40
+
+
+def other_filter_recording(case: E.Case, cutoff: float):
+    """The accelerometer of ``case``'s motion (noise-free) at the case's rate through another linear-phase
+    anti-alias filter than the envelope's: the case's generator at ``decimation`` times the rate, low-passed by a
+    Kaiser FIR (:data:`OTHER_FILTER_BETA`, :data:`OTHER_FILTER_LENGTH` output samples) cut off at ``cutoff`` of
+    the output's Nyquist frequency, and decimated (the calibration and the model check assume the envelope's)."""
+    q = int(case.decimation)
+    if q < 2:
+        raise SystemExit(f"--other-filter needs a decimated case; {case.id} is recorded at its rate directly")
+    fine, _ = E.make_recording(replace(case, decimation=1, sample_rate_hz=case.sample_rate_hz * q, noise=0.0,
+                                       adc_bits=None, accel_offset=0.0, accel_drift=0.0))
+    taps = signal.firwin(OTHER_FILTER_LENGTH * q + 1, cutoff / q, window=("kaiser", OTHER_FILTER_BETA))
+    accel = signal.resample_poly(np.asarray(fine["accel_tangential"], dtype=float), 1, q, window=taps)
+    return Recording(channels={"accel_tangential": accel}, sample_rate_hz=case.sample_rate_hz,
+                     units={"accel_tangential": fine.units["accel_tangential"]}, rig=fine.rig,
+                     operating=dict(fine.operating), start_time_s=fine.start_time_s,
+                     source=f"{case.id} through another filter")
 
 
 if __name__ == "__main__":
