@@ -23,8 +23,7 @@ preceded by the ringing of a linear-phase anti-alias filter) is reproduced with 
 (:func:`band_limited_decimation`) and with its onsets where the measurement's fall between two samples, and the
 cam phase reconstructed from it, against the simulation's, is also measured (:attr:`PipelineBias.phase`): the
 filter smooths each rise and leaves the onset times an error of a fraction of a sample that the cam-phase anchor
-turns into a phase error (docs/estimation.md, "Band-limited recordings"). So is the cam-phase bias of a noise-free
-recording (:data:`PHASE_NOISE_FREE`), whose replay's phase error is the pipeline's own.
+turns into a phase error (docs/estimation.md, "Band-limited recordings").
 """
 
 from __future__ import annotations
