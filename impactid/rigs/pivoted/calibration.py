@@ -143,18 +143,8 @@ class RecordingSampling:
                    duration=float(recording.duration), noise_fraction=float(fraction),
                    decimation=band_limited_decimation(rate) if band_limited else 1,
                    onset_fraction=((float(onset_time_s) - float(recording.start_time_s)) * rate) % 1.0
-                   if (band_limited or fraction < PHASE_NOISE_FREE) and math.isfinite(onset_time_s) else math.nan)
+                   if band_limited and math.isfinite(onset_time_s) else math.nan)
 
-
-
-#: A recording whose accelerometer noise floor is below this fraction of its largest magnitude has its cam-phase
-#: bias measured too (its replay's phase error is then the pipeline's, not a noise realisation's).
-PHASE_NOISE_FREE = 1e-4
-
-
-def _phase_calibrated(sampling: RecordingSampling) -> bool:
-    """Whether the calibration measures the cam-phase bias: band-limited or noise-free recordings."""
-    return sampling.decimation > 1 or sampling.noise_fraction < PHASE_NOISE_FREE
 
 
 def calibration_duration(sampling: RecordingSampling) -> float:
@@ -233,8 +223,7 @@ def _measure_bias(sampling: RecordingSampling, law, integration: str, anchor: st
 
     start = sampling.start_time_s
     synthetic, recon = model_recording(start)
-    aligned = _phase_calibrated(sampling) and math.isfinite(sampling.onset_fraction)
-    if recon is not None and aligned and len(recon.table):
+    if recon is not None and sampling.decimation > 1 and math.isfinite(sampling.onset_fraction) and len(recon.table):
         # a band-limited onset's error depends on where the onset falls between two samples, and in periodic
         # motion the onsets fall at a few recurring places: the model's recording is sampled again with its
         # onsets where the measurement's are (the sampling grid moved by the difference)
@@ -260,7 +249,7 @@ def _measure_bias(sampling: RecordingSampling, law, integration: str, anchor: st
                        for i in range(alpha_m.size) if hi[i] > lo[i]])
     errors = errors[np.isfinite(errors)]
     phase, phase_stderr = math.nan, math.nan
-    if _phase_calibrated(sampling) and math.isfinite(recon.cam_phase):
+    if sampling.decimation > 1 and math.isfinite(recon.cam_phase):
         # the recording's cam phase is Theta at its first sample; the simulation's is theta_ref (0) at t = 0
         true_phase = 2.0 * math.pi * sampling.cam_speed_hz * start
         phase = float(np.angle(np.exp(1j * (recon.cam_phase - true_phase))))
