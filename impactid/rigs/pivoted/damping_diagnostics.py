@@ -247,28 +247,19 @@ def detected_durations(force: Sequence[np.ndarray], grids: Sequence[np.ndarray],
         top = float(np.max(f)) if f.size else 0.0
         ok = np.all(np.isfinite(f)) and math.isfinite(p)
         scaled.append(None if not ok else (f * (p / top) if top > 0.0 else np.zeros_like(f)))
-    if q > 1:
-        # each dense pulse from its grid's k = -(q - 1) on (the instants before the onset put back as zeros), laid
-        # so that its k = 0, the recording's first sample after the onset, falls on an output sample
-        dense = []
-        for pulse, grid in zip(scaled, grids):
-            if pulse is not None:  # the grid holds q count + q - 1 instants less the m dropped before the onset
-                pulse = np.concatenate([np.zeros((q - 1 - np.asarray(grid).size) % q), pulse])
-            dense.append(pulse)
-        scaled = dense
+    # a dense pulse (q > 1) from its grid's k = -(q - 1) on: the grid holds q count + q - 1 instants less those
+    # dropped before the onset, put back as zeros; it is laid so that its k = 0, the recording's first sample after
+    # the onset, falls on an output sample (q = 1: the pulse as it is, at ``lead``)
+    scaled = [None if pulse is None else np.concatenate([np.zeros((q - 1 - np.asarray(grid).size) % q), pulse])
+              for pulse, grid in zip(scaled, grids)]
+    at = q * lead - (q - 1)
     for _ in range(replays):
         for pulse in scaled:
-            if q == 1:
-                length = lead + (0 if pulse is None else pulse.size) + tail
-                piece = np.zeros(length)
-                if pulse is not None:
-                    piece[lead:lead + pulse.size] = pulse
-            else:
-                length = q * (lead + tail + (0 if pulse is None else -(-pulse.size // q) + 1))
-                piece = np.zeros(length)
-                if pulse is not None:
-                    at = q * lead - (q - 1)
-                    piece[at:at + pulse.size] = pulse
+            samples = 0 if pulse is None else -(-pulse.size // q) + (q > 1)  # output samples the pulse spans
+            length = q * (lead + samples + tail)
+            piece = np.zeros(length)
+            if pulse is not None:
+                piece[at:at + pulse.size] = pulse
             starts.append(position // q)
             pieces.append(piece)
             position += length

@@ -244,28 +244,20 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
     again, with the intervals' indifference at least half the largest correction."""
     law = HuntCrossley(beta=damping.beta, n=damping.n)
     biases = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
-    record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
-    applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
-    phased = [b.phase_measured for b in biases]
+    applied, phased = _corrections(biases)
     if not any(applied) and not any(phased):
-        return damping, sets, record, 0.0
-    spent = [0, 0.0]
-
-    def refit(biases, applied, phased):
+        return damping, sets, _calibration_record(sets, biases), 0.0
+    measured_at = law
+    simulations, seconds = damping.n_simulations, damping.seconds
+    # a band-limited recording's phase bias depends on the law's pulse shape: measured again at the corrected
+    # estimate until it agrees with the one applied (_settled), at most PHASE_CALIBRATION_ROUNDS fits
+    for attempt in range(PHASE_CALIBRATION_ROUNDS):
         corrected = [_corrected_set(s, b, use, phase) for s, b, use, phase in zip(sets, biases, applied, phased)]
         systematic = max((0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use),
                          default=0.0)
-        fitted = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
-        spent[0] += fitted.n_simulations
-        spent[1] += fitted.seconds
-        return fitted, corrected, systematic
-
-    again, corrected, systematic = refit(biases, applied, phased)
-    measured_at = law
-    # a band-limited recording's phase bias depends on the law's pulse shape: measured again at the corrected
-    # estimate until it agrees with the one applied (_settled)
-    for _ in range(PHASE_CALIBRATION_ROUNDS - 1):
-        if not any(phased):
+        again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
+        simulations, seconds = simulations + again.n_simulations, seconds + again.seconds
+        if attempt == PHASE_CALIBRATION_ROUNDS - 1 or not any(phased):
             break
         law = HuntCrossley(beta=again.beta, n=again.n)
         update = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
@@ -273,10 +265,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
                for u, b, use in zip(update, biases, phased)):
             break
         biases, measured_at = update, law
-        record = [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
-        applied = [b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases]
-        phased = [b.phase_measured for b in biases]
-        again, corrected, systematic = refit(biases, applied, phased)
+        applied, phased = _corrections(biases)
     notes = []
     if any(applied):
         notes.append(f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own "
@@ -296,9 +285,21 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
                                  for s, b, use in zip(sets, biases, phased) if use)
                      + "; the cam phase was corrected by it and its standard error widened by half the correction "
                        "plus two standard errors (the recording's own filter is not known: docs/estimation.md)")
-    again = replace(again, warnings=again.warnings + tuple(notes),
-                    n_simulations=spent[0] + damping.n_simulations, seconds=spent[1] + damping.seconds)
+    again = replace(again, warnings=again.warnings + tuple(notes), n_simulations=simulations, seconds=seconds)
+    record = _calibration_record(sets, biases)
     return again, corrected, record, systematic
+
+
+def _corrections(biases) -> tuple[list[bool], list[bool]]:
+    """Per recording, whether the calibration corrects its ``alpha_m`` (a significant bias above
+    :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD`) and its cam phase (a measured phase bias)."""
+    return ([b.significant and abs(b.alpha_m) > CALIBRATION_THRESHOLD for b in biases],
+            [b.phase_measured for b in biases])
+
+
+def _calibration_record(sets, biases) -> list[dict]:
+    """The calibration table's rows: each recording's source and its measured biases."""
+    return [dict(source=s.source, **b.to_dict()) for s, b in zip(sets, biases)]
 
 
 #: Most times a band-limited recording's cam-phase bias is measured (:func:`_calibrate`: at the first estimate,

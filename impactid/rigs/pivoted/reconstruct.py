@@ -475,12 +475,13 @@ def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: 
     t_onset = table["t_onset"].to_numpy().copy()
     impulsive = table["too_short"].to_numpy(dtype=bool)
     clean = ~(table["overlapping"] | table["clipped"]).to_numpy(dtype=bool)
+    ringing = table["ringing"].to_numpy(dtype=bool) if "ringing" in table else None
     heads: list[PulseHead | None] = [None] * len(table)
     rises: list[int] = []
     for p in range(len(table)) if positions is None else positions:
         if p < 0 or p >= len(table) or impulsive[p] or not clean[p] or not math.isfinite(onset[p]):
             continue
-        if "ringing" in table and bool(table["ringing"].iloc[p]):
+        if ringing is not None and ringing[p]:  # a band-limited rise: no head model of a sharp one
             continue
         head = _fit_pulse_head(angular, int(first[p]), float(onset[p]), 1.0 / rate_hz, rig, noise)
         if head is not None:
@@ -504,7 +505,7 @@ def _pulses(recording: Recording, events: EventTable, angular: np.ndarray, rig: 
     return _Pulses(first=first, onset=onset, t_onset=t_onset,
                    separation=(table["t_separation"].to_numpy() - recording.start_time_s) * rate_hz,
                    impulsive=impulsive, period_end=table["period_end"].to_numpy(), heads=tuple(heads),
-                   ringing=table["ringing"].to_numpy(dtype=bool) if "ringing" in table else None)
+                   ringing=ringing)
 
 
 @dataclass(frozen=True)
