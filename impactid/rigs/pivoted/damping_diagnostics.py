@@ -70,8 +70,8 @@ from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL, EventSet
 from impactid.rigs.pivoted.runs import simulate_events
 from impactid.synth.sensors import antialias_decimate
 
-__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "DURATION_REPLAYS", "FAILED_SHARE_NOTED", "N_COMPARED",
-           "REPLAY_MARGIN_S",
+__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "DURATION_CHECK_EVENTS", "DURATION_REPLAYS",
+           "FAILED_SHARE_NOTED", "N_COMPARED", "REPLAY_MARGIN_S",
            "REPLAY_SEED", "REPLAY_SPAN", "SEPARABILITY_WIDTH", "apply_model_check",
            "approach_speed_spread", "bound_notes", "contact_duration_check", "damping_identifiability",
            "damping_model_check", "detected_durations", "failure_note", "per_event_table", "search_identifiability",
@@ -96,6 +96,10 @@ REPLAY_SEED = 2026
 #: A replayed contact is sampled over this many times the measured contact, and at least
 #: :data:`REPLAY_MARGIN_S` beyond it [s] (a longer replayed contact is cut there: it is rejected anyway).
 REPLAY_SPAN = 3.0
+#: Most events of a recording the contact-duration check replays, spread evenly over it (a 60 s recording: 128 of
+#: 959). The check compares medians over events against a 50 % threshold; 128 events fix a median duration to a
+#: few percent (its order statistics) where a thousand cost a second of replays and detection.
+DURATION_CHECK_EVENTS = 128
 REPLAY_MARGIN_S = 2e-3
 #: The damping index a fitted ``n`` is compared with (Hunt and Crossley's).
 N_COMPARED = 1.5
@@ -295,7 +299,8 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
     recordings of the right law): the fitted law's contacts are therefore replayed through the same
     event detector with the recording's noise (:func:`detected_durations`) and compared like with
     like. Without what the replay needs (an event set made by hand) the simulated durations are
-    compared as they are.
+    compared as they are. A recording with more than :data:`DURATION_CHECK_EVENTS` events is checked on
+    that many, spread evenly over it.
 
     Parameters
     ----------
@@ -319,6 +324,8 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
     for s in problem.sets:
         if s.contact_duration is None or len(s) == 0:
             continue
+        if len(s) > DURATION_CHECK_EVENTS:
+            s = s.subset(np.unique(np.linspace(0, len(s) - 1, DURATION_CHECK_EVENTS).round().astype(int)))
         m_s = np.asarray(s.contact_duration, dtype=float)
         grids = _replay_grids(s)
         if grids is None:
