@@ -66,8 +66,8 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
+from impactid.engine.distributions import chi2_sf, normal_sf, student_t_sf
 from impactid.engine.intervals import safe_exp
 
 __all__ = ["GROSS_LACK_OF_FIT", "LACK_OF_FIT_FACTOR", "MIN_STRUCTURE_DATA", "NO_NOISE_REFERENCE",
@@ -218,7 +218,7 @@ def _trend(residual: np.ndarray, covariate: np.ndarray, slices: list[np.ndarray]
         return {"correlation": math.nan, "t": math.nan, "dof": max(dof, 0), "p_value": math.nan}
     rho = float(np.clip(np.sum(x_c * r_c) / math.sqrt(sxx * syy), -1.0, 1.0))
     t = rho * math.sqrt(dof / max(1.0 - rho * rho, 1e-300))
-    return {"correlation": rho, "t": float(t), "dof": int(dof), "p_value": float(2.0 * stats.t.sf(abs(t), dof))}
+    return {"correlation": rho, "t": float(t), "dof": int(dof), "p_value": 2.0 * student_t_sf(abs(t), dof)}
 
 
 def _between(residual: np.ndarray, slices: list[np.ndarray], floor: float) -> dict[str, float]:
@@ -239,7 +239,7 @@ def _between(residual: np.ndarray, slices: list[np.ndarray], floor: float) -> di
     centre = float(np.sum(w * m) / np.sum(w))
     chi2 = float(np.sum(w * (m - centre) ** 2))
     dof = len(means) - 1
-    return {"groups": len(means), "chi_square": chi2, "dof": dof, "p_value": float(stats.chi2.sf(chi2, dof))}
+    return {"groups": len(means), "chi_square": chi2, "dof": dof, "p_value": chi2_sf(chi2, dof)}
 
 
 # ---- the check ------------------------------------------------------------------------------------------
@@ -466,7 +466,7 @@ def check_model(residual: np.ndarray, noise_sd: float | np.ndarray | None = None
         z = r / noise
         chi2 = float(np.sum(z * z))
         fields.update(noise_sd=scatter["noise_sd"], residual_over_noise=scatter["residual_over_noise"],
-                      chi_square=chi2, chi_square_p_value=float(stats.chi2.sf(chi2, dof)) if dof > 0 else math.nan)
+                      chi_square=chi2, chi_square_p_value=chi2_sf(chi2, dof) if dof > 0 else math.nan)
         notes += scatter_notes
         ratio = scatter["residual_over_noise"]
         if ratio > LACK_OF_FIT_FACTOR:
@@ -497,7 +497,7 @@ def check_model(residual: np.ndarray, noise_sd: float | np.ndarray | None = None
                       runs_expected=expected if sd > 0 else math.nan,
                       runs_z=(runs - expected) / sd if sd > 0 else math.nan,
                       effective_samples=_effective_samples(z, slices))
-        p_lag = float(2.0 * stats.norm.sf(abs(fields["lag1_z"]))) if math.isfinite(fields["lag1_z"]) else math.nan
+        p_lag = 2.0 * normal_sf(abs(fields["lag1_z"])) if math.isfinite(fields["lag1_z"]) else math.nan
         if gate and p_lag < STRUCTURE_SIGNIFICANCE:
             kind = "alternation between consecutive" if rho < 0 else "persistence along the order of the"
             structured.append(f"{kind} residuals (lag-1 autocorrelation {rho:+.3g}, z = {fields['lag1_z']:.3g})")

@@ -31,9 +31,9 @@ from dataclasses import replace
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from impactid.engine.covariance import CONDITION_LIMIT
+from impactid.engine.distributions import chi2_quantile, chi2_sf, normal_quantile, student_t_quantile
 from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty, safe_exp
 from impactid.engine.least_squares import Search, search
 
@@ -44,7 +44,7 @@ __all__ = ["LRT_SIGNIFICANCE", "NEAR_BOUND_STDERR", "PROFILE_STEPS", "PROFILE_TH
 NEAR_BOUND_STDERR = 2.0
 #: The rise of ``chi^2`` (in units of the residual variance) that bounds a 95 % profile interval:
 #: the 0.95 quantile of ``chi^2_1``.
-PROFILE_THRESHOLD = float(stats.chi2.ppf(0.95, 1))
+PROFILE_THRESHOLD = chi2_quantile(0.95, 1)
 #: Standard errors from the optimum at which a profile is evaluated on each side: the first beyond the
 #: 95 % threshold of a quadratic profile, then three times farther for a profile flatter than that.
 PROFILE_STEPS = (2.0, 6.0)
@@ -267,7 +267,7 @@ def compare_models(models: Sequence[Mapping[str, Any]], nested: Sequence[tuple[s
         dof = g["n_params"] - s["n_params"]
         statistic = max(2.0 * (g["loglik"] - s["loglik"]), 0.0) if math.isfinite(g["loglik"] - s["loglik"]) \
             else math.nan
-        p = float(stats.chi2.sf(statistic, dof)) if dof > 0 and math.isfinite(statistic) else math.nan
+        p = chi2_sf(statistic, dof) if dof > 0 and math.isfinite(statistic) else math.nan
         rejects = bool(p < LRT_SIGNIFICANCE)
         if rejects:
             rejected.add(simple)
@@ -323,7 +323,7 @@ def profile_interval(residual: Callable[[np.ndarray], np.ndarray], found: Search
     k = [p.name for p in found.varying].index(name)
     x, se = float(found.x[k]), float(fit.covariance.stderr[k])
     level = fit.confidence if confidence is None else confidence
-    q = float(stats.t.ppf(0.5 + 0.5 * level, fit.dof) if fit.dof > 0 else stats.norm.ppf(0.5 + 0.5 * level))
+    q = (student_t_quantile(0.5 + 0.5 * level, fit.dof) if fit.dof > 0 else normal_quantile(0.5 + 0.5 * level))
     threshold = q * q
     options = dict(search_options or {})
     lo_bound, hi_bound = free.bounds()

@@ -55,7 +55,9 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy import optimize, stats
+from scipy import optimize
+
+from impactid.engine.distributions import student_t_quantile
 
 __all__ = ["JACOBIAN_STEP", "LeastSquaresFit", "fit_least_squares", "jacobian"]
 
@@ -314,7 +316,7 @@ def _statistics(x, r, J, used) -> LeastSquaresFit:
     rss = float(np.sum(r ** 2))
     dof = max(m - p, 1)
     s2 = rss / dof
-    threshold = float(stats.t.ppf(0.975, dof) ** 2 * s2)
+    threshold = student_t_quantile(0.975, dof) ** 2 * s2
     with np.errstate(all="ignore"):
         cov = s2 * np.linalg.pinv(J.T @ J)
     return LeastSquaresFit(x=tuple(float(v) for v in x), residuals=r, used=used, jacobian=J, rss=rss, dof=dof, s2=s2,

@@ -15,7 +15,6 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from impactid.errors import SimulationInputError
 
@@ -101,6 +100,10 @@ def antialias_decimate(x: np.ndarray, factor: int) -> np.ndarray:
     """
     if factor == 1:
         return x.copy()
+    # scipy.signal imports scipy.stats (0.3-0.6 s together): loaded where a recording is decimated, not by every
+    # estimate that imports the sensor models (the contact-duration check, the calibration)
+    from scipy import signal
+
     return signal.resample_poly(x, 1, factor)
 
 

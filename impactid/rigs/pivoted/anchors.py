@@ -31,6 +31,7 @@ from typing import ClassVar, Protocol
 import numpy as np
 from scipy import optimize
 
+from impactid.engine.distributions import student_t_quantile
 from impactid.io import Recording
 from impactid.rigs._params import RigParameters
 from impactid.rigs.pivoted import spring_force
@@ -412,8 +413,6 @@ def phase_from_hertz(windows: EventWindows, phase: float, stderr: float) -> tupl
     At the validation's period-1 points and the built-in example the two agree and the angles are the
     more precise: nothing changes there.
     """
-    from scipy import stats
-
     rig, omega = windows.rig, windows.omega
     mu_h = float(getattr(rig, "mu", 0.0)) * float(rig.h_p)
     dt = windows.dt
@@ -472,7 +471,7 @@ def phase_from_hertz(windows: EventWindows, phase: float, stderr: float) -> tupl
     slope = (mean_log(hertz + step) - mean_log(hertz - step)) / (2.0 * step)
     if m < 3 or not (math.isfinite(slope) and slope != 0.0):
         return phase, stderr, ""
-    widen = float(stats.t.ppf(0.975, m - 1)) / 1.96  # small-sample widening of the scatter term
+    widen = student_t_quantile(0.975, m - 1) / 1.96  # small-sample widening of the scatter term
     scatter = widen * float(np.nanstd(values, ddof=1)) / math.sqrt(m)
     hertz_stderr = math.hypot(scatter, HERTZ_RATIO_SYSTEMATIC) / abs(slope)
     difference = abs(hertz - phase) / math.hypot(stderr, hertz_stderr)
@@ -516,8 +515,6 @@ def phase_profile_stderr(rig: RigParameters, omega: float, t_rel: np.ndarray, al
     ``t`` is returned when it exceeds :data:`PHASE_PROFILE_FACTOR` times ``linear_stderr``; else
     ``linear_stderr`` (the two agree where the linearisation holds).
     """
-    from scipy import stats
-
     ok = np.isfinite(alpha_on)
     t_ok, a_ok = t_rel[ok], alpha_on[ok]
     m = int(ok.sum())
@@ -527,7 +524,7 @@ def phase_profile_stderr(rig: RigParameters, omega: float, t_rel: np.ndarray, al
     def rss(q: float) -> float:
         return float(np.sum((np.asarray(rig.contact_angle(q + omega * t_ok)) - a_ok) ** 2))
 
-    t_value = float(stats.t.ppf(0.975, m - 1))
+    t_value = student_t_quantile(0.975, m - 1)
     level = rss(phase) * (1.0 + t_value ** 2 / (m - 1))
     step = max(0.25 * linear_stderr, 1e-6)
     edges = []

@@ -37,9 +37,10 @@ from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
-from scipy import optimize, stats
+from scipy import optimize
 
 from impactid.engine import linearised_bootstrap as engine_bootstrap
+from impactid.engine.distributions import student_t_quantile
 from impactid.engine.valley import LeastSquaresFit, fit_least_squares
 from impactid.rigs.pivoted.damping_diagnostics import (
     apply_model_check,
@@ -489,7 +490,7 @@ def phase_quantiles(problem: DampingProblem, level: float = 0.95) -> list[float]
         if not (math.isfinite(es.phase_stderr) and es.phase_stderr > 0):
             continue
         dof = max(len(es) - 1, 1)
-        out.append(float(stats.t.ppf(0.5 + 0.5 * level, dof)))
+        out.append(student_t_quantile(0.5 + 0.5 * level, dof))
     return out
 
 

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numba import njit, prange
-from scipy import stats
 
 from impactid import compilation
+from impactid.engine.distributions import chi2_sf
 from impactid.rigs.pivoted import kernel as K
 
 compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
@@ -232,7 +232,7 @@ def free_flight_fit(alpha: Iterable[np.ndarray], acceleration: Iterable[np.ndarr
     slope = sum_xm / sum_xx if sum_xx > 0.0 else math.nan
     removed = max(ss_model - ss_refit, 0.0)
     chi_square = removed / noise ** 2
-    p_value = float(stats.chi2.sf(chi_square, 2))
+    p_value = chi2_sf(chi_square, 2)
     refit_rms = math.sqrt(ss_refit / n)
     misfit = math.sqrt(removed / n) / swing if swing > 0.0 else math.nan
     clean = refit_rms <= max(FREE_FLIGHT_CLEAN * noise, FREE_FLIGHT_CLEAN_SWING * swing)
