@@ -499,7 +499,9 @@ def damping_values(result, beta: float, n: float | None = None) -> dict:
     """The scores of a Hunt-Crossley fit against the law ``beta, n`` (``n`` None: n was fixed).
 
     Returns the estimate, its interval, the error, coverage, the model check's verdict and action, whether it
-    warns (a verdict of :data:`WARNING_VERDICTS`), whether a note names the model check, the separability
+    warns (a verdict of :data:`WARNING_VERDICTS`), whether a note names the model check, whether the fit reports
+    its parameters as determined (its identifiability block: not where the model check finds that the law does
+    not describe the data, or the problem is ill-conditioned), the separability
     (joint fits) and whether the answer is confident and wrong (:func:`confident_wrong`, on ``beta`` and, for a
     joint fit, ``n``).
     """
@@ -512,6 +514,7 @@ def damping_values(result, beta: float, n: float | None = None) -> dict:
               "beta_covered": bool(d.beta_interval[0] <= beta <= d.beta_interval[1]),
               "verdict": verdict, "action": str(check.get("action", "none")),
               "warned": verdict in WARNING_VERDICTS, "model_check_note": any("model check" in w for w in notes),
+              "determined": bool(dict(d.identifiability or {}).get("determined", True)),
               "failed_simulations": d.n_failed_simulations}
     wrong = confident_wrong(d.beta, d.beta_interval, beta)
     if n is not None:

@@ -23,7 +23,10 @@ preceded by the ringing of a linear-phase anti-alias filter) is reproduced with 
 (:func:`band_limited_decimation`) and with its onsets where the measurement's fall between two samples, and the
 cam phase reconstructed from it, against the simulation's, is also measured (:attr:`PipelineBias.phase`): the
 filter smooths each rise and leaves the onset times an error of a fraction of a sample that the cam-phase anchor
-turns into a phase error (docs/estimation.md, "Band-limited recordings").
+turns into a phase error (docs/estimation.md, "Band-limited recordings"). The phase bias of a noise-free recording
+(noise floor below :data:`NOISE_FREE_FRACTION` of its peak) is measured too, without a filter: a sharp onset's error is
+a few hundredths of a sample, but in periodic motion it is the same at every impact, and nothing else hides it
+(docs/estimation.md, "The cam phase of noise-free recordings").
 """
 
 from __future__ import annotations
@@ -41,8 +44,8 @@ from impactid.rigs.pivoted.reconstruct import band_limited_decimation, reconstru
 from impactid.rigs.pivoted.runs import simulate
 from impactid.signal import noise_floor
 
-__all__ = ["CACHE_SIZE", "MIN_EVENTS", "PipelineBias", "RecordingSampling", "band_limited_decimation",
-           "calibration_duration", "pipeline_bias"]
+__all__ = ["CACHE_SIZE", "MIN_EVENTS", "NOISE_FREE_FRACTION", "PipelineBias", "RecordingSampling",
+           "band_limited_decimation", "calibration_duration", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
 #: of rig P need about 35 s; docs/estimation.md).
@@ -66,7 +69,7 @@ class PipelineBias:
 
     ``alpha_m`` is the mean over the calibration's events of ``alpha_m(measured) / alpha_m(true) - 1``,
     ``stderr`` its standard error (the per-event scatter over the square root of the number of
-    events), ``events`` how many were compared. For a band-limited recording also ``phase``, the
+    events), ``events`` how many were compared. For a band-limited or noise-free recording also ``phase``, the
     reconstructed cam phase less the simulation's [rad], and ``phase_stderr``, the reconstruction's standard
     error of it [rad] (NaN otherwise).
     """
@@ -84,7 +87,7 @@ class PipelineBias:
 
     @property
     def phase_measured(self) -> bool:
-        """Whether a cam-phase bias was measured (band-limited recordings only, with its standard error)."""
+        """Whether a cam-phase bias was measured (band-limited and noise-free recordings, with its standard error)."""
         return bool(math.isfinite(self.phase) and math.isfinite(self.phase_stderr))
 
     def to_dict(self) -> dict:
@@ -110,8 +113,8 @@ class RecordingSampling:
     noise_fraction : the accelerometer's noise floor as a fraction of its largest magnitude [-].
     decimation : the anti-alias decimation the calibration applies (1: none; a band-limited recording's
         :func:`band_limited_decimation`).
-    onset_fraction : where a band-limited recording's first used onset falls between two samples [samples,
-        in [0, 1)]; NaN otherwise.
+    onset_fraction : where a band-limited or noise-free recording's first used onset falls between two samples
+        [samples, in [0, 1)]; NaN otherwise.
     """
 
     rig: object
@@ -144,18 +147,20 @@ class RecordingSampling:
                    duration=float(recording.duration), noise_fraction=float(fraction),
                    decimation=band_limited_decimation(rate) if band_limited else 1,
                    onset_fraction=((float(onset_time_s) - float(recording.start_time_s)) * rate) % 1.0
-                   if (band_limited or fraction < PHASE_NOISE_FREE) and math.isfinite(onset_time_s) else math.nan)
+                   if (band_limited or fraction < NOISE_FREE_FRACTION) and math.isfinite(onset_time_s) else math.nan)
 
 
 
-#: A recording whose accelerometer noise floor is below this fraction of its largest magnitude has its cam-phase
-#: bias measured too (its replay's phase error is then the pipeline's, not a noise realisation's).
-PHASE_NOISE_FREE = 1e-4
+#: A recording whose accelerometer noise floor is below this fraction of its largest magnitude is noise-free: its
+#: cam-phase bias is measured too (its replay's phase error is then the pipeline's, not a noise realisation's), and
+#: the contact-duration check takes its simulated contacts as they are where they match
+#: (:func:`~impactid.rigs.pivoted.damping_diagnostics.contact_duration_check`).
+NOISE_FREE_FRACTION = 1e-4
 
 
 def _phase_calibrated(sampling: RecordingSampling) -> bool:
     """Whether the calibration measures the cam-phase bias: band-limited or noise-free recordings."""
-    return sampling.decimation > 1 or sampling.noise_fraction < PHASE_NOISE_FREE
+    return sampling.decimation > 1 or sampling.noise_fraction < NOISE_FREE_FRACTION
 
 
 def calibration_duration(sampling: RecordingSampling) -> float:

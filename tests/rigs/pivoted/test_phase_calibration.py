@@ -17,7 +17,7 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.pipeline import estimate
-from impactid.rigs.pivoted.calibration import PHASE_NOISE_FREE, RecordingSampling, pipeline_bias
+from impactid.rigs.pivoted.calibration import NOISE_FREE_FRACTION, RecordingSampling, pipeline_bias
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.synth import synth_pivoted
 from impactid.synth import SensorModel
@@ -53,7 +53,7 @@ def test_the_calibration_reproduces_a_noise_free_phase_bias(recording):
     assert not recon.band_limited
     assert abs(actual) > 4.0 * recon.cam_phase_stderr  # a bias the interval would not hold
     sampling = _sampling(recon, recording)
-    assert sampling.noise_fraction < PHASE_NOISE_FREE and math.isfinite(sampling.onset_fraction)
+    assert sampling.noise_fraction < NOISE_FREE_FRACTION and math.isfinite(sampling.onset_fraction)
     bias = pipeline_bias(sampling, LAW)
     assert bias.phase_measured
     assert abs(bias.phase - actual) < 0.15 * abs(actual), (bias.phase, actual)
@@ -64,7 +64,7 @@ def test_the_calibration_reproduces_a_noise_free_phase_bias(recording):
 
 def test_a_noisy_recording_gets_no_phase_calibration(recording):
     recon = reconstruct(recording, anchor="cam-phase", warn=False)
-    noisy = replace(_sampling(recon, recording), noise_fraction=10.0 * PHASE_NOISE_FREE)
+    noisy = replace(_sampling(recon, recording), noise_fraction=10.0 * NOISE_FREE_FRACTION)
     assert not pipeline_bias(noisy, LAW).phase_measured
 
 
