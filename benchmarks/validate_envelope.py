@@ -413,7 +413,8 @@ def targets_all(frames: dict[str, pd.DataFrame], met: dict[str, bool]) -> tuple[
             continue
         fitted = part[part["status"] == "estimate"]
         # the tool's own word: a fit that does not report its parameters as determined gives no estimate
-        determined = (fitted["determined"].map(lambda v: v is not False and v == v and bool(v))
+        # (a row without the field, from a run before it was recorded, counts as determined: the page says which)
+        determined = (fitted["determined"].map(lambda v: not (isinstance(v, (bool, np.bool_)) and not v))
                       if "determined" in fitted else pd.Series(True, index=fitted.index))
         est, undetermined = fitted[determined], fitted[~determined]
         within = int((est["beta_error"].abs() <= 0.01).sum()) if len(est) else 0

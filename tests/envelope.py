@@ -261,7 +261,8 @@ def run_case(case: Case, joint: bool = True) -> dict:
                           "beta_error": d.beta / case.beta - 1.0,
                           "beta_covered": bool(d.beta_interval[0] <= case.beta <= d.beta_interval[1]),
                           "failed_simulations": d.n_failed_simulations,
-                          "verdict": str((d.model_check or {}).get("verdict", "not checked"))}
+                          "verdict": str((d.model_check or {}).get("verdict", "not checked")),
+                          "determined": bool(dict(d.identifiability or {}).get("determined", True))}
             r = result.restitution
             outcomes.append(Outcome("restitution", "estimate" if r is not None else "refusal",
                                     reason="" if r is not None else "no impact with a determined xi",
@@ -278,6 +279,7 @@ def run_case(case: Case, joint: bool = True) -> dict:
                               "n_covered": bool(d.n_interval[0] <= case.n <= d.n_interval[1]),
                               "failed_simulations": d.n_failed_simulations,
                               "verdict": str((d.model_check or {}).get("verdict", "not checked")),
+                              "determined": bool(dict(d.identifiability or {}).get("determined", True)),
                               "left_out": left_out_of_joint_fit(tuple(result.warnings) + tuple(d.warnings))}
                 if not d.separable:
                     out.reason = "not separable: " + next((w for w in d.warnings if "not separable" in w), "")

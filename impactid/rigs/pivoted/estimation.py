@@ -453,6 +453,11 @@ def summary(result: Estimate) -> list[str]:
              + f"; {d.n_simulations} simulated impacts (S1), {d.seconds:.2f} s",
              f"  beta  = {num(d.beta, '.4g')} N s m^-(n+1)   {_interval(*d.beta_interval, '.4g', why)}"
              + made_with(truth["beta"] if truth else 0.0, ".4g")]
+    block = dict(d.identifiability or {})
+    if block.get("determined", True) is False and all(math.isfinite(v) for v in d.beta_interval):
+        # an interval is stated, but the fit does not stand by its parameters: said beside them, not only below
+        reason = next(iter(block.get("notes") or ()), "see the identifiability block")
+        lines.append(f"  (NOT DETERMINED by these data: {reason})")
     if d.fixed_n:
         lines.append(f"  n     = {d.n:.5g} (fixed)" + made_with(truth["n"] if truth else 0.0, ".5g"))
     else:
