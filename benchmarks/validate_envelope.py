@@ -77,7 +77,8 @@ TARGETS = {
                        "refused by design): beta within 1 % in "
                        "at least 95 % of the cases estimated, and no more than 10 % refused (a fit that reports its "
                        "parameters as not determined, its model check finding that the law does not describe the "
-                       "data, counts as refused: it gives no estimate it stands by)",
+                       "data or beta's interval reaching more than ten times away from the estimate, counts as "
+                       "refused: it gives no value it stands by)",
     "coverage": "noisy: interval coverage at least 90 %",
     "joint": "joint over two points, noise-free: beta within 5 % and n within 0.02 in at least 90 % of pairs (of two "
              "usable recordings); a pair with one unusable recording gives the other's fit, says so and is not "

@@ -48,6 +48,7 @@ from impactid.rigs.pivoted.damping_diagnostics import (
     damping_identifiability,
     damping_model_check,
     failure_note,
+    mark_reach,
     per_event_table,
     separability,
     widen_interval,
@@ -147,6 +148,8 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
                            "log10_c": prof["log10_c"], "objective": prof["objective"]})
     land = problem.landscape_if_asked()
     failure_note(obj, notes)
+    block = damping_identifiability(problem, fit, check.describes_data, n_iv)
+    mark_reach(block, beta_hat, beta_iv, notes)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=problem.residual,
         objective=float(np.mean(np.abs(r))), method="least-squares", beta_interval=beta_iv, n_interval=n_iv,
@@ -156,7 +159,7 @@ def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: 
         valley=valley, per_event=per_event_table(problem, per_event_hat), delta_ref=obj.delta_ref, bootstrap=boot,
         landscape=land, n_simulations=obj.n_simulations, seconds=math.nan, warnings=tuple(notes),
         n_failed_simulations=obj.n_failed, beta_stderr=check.widen_stderr(beta_se), n_stderr=check.widen_stderr(n_se),
-        model_check=model_block, identifiability=damping_identifiability(problem, fit, check.describes_data, n_iv))
+        model_check=model_block, identifiability=block)
 
 
 def gauss_newton_search(problem: DampingProblem, obj: DampingObjective, systematic: float, notes: list[str],

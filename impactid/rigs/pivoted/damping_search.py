@@ -37,6 +37,7 @@ from impactid.rigs.pivoted.damping_diagnostics import (
     bound_notes,
     damping_model_check,
     failure_note,
+    mark_reach,
     per_event_table,
     search_identifiability,
     separability,
@@ -187,6 +188,8 @@ def fit_by_search(problem: DampingProblem, obj: DampingObjective, method: str, g
                      f"{indifference.standard_error:.3g}); the estimate rests on {indifference.events_used} impacts")
     land = problem.landscape_if_asked()
     failure_note(obj, notes)
+    block = search_identifiability(problem, separable, n_iv, check.describes_data)
+    mark_reach(block, beta_hat, beta_iv, notes)
     return DampingEstimate(
         beta=beta_hat, n=n_hat, fixed_n=fix_n is not None, residual=problem.residual, objective=j_hat, method=method,
         beta_interval=beta_iv, n_interval=n_iv, beta_bootstrap_interval=(float(b_boot[0]), float(b_boot[1])),
@@ -195,7 +198,7 @@ def fit_by_search(problem: DampingProblem, obj: DampingObjective, method: str, g
         per_event=per_event_table(problem, indifference.per_event), delta_ref=problem.delta_ref,
         bootstrap=lattice.bootstrap, landscape=land, n_simulations=obj.n_simulations, seconds=math.nan,
         warnings=tuple(notes), n_failed_simulations=obj.n_failed, model_check=model_block,
-        identifiability=search_identifiability(problem, separable, n_iv, check.describes_data))
+        identifiability=block)
 
 
 # ---------------------------------------------------------------------------------------------

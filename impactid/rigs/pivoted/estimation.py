@@ -457,7 +457,7 @@ def summary(result: Estimate) -> list[str]:
     if block.get("determined", True) is False and all(math.isfinite(v) for v in d.beta_interval):
         # an interval is stated, but the fit does not stand by its parameters: said beside them, not only below
         reason = next(iter(block.get("notes") or ()), "see the identifiability block")
-        lines.append(f"  (NOT DETERMINED by these data: {reason})")
+        lines.append(f"  (NOT DETERMINED: {reason})")
     if d.fixed_n:
         lines.append(f"  n     = {d.n:.5g} (fixed)" + made_with(truth["n"] if truth else 0.0, ".5g"))
     else:
