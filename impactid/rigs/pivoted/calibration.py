@@ -150,7 +150,6 @@ class RecordingSampling:
                    if (band_limited or fraction < NOISE_FREE_FRACTION) and math.isfinite(onset_time_s) else math.nan)
 
 
-
 #: A recording whose accelerometer noise floor is below this fraction of its largest magnitude is noise-free: its
 #: cam-phase bias is measured too (its replay's phase error is then the pipeline's, not a noise realisation's), and
 #: the contact-duration check takes its simulated contacts as they are where they match

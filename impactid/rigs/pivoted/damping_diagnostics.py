@@ -96,11 +96,11 @@ REPLAY_SEED = 2026
 #: A replayed contact is sampled over this many times the measured contact, and at least
 #: :data:`REPLAY_MARGIN_S` beyond it [s] (a longer replayed contact is cut there: it is rejected anyway).
 REPLAY_SPAN = 3.0
+REPLAY_MARGIN_S = 2e-3
 #: Most events of a recording the contact-duration check replays, spread evenly over it (a 60 s recording: 128 of
 #: 959). The check compares medians over events against a 50 % threshold; 128 events fix a median duration to a
 #: few percent (its order statistics) where a thousand cost a second of replays and detection.
 DURATION_CHECK_EVENTS = 128
-REPLAY_MARGIN_S = 2e-3
 #: The damping index a fitted ``n`` is compared with (Hunt and Crossley's).
 N_COMPARED = 1.5
 

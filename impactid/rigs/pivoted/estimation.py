@@ -259,7 +259,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
         simulations, seconds = simulations + again.n_simulations, seconds + again.seconds
         # an unfiltered onset's phase bias barely moves with the law (the 60 s benchmark recording: -4.42e-5 to
         # -4.63e-5 rad over beta -0.05 % to +0.4 %): measured once; a band-limited one's with the filtered pulse
-        if attempt == PHASE_CALIBRATION_ROUNDS - 1 or not any(use and s.decimation > 1 for s, use in zip(sets, phased)):
+        if attempt == PHASE_CALIBRATION_ROUNDS - 1 or not any(_filtered(sets, phased)):
             break
         law = HuntCrossley(beta=again.beta, n=again.n)
         update = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
@@ -276,28 +276,36 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
                                  if math.isfinite(b.alpha_m))
                      + "; alpha_m was corrected where the bias is significant and the fit repeated, with the "
                        "intervals widened by half the correction plus two standard errors")
-    quiet = [s.source for s, use in zip(sets, phased) if use and s.decimation <= 1]
-    if quiet:
-        notes.append("the cam-phase bias of the onsets of " + ", ".join(quiet) + " (noise-free: the pipeline's own, "
-                     "measured on the model's recording with the same sampling) is "
-                     + ", ".join(f"{b.phase:+.2e} +- {b.phase_stderr:.1e} rad ({s.source})"
-                                 for s, b, use in zip(sets, biases, phased) if use and s.decimation <= 1)
-                     + f" at beta {measured_at.beta:.4g}, n {measured_at.n:.4g}; the cam phase was corrected by it and "
-                       "its standard error widened by half the correction plus two standard errors")
-    if any(use and s.decimation > 1 for s, use in zip(sets, phased)):
-        limited = [s.source for s, use in zip(sets, phased) if use and s.decimation > 1]
+    filtered = _filtered(sets, phased)
+    quiet = [use and not band for use, band in zip(phased, filtered)]
+
+    def phases(which: list[bool]) -> str:
+        return ", ".join(f"{b.phase:+.2e} +- {b.phase_stderr:.1e} rad ({s.source})"
+                         for s, b, use in zip(sets, biases, which) if use)
+
+    if any(quiet):
+        notes.append("the cam-phase bias of the onsets of " + ", ".join(s.source for s, q in zip(sets, quiet) if q)
+                     + " (noise-free: the pipeline's own, measured on the model's recording with the same sampling) is "
+                     + phases(quiet) + f" at beta {measured_at.beta:.4g}, n {measured_at.n:.4g}; the cam phase was "
+                       "corrected by it and its standard error widened by half the correction plus two standard errors")
+    if any(filtered):
+        limited = [s.source for s, band in zip(sets, filtered) if band]
         notes.append(("the recording " if len(limited) == 1 else "the recordings ") + ", ".join(limited)
                      + (" is" if len(limited) == 1 else " are")
                      + " band-limited (a linear-phase anti-alias filter rings ahead of each rise and smooths the "
                        "contact onset): the cam-phase bias of the onsets, measured on the model's own recording "
                        f"through such a filter at beta {measured_at.beta:.4g}, n {measured_at.n:.4g}, is "
-                     + ", ".join(f"{b.phase:+.2e} +- {b.phase_stderr:.1e} rad ({s.source})"
-                                 for s, b, use in zip(sets, biases, phased) if use and s.decimation > 1)
-                     + "; the cam phase was corrected by it and its standard error widened by half the correction "
-                       "plus two standard errors (the recording's own filter is not known: docs/estimation.md)")
+                     + phases(filtered) + "; the cam phase was corrected by it and its standard error widened by half "
+                       "the correction plus two standard errors (the recording's own filter is not known: "
+                       "docs/estimation.md)")
     again = replace(again, warnings=again.warnings + tuple(notes), n_simulations=simulations, seconds=seconds)
     record = _calibration_record(sets, biases)
     return again, corrected, record, systematic
+
+
+def _filtered(sets, phased: list[bool]) -> list[bool]:
+    """Per recording, whether its cam phase is corrected as a band-limited recording's (through the filter)."""
+    return [use and s.decimation > 1 for s, use in zip(sets, phased)]
 
 
 def _corrections(biases) -> tuple[list[bool], list[bool]]:
