@@ -501,7 +501,8 @@ def damping_values(result, beta: float, n: float | None = None) -> dict:
     Returns the estimate, its interval, the error, coverage, the model check's verdict and action, whether it
     warns (a verdict of :data:`WARNING_VERDICTS`), whether a note names the model check, whether the fit reports
     its parameters as determined (its identifiability block: not where the model check finds that the law does
-    not describe the data, or the problem is ill-conditioned), the separability
+    not describe the data, the problem is ill-conditioned, or beta's interval reaches more than ten times away
+    from the estimate), the separability
     (joint fits) and whether the answer is confident and wrong (:func:`confident_wrong`, on ``beta`` and, for a
     joint fit, ``n``).
     """

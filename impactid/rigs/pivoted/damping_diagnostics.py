@@ -71,11 +71,12 @@ from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL, EventSet
 from impactid.rigs.pivoted.runs import simulate_events
 from impactid.synth.sensors import antialias_decimate
 
-__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "DETERMINED_REACH", "DURATION_CHECK_EVENTS",
-           "DURATION_REPLAYS", "FAILED_SHARE_NOTED", "N_COMPARED", "REPLAY_MARGIN_S", "REPLAY_SEED", "REPLAY_SPAN",
-           "SEPARABILITY_WIDTH", "apply_model_check", "approach_speed_spread", "bound_notes", "contact_duration_check",
-           "damping_identifiability", "damping_model_check", "detected_durations", "failure_note", "interval_reach",
-           "mark_reach", "per_event_table", "search_identifiability", "separability", "widen_interval"]
+__all__ = ["ALIKE_SPREAD", "CONTACT_DURATION_MISMATCH", "DETERMINED_REACH", "DURATION_CHECK_BLOCKS",
+           "DURATION_CHECK_EVENTS", "DURATION_REPLAYS", "FAILED_SHARE_NOTED", "N_COMPARED", "REPLAY_MARGIN_S",
+           "REPLAY_SEED", "REPLAY_SPAN", "SEPARABILITY_WIDTH", "apply_model_check", "approach_speed_spread",
+           "bound_notes", "contact_duration_check", "damping_identifiability", "damping_model_check",
+           "detected_durations", "failure_note", "interval_reach", "mark_reach", "per_event_table",
+           "search_identifiability", "separability", "widen_interval"]
 
 #: Widest ``n`` interval for which ``beta`` and ``n`` count as separable.
 SEPARABILITY_WIDTH = 0.25
@@ -97,9 +98,10 @@ REPLAY_SEED = 2026
 #: :data:`REPLAY_MARGIN_S` beyond it [s] (a longer replayed contact is cut there: it is rejected anyway).
 REPLAY_SPAN = 3.0
 REPLAY_MARGIN_S = 2e-3
-#: Most events of a recording the contact-duration check replays, spread evenly over it (a 60 s recording: 128 of
-#: 959). The check compares medians over events against a 50 % threshold; 128 events fix a median duration to a
-#: few percent (its order statistics) where a thousand cost a second of replays and detection.
+#: Most events of a recording the contact-duration check replays, in blocks spread over it (a 60 s recording: 128
+#: of 959; :func:`_check_events`). The check compares medians over events against a 50 % threshold; 128 events
+#: fix a median duration to a few percent (its order statistics) where a thousand cost a second of replays and
+#: detection.
 DURATION_CHECK_EVENTS = 128
 #: The damping index a fitted ``n`` is compared with (Hunt and Crossley's).
 N_COMPARED = 1.5
@@ -300,6 +302,21 @@ def detected_durations(force: Sequence[np.ndarray], grids: Sequence[np.ndarray],
     return out
 
 
+#: Blocks of consecutive events the duration check takes from a long recording (:func:`_check_events`).
+DURATION_CHECK_BLOCKS = 8
+
+
+def _check_events(count: int) -> np.ndarray:
+    """The events the duration check replays from a recording of ``count`` events: :data:`DURATION_CHECK_EVENTS` in
+    :data:`DURATION_CHECK_BLOCKS` blocks of consecutive events spread over it (every event of a period-k motion up
+    to the block's length is among them; evenly spaced single events can all fall on one branch of a period-2
+    motion: 255 events give 128 even ones)."""
+    blocks = max(min(DURATION_CHECK_BLOCKS, DURATION_CHECK_EVENTS), 1)
+    per = DURATION_CHECK_EVENTS // blocks
+    starts = np.linspace(0, count - per, blocks).round().astype(int)
+    return np.unique((starts[:, None] + np.arange(per)[None, :]).ravel())
+
+
 def _noise_free(event_set: EventSet) -> bool:
     """Whether the recording's accelerometer noise floor is below
     :data:`~impactid.rigs.pivoted.calibration.NOISE_FREE_FRACTION` of its largest contact pulse."""
@@ -317,9 +334,10 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
     event detector with the recording's noise (:func:`detected_durations`) and compared like with
     like. Without what the replay needs (an event set made by hand) the simulated durations are
     compared as they are. A recording with more than :data:`DURATION_CHECK_EVENTS` events is checked on
-    that many, spread evenly over it. In a noise-free recording (:func:`_noise_free`) an event agrees when
-    its replayed or its simulated contact lasts as measured (no noise cuts the ends there, and the replay,
-    the contact force alone on a quiet flight, loses the low tail of a long, nearly plastic contact).
+    that many, in blocks of consecutive events spread over it (:func:`_check_events`). In a noise-free
+    recording (:func:`_noise_free`) an event agrees when its replayed or its simulated contact lasts as
+    measured (no noise cuts the ends there, and the replay, the contact force alone on a quiet flight,
+    loses the low tail of a long, nearly plastic contact).
 
     Parameters
     ----------
@@ -345,7 +363,7 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
         if s.contact_duration is None or len(s) == 0:
             continue
         if len(s) > DURATION_CHECK_EVENTS:
-            s = s.subset(np.unique(np.linspace(0, len(s) - 1, DURATION_CHECK_EVENTS).round().astype(int)))
+            s = s.subset(_check_events(len(s)))
         m_s = np.asarray(s.contact_duration, dtype=float)
         grids = _replay_grids(s)
         if grids is None:

@@ -117,3 +117,11 @@ def test_a_long_recording_is_checked_on_a_subsample(long_contacts, monkeypatch):
     monkeypatch.setattr(check, "DURATION_CHECK_EVENTS", 5)
     block = check.contact_duration_check(SimpleNamespace(sets=[long_contacts]), NEAR_PLASTIC.beta, NEAR_PLASTIC.n)
     assert len(long_contacts) > 5 and block["events"] == 5 and block["simulations"] == 5
+
+
+def test_the_subsample_holds_both_branches_of_a_period_two_motion():
+    """Evenly spaced single events of 255 are all even (one branch of a period-2 motion); the blocks are not."""
+    for count in (129, 255, 509, 959):
+        picked = check._check_events(count)
+        assert picked.size == check.DURATION_CHECK_EVENTS and picked.min() == 0 and picked.max() == count - 1
+        assert 0 < int(np.sum(picked % 2 == 0)) < picked.size

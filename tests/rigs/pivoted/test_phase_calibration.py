@@ -62,6 +62,14 @@ def test_the_calibration_reproduces_a_noise_free_phase_bias(recording):
     assert abs(moved.phase - bias.phase) < 0.1 * abs(bias.phase), (moved.phase, bias.phase)
 
 
+def test_no_phase_bias_without_the_measurement_s_onset(recording):
+    """Unaligned, the bias is anything between -0.55e-5 and -4.3e-5 rad as the onset moves between two samples
+    (at 16 Hz every onset falls at the same place): it is not measured then, nor corrected."""
+    recon = reconstruct(recording, anchor="cam-phase", warn=False)
+    unaligned = replace(_sampling(recon, recording), onset_fraction=math.nan)
+    assert not pipeline_bias(unaligned, LAW).phase_measured
+
+
 def test_a_noisy_recording_gets_no_phase_calibration(recording):
     recon = reconstruct(recording, anchor="cam-phase", warn=False)
     noisy = replace(_sampling(recon, recording), noise_fraction=10.0 * NOISE_FREE_FRACTION)
