@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from scipy import special
 
-__all__ = ["chi2_quantile", "chi2_sf", "normal_quantile", "normal_sf", "student_t_quantile", "student_t_sf"]
+__all__ = ["chi2_quantile", "chi2_sf", "normal_quantile", "normal_sf", "student_t_quantile", "student_t_sf",
+           "two_sided_quantile"]
 
 
 def student_t_quantile(p: float, dof: float) -> float:
@@ -41,3 +42,10 @@ def normal_quantile(p: float) -> float:
 def normal_sf(x: float) -> float:
     """Upper tail probability of the standard normal law beyond ``x`` (``scipy.stats.norm.sf``)."""
     return float(special.ndtr(-x))
+
+
+def two_sided_quantile(level: float, dof: float) -> float:
+    """The two-sided ``level`` quantile of Student's t with ``dof`` degrees of freedom (the normal law's without
+    any): the half-width of a ``level`` interval in standard errors."""
+    p = 0.5 + 0.5 * level
+    return student_t_quantile(p, dof) if dof > 0 else normal_quantile(p)

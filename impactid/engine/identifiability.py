@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from impactid.engine.covariance import CONDITION_LIMIT
-from impactid.engine.distributions import chi2_quantile, chi2_sf, normal_quantile, student_t_quantile
+from impactid.engine.distributions import chi2_quantile, chi2_sf, two_sided_quantile
 from impactid.engine.intervals import BOUND_TOLERANCE, Uncertainty, safe_exp
 from impactid.engine.least_squares import Search, search
 
@@ -323,7 +323,7 @@ def profile_interval(residual: Callable[[np.ndarray], np.ndarray], found: Search
     k = [p.name for p in found.varying].index(name)
     x, se = float(found.x[k]), float(fit.covariance.stderr[k])
     level = fit.confidence if confidence is None else confidence
-    q = (student_t_quantile(0.5 + 0.5 * level, fit.dof) if fit.dof > 0 else normal_quantile(0.5 + 0.5 * level))
+    q = two_sided_quantile(level, fit.dof)
     threshold = q * q
     options = dict(search_options or {})
     lo_bound, hi_bound = free.bounds()

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from impactid.engine.covariance import Covariance, covariance_from_jacobian
-from impactid.engine.distributions import normal_quantile, student_t_quantile
+from impactid.engine.distributions import two_sided_quantile
 from impactid.engine.least_squares import Search
 from impactid.results import Parameter
 
@@ -93,7 +93,7 @@ def uncertainty(found: Search, *, confidence: float = 0.95, scale: float | None 
     s2 = float(2.0 * found.cost / dof) if scale is None else float(scale)
     covariance = covariance_from_jacobian(found.jacobian, s2, names=names)
     notes = [covariance.reason] if covariance.reason else []
-    q = (student_t_quantile(0.5 + 0.5 * confidence, dof) if dof > 0 else normal_quantile(0.5 + 0.5 * confidence))
+    q = two_sided_quantile(confidence, dof)
     values = found.values()
     parameters, k, on_bound = [], 0, []
     for p in found.free:

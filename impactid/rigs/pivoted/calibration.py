@@ -45,7 +45,7 @@ from impactid.rigs.pivoted.runs import simulate
 from impactid.signal import noise_floor
 
 __all__ = ["CACHE_SIZE", "MIN_EVENTS", "NOISE_FREE_FRACTION", "PipelineBias", "RecordingSampling",
-           "band_limited_decimation", "calibration_duration", "pipeline_bias"]
+           "band_limited_decimation", "calibration_duration", "noise_free", "pipeline_bias"]
 
 #: Seconds of simulated settling before the calibration recording (the slowest period-1 transients
 #: of rig P need about 35 s; docs/estimation.md).
@@ -147,7 +147,7 @@ class RecordingSampling:
                    duration=float(recording.duration), noise_fraction=float(fraction),
                    decimation=band_limited_decimation(rate) if band_limited else 1,
                    onset_fraction=((float(onset_time_s) - float(recording.start_time_s)) * rate) % 1.0
-                   if (band_limited or fraction < NOISE_FREE_FRACTION) and math.isfinite(onset_time_s) else math.nan)
+                   if (band_limited or noise_free(fraction)) and math.isfinite(onset_time_s) else math.nan)
 
 
 #: A recording whose accelerometer noise floor is below this fraction of its largest magnitude is noise-free: its
@@ -158,9 +158,15 @@ class RecordingSampling:
 NOISE_FREE_FRACTION = 1e-4
 
 
+def noise_free(noise_fraction: float) -> bool:
+    """Whether a noise floor of ``noise_fraction`` of the signal's magnitude [-] is noise-free
+    (:data:`NOISE_FREE_FRACTION`)."""
+    return bool(math.isfinite(noise_fraction) and noise_fraction < NOISE_FREE_FRACTION)
+
+
 def _phase_calibrated(sampling: RecordingSampling) -> bool:
     """Whether the calibration measures the cam-phase bias: band-limited or noise-free recordings."""
-    return sampling.decimation > 1 or sampling.noise_fraction < NOISE_FREE_FRACTION
+    return sampling.decimation > 1 or noise_free(sampling.noise_fraction)
 
 
 def calibration_duration(sampling: RecordingSampling) -> float:

@@ -64,7 +64,7 @@ from impactid.engine.distributions import chi2_sf
 from impactid.engine.identifiability import LRT_SIGNIFICANCE, profile_note
 from impactid.events import BASELINE_GAP, BASELINE_LENGTH, CONTACT_END_BASELINE_S, NoImpactsError, find_events
 from impactid.io import Recording, RecordingError
-from impactid.rigs.pivoted.calibration import NOISE_FREE_FRACTION
+from impactid.rigs.pivoted.calibration import noise_free
 from impactid.rigs.pivoted.damping_objective import DampingObjective, DampingProblem
 from impactid.rigs.pivoted.pulse_check import pulse_check, withhold_for_rig
 from impactid.rigs.pivoted.residuals import FAILED_SIMULATION_RESIDUAL, EventSet
@@ -107,19 +107,21 @@ DURATION_CHECK_EVENTS = 128
 N_COMPARED = 1.5
 
 
+def _relative_spread(speeds: np.ndarray) -> float:
+    """Relative spread (std/mean) of the finite ``speeds`` (0 with fewer than two, or a mean not above 0)."""
+    va = np.asarray(speeds, dtype=float)
+    va = va[np.isfinite(va)]
+    return float(np.std(va) / np.mean(va)) if va.size > 1 and np.mean(va) > 0 else 0.0
+
+
 def _speeds_differ(event_set: EventSet) -> bool:
     """Whether a recording's finite approach speeds spread (std/mean) by :data:`ALIKE_SPREAD` or more."""
-    va = np.asarray(event_set.approach_speed, dtype=float)
-    va = va[np.isfinite(va)]
-    return bool(va.size >= 2 and abs(float(np.mean(va))) > 0.0
-                and float(np.std(va)) / abs(float(np.mean(va))) >= ALIKE_SPREAD)
+    return _relative_spread(event_set.approach_speed) >= ALIKE_SPREAD
 
 
 def approach_speed_spread(problem: DampingProblem) -> float:
     """Relative spread (std/mean) of the finite approach speeds over all events (0 with fewer than two)."""
-    va = np.concatenate([s.approach_speed for s in problem.sets])
-    va = va[np.isfinite(va)]
-    return float(np.std(va) / np.mean(va)) if va.size > 1 and np.mean(va) > 0 else 0.0
+    return _relative_spread(np.concatenate([s.approach_speed for s in problem.sets]))
 
 
 def separability(problem: DampingProblem, n_interval: tuple[float, float], beta_interval: tuple[float, float],
@@ -322,8 +324,7 @@ def _noise_free(event_set: EventSet) -> bool:
     :data:`~impactid.rigs.pivoted.calibration.NOISE_FREE_FRACTION` of its largest contact pulse."""
     peaks = np.asarray(event_set.pulse_peak if event_set.pulse_peak is not None else [], dtype=float)
     peak = float(np.nanmax(np.abs(peaks))) if peaks.size and np.isfinite(peaks).any() else math.nan
-    sigma = float(event_set.noise_sigma)
-    return bool(math.isfinite(peak) and peak > 0.0 and math.isfinite(sigma) and sigma < NOISE_FREE_FRACTION * peak)
+    return bool(peak > 0.0) and noise_free(float(event_set.noise_sigma) / peak)
 
 
 def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> dict[str, Any]:
@@ -398,14 +399,15 @@ def contact_duration_check(problem: DampingProblem, beta: float, n: float) -> di
         return block
     m, f, r, quiet = m[ok], f[ok], r[ok], quiet[ok]
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = np.where(m > 0.0, np.abs(r / np.where(m > 0.0, m, 1.0) - 1.0), np.where(r > 0.0, np.inf, 0.0))
-        raw = np.abs(f / np.where(m > 0.0, m, np.nan) - 1.0)
+        pulse = m > 0.0
+        per = np.where(pulse, m, 1.0)
+        rel = np.where(pulse, np.abs(r / per - 1.0), np.where(r > 0.0, np.inf, 0.0))
+        raw = np.abs(f / np.where(pulse, m, np.nan) - 1.0)
         # noise-free: no noise cuts the contact's ends, and a simulated contact that lasts as measured agrees (the
         # replay lays the contact force alone on a quiet flight, and loses the low tail of a long, nearly plastic
         # contact that the reconstruction's force balance follows: np12, 4.38 ms simulated, 4.34 ms measured,
         # 0.12 ms replayed)
-        rel = np.where(np.isfinite(quiet) & (m > 0.0), np.fmin(rel, np.abs(quiet / np.where(m > 0.0, m, 1.0) - 1.0)),
-                       rel)
+        rel = np.where(np.isfinite(quiet) & pulse, np.fmin(rel, np.abs(quiet / per - 1.0)), rel)
     median = float(np.median(rel))
     block.update(events=int(m.size), measured_median_s=float(np.median(m)),
                  model_median_s=float(np.nanmedian(f)) if np.any(np.isfinite(f)) else math.nan,
@@ -457,7 +459,8 @@ def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_par
     speed = np.concatenate([es.approach_speed if _speeds_differ(es) else np.full(len(es), np.nan)
                             for es in problem.sets])
     used = np.isfinite(per_event)
-    covariate = speed[used] if np.isfinite(speed[used]).any() else None
+    covariate = speed[used]
+    covariate = covariate if np.isfinite(covariate).any() else None
     check = check_model(per_event[used], None, noise_reference="", what=problem.residual, n_params=n_params,
                         groups=owner[used], covariate=covariate, covariate_name="approach speed [m/s]",
                         structure_floor=max(problem.residual_floor, problem.systematic), assumed_sd=assumed_sd,

@@ -269,6 +269,15 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
             break
         biases, measured_at = update, law
         applied, phased = _corrections(biases)
+    notes = _calibration_notes(sets, biases, applied, phased, measured_at)
+    again = replace(again, warnings=again.warnings + tuple(notes), n_simulations=simulations, seconds=seconds)
+    record = _calibration_record(sets, biases)
+    return again, corrected, record, systematic
+
+
+def _calibration_notes(sets, biases, applied: list[bool], phased: list[bool], measured_at: HuntCrossley) -> list[str]:
+    """The notes of :func:`_calibrate`'s corrections: the alpha_m biases corrected, and the cam-phase biases of the
+    noise-free and of the band-limited recordings, each with the law they were measured at."""
     notes = []
     if any(applied):
         notes.append(f"the pipeline's bias of alpha_m at these recordings' sampling, measured on the model's own "
@@ -299,9 +308,7 @@ def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str,
                      + phases(filtered) + "; the cam phase was corrected by it and its standard error widened by half "
                        "the correction plus two standard errors (the recording's own filter is not known: "
                        "docs/estimation.md)")
-    again = replace(again, warnings=again.warnings + tuple(notes), n_simulations=simulations, seconds=seconds)
-    record = _calibration_record(sets, biases)
-    return again, corrected, record, systematic
+    return notes
 
 
 def _filtered(sets, phased: list[bool]) -> list[bool]:
