@@ -45,6 +45,18 @@ from impactid.simulate import DEFAULT_TOLERANCES  # noqa: E402
 from tests.rigs.pivoted import reference_rigp as ref  # noqa: E402
 
 
+def s1_event():
+    """The benchmark's S1 event: ``(rig, law, hz, (alpha, alpha_dot, Theta) at its start, t_end)``, a
+    contact onset of the settled period-1 motion at e/r_c 0.2, 16 Hz, beta 24.7 GN s m^-2.5, n 1.5
+    (the 40 s run of the simulator that settles it takes about 0.1 s), and one revolution."""
+    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
+    law = HuntCrossley(24.7e9, 1.5)
+    hz = 16.0
+    onset = simulate(rig, hz, law, 40.0).contacts.iloc[-2]
+    start = (float(onset["alpha_start"]), float(onset["alpha_dot_start"]), 2 * math.pi * hz * float(onset["t_start"]))
+    return rig, law, hz, start, 1.0 / hz
+
+
 def best_time(fn, repeat=5, min_time=0.2):
     """Best-of-``repeat`` mean time of ``fn`` [s], each repeat running at least ``min_time``."""
     best = math.inf
@@ -78,36 +90,51 @@ def as_accurate(candidate, ours):
     return all(e <= max(o, f) for e, o, f in zip(candidate, ours, ERROR_FLOORS))
 
 
+def kernel_runner(rig, hz, law, a0, ad0, th0, tolerances=DEFAULT_TOLERANCES):
+    """``(run, contacts)``: ``run(until)`` integrates the S1 event with the compiled kernel alone
+    (arguments packed and tables allocated here, once) from t = 0 to ``until`` and returns the
+    kernel's summary; ``contacts`` is the contact table it fills (row 0: the event's contact)."""
+    from impactid.rigs.pivoted import kernel as K
+    from impactid.rigs.pivoted.runs import pack_law, pack_rig
+
+    tol = tolerances
+    p, omega = pack_rig(rig), 2 * math.pi * hz
+    law_vec = pack_law(law).copy()  # writable, as the package passes it (the same compiled signature)
+    h_max = tol.max_step_revolutions * 2.0 * math.pi / omega
+    grid, modes = np.empty(0), np.empty(0, dtype=np.int8)
+    contacts, apexes = np.empty((64, K.N_CCOL)), np.empty((0, 2))
+
+    def run(until):
+        return K.integrate(0.0, a0, ad0, -1, until, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
+                           tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes, False,
+                           K.NO_SENS, K.NO_SENS_MAX, K.NO_GRID_SENS)
+
+    return run, contacts
+
+
+def contact_interval(contacts) -> tuple[float, float]:
+    """Start and end [s] of the first contact in a kernel's contact table."""
+    from impactid.rigs.pivoted import kernel as K
+
+    return float(contacts[0, K.C_T_START]), float(contacts[0, K.C_T_END])
+
+
 def _kernel_only(rig, hz, law, a0, ad0, th0, t_end, repeat) -> tuple[float, int, int, list[tuple[int, int]]]:
     """Time [us] of the compiled kernel alone for the S1 event (arguments packed and tables allocated
     once, outside the timing), its accepted and rejected steps, and those steps per phase: (accepted,
     rejected) before the contact, in it and in the free flight after it (integrations that stop at the
     first contact's start and end, whose step counts the whole run's are the sums of)."""
-    from impactid.rigs.pivoted import kernel as K
-    from impactid.rigs.pivoted.runs import pack_law, pack_rig
-
-    tol = DEFAULT_TOLERANCES
-    p, law_vec, omega = pack_rig(rig), pack_law(law), 2 * math.pi * hz
-    h_max = tol.max_step_revolutions * 2.0 * math.pi / omega
-    grid, modes = np.empty(0), np.empty(0, dtype=np.int8)
-    contacts, apexes = np.empty((64, K.N_CCOL)), np.empty((0, 2))
-
-    def run(until=t_end):
-        return K.integrate(0.0, a0, ad0, -1, until, p, law_vec, th0, omega, tol.rtol, tol.atol_alpha,
-                           tol.atol_rate, h_max, tol.max_steps, grid, grid, grid, modes, contacts, apexes, False,
-                           K.NO_SENS, K.NO_SENS_MAX, K.NO_GRID_SENS)
-
-    law_vec = law_vec.copy()  # writable, as the package passes it (the same compiled signature)
-    end = run()
-    t_start, t_stop = float(contacts[0, K.C_T_START]), float(contacts[0, K.C_T_END])
+    run, contacts = kernel_runner(rig, hz, law, a0, ad0, th0)
+    end = run(t_end)
+    t_start, t_stop = contact_interval(contacts)
     counts = [(0, 0)]
     for until in (t_start, t_stop):
         part = run(until)
         counts.append((int(part.n_steps), int(part.n_rejected)))
     counts.append((int(end.n_steps), int(end.n_rejected)))
     phases = [(b[0] - a[0], b[1] - a[1]) for a, b in zip(counts[:-1], counts[1:])]
-    run()  # the timed runs start as the first did (the contact table refilled)
-    return best_time(run, repeat=repeat) * 1e6, int(end.n_steps), int(end.n_rejected), phases
+    run(t_end)  # the timed runs start as the first did (the contact table refilled)
+    return best_time(lambda: run(t_end), repeat=repeat) * 1e6, int(end.n_steps), int(end.n_rejected), phases
 
 
 PAGE_INTRO = """\
@@ -132,14 +159,7 @@ def main(argv=None) -> int:
 def run(args) -> int:
     repeat = 2 if args.quick else 5
 
-    rig = SUNDAR2016.with_eccentricity_ratio(0.2)
-    law = HuntCrossley(24.7e9, 1.5)
-    hz = 16.0
-    settled = simulate(rig, hz, law, 40.0)
-    onset = settled.contacts.iloc[-2]
-    a0, ad0 = float(onset["alpha_start"]), float(onset["alpha_dot_start"])
-    th0 = 2 * math.pi * hz * float(onset["t_start"])
-    t_end = 1.0 / hz
+    rig, law, hz, (a0, ad0, th0), t_end = s1_event()
     p = ref.reference_params(0.2)
 
     print("== S1 event: e/r_c = 0.2, 16 Hz, contact + one revolution of free flight ==")
