@@ -290,11 +290,7 @@ def main() -> None:
              "contact-duration check that pays for that refit replays 128 of the 959 events "
              "(impactid.rigs.pivoted.damping_diagnostics.DURATION_CHECK_EVENTS: 0.6 s per fit), and the "
              "distribution functions come from scipy.special instead of scipy.stats, whose import (with "
-             "scipy.signal's) took 0.4 s of every estimate. Then (2026-11-27, a new machine, an AMD EPYC on which "
-             "the same commit took a median 5.16 s): the return-time anchors compute the free flight's acceleration "
-             "and its derivative by the angle from one sine and one cosine instead of three torques of a central "
-             "difference (impactid.rigs.pivoted.freeflight.free_accel_and_slope: the 951 anchors 427 -> 132 ms, moved "
-             "by at most 8e-17 rad). CPU seconds are the child's user + system time; on a "
+             "scipy.signal's) took 0.4 s of every estimate. CPU seconds are the child's user + system time; on a "
              "loaded machine the wall time exceeds them by the load's share.")
     with BenchmarkPage(None if args.no_page or args.quick else PAGE, "Performance: the 60 s estimate", intro):
         print(f"load average (1 min) at the start {os.getloadavg()[0]:.2f}; {os.cpu_count()} cores; "
