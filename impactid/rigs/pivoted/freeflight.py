@@ -5,10 +5,7 @@ frequency is a few Hz) over one cam revolution, so a fixed-step classical RK4 wi
 steps is accurate to about 1e-13 rad; ``tests/rigs/pivoted/test_freeflight.py`` checks it against
 ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-12). The variational equation is integrated
 alongside, so the anchor's Newton iteration has the exact derivative of the end angle with
-respect to the start angle; the acceleration and its derivative by the angle come from one sine
-and one cosine (:func:`free_accel_and_slope`; a central difference of the torque took three times
-the work: the 60 s benchmark recording's 951 anchors took 427 ms, 132 ms now, and moved by at most
-8e-17 rad).
+respect to the start angle.
 
 :func:`free_flight_fit` checks the rig file against a recording: the measured angular acceleration
 between impacts against the free-flight model's at the reconstructed angles. A wrong inertia ``I_b``
@@ -33,8 +30,8 @@ from impactid.rigs.pivoted import kernel as K
 compilation.install()  # before the kernels: the kernel cache's locators and the first-use notice
 
 __all__ = ["FREE_FLIGHT_CLEAN", "FREE_FLIGHT_CLEAN_SWING", "FREE_FLIGHT_MISFIT", "FREE_FLIGHT_SIGNIFICANCE",
-           "FREE_FLIGHT_STEPS", "FreeFlightFit", "free_accel_and_slope", "free_accelerations", "free_flight",
-           "free_flight_fit", "return_time_anchors"]
+           "FREE_FLIGHT_STEPS", "FreeFlightFit", "free_accelerations", "free_flight", "free_flight_fit",
+           "return_time_anchors"]
 
 #: A recording's free flight counts as clean when the refitted model (:func:`free_flight_fit`) leaves a
 #: residual RMS at most this many times the accelerometer's noise, or at most :data:`FREE_FLIGHT_CLEAN_SWING`
@@ -62,27 +59,16 @@ def _free_accel(a, p):
 
 
 @njit(cache=True)
-def free_accel_and_slope(a, p):
-    """The free flight's angular acceleration ``alpha_ddot`` [rad/s^2] (S-9) and its derivative
-    ``d alpha_ddot / d alpha`` [1/s^2] at ``a`` [rad], from one sine and one cosine.
-
-    The torque ``m_b g l_g cos a - k_s d_x (L_s^u - d_y + (d_x sin a + w_b / 2) / cos a)`` is the
-    simulator's (``kernel._free_torque_of``); its derivative is
-    ``-m_b g l_g sin a - k_s d_x (d_x + (w_b / 2) sin a) / cos^2 a``. Checked against a central
-    difference of ``kernel._torque`` in tests/rigs/pivoted/test_freeflight.py."""
-    sa, ca = math.sin(a), math.cos(a)
-    inverse_inertia = 1.0 / p[K.I_B]
-    accel = K._free_torque_of(sa, ca, p) * inverse_inertia
-    slope = (-p[K.M_B] * p[K.GRAV] * p[K.L_G] * sa
-             - p[K.K_S] * p[K.D_X] * (p[K.D_X] + 0.5 * p[K.W_B] * sa) / (ca * ca)) * inverse_inertia
-    return accel, slope
+def _free_accel_slope(a, p):
+    """d(alpha_ddot)/d(alpha) of free flight (central difference of the torque, h = 1e-7 rad)."""
+    h = 1e-7
+    return (K._torque(a + h, p) - K._torque(a - h, p)) / (2.0 * h * p[K.I_B])
 
 
 @njit(cache=True)
 def _derivatives(a, v, sa, sv, p):
     """Right-hand side of the free flight and of its variational equation."""
-    accel, slope = free_accel_and_slope(a, p)
-    return v, accel, sv, slope * sa
+    return v, _free_accel(a, p), sv, _free_accel_slope(a, p) * sa
 
 
 @njit(cache=True)

@@ -3,12 +3,10 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from scipy.integrate import solve_ivp
 
 from impactid import SUNDAR2016
-from impactid.rigs.pivoted import kernel as K
-from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, free_accel_and_slope, free_flight, return_time_anchors
+from impactid.rigs.pivoted.freeflight import FREE_FLIGHT_STEPS, free_flight, return_time_anchors
 from impactid.rigs.pivoted.runs import pack_rig
 
 RIG = SUNDAR2016
@@ -21,18 +19,6 @@ def reference(alpha0, rate0, duration):
 
     sol = solve_ivp(rhs, (0, duration), [alpha0, rate0], method="DOP853", rtol=1e-13, atol=1e-15)
     return sol.y[:, -1]
-
-
-def test_the_analytic_slope_is_the_torque_s_derivative():
-    # the acceleration is the simulator's torque over I_b, and the slope its derivative: against a central
-    # difference of the torque (h = 1e-6 rad: truncation ~ h^2 |third derivative| / 6 and round-off
-    # ~ 1e-16 / h, both far below the 1e-7 relative asked)
-    for alpha in np.linspace(-0.3, 0.4, 29):
-        accel, slope = free_accel_and_slope(alpha, P)
-        assert accel == pytest.approx(K._torque(alpha, P) / RIG.I_b, rel=1e-13, abs=1e-12)
-        h = 1e-6
-        difference = (K._torque(alpha + h, P) - K._torque(alpha - h, P)) / (2 * h * RIG.I_b)
-        assert slope == pytest.approx(difference, rel=1e-7)
 
 
 def test_free_flight_matches_solve_ivp():
