@@ -78,11 +78,17 @@ def _recording(path: Path) -> Path:
     return path
 
 
+#: The command's environment: this one, with Python's bytecode cache allowed. An installation holds the package's
+#: bytecode (pip compiles it); a development checkout under ``PYTHONDONTWRITEBYTECODE`` (which some workplaces set)
+#: would compile every module's source in every run instead (0.17 s of the estimate, measured with cProfile).
+_WITH_BYTECODE = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+
+
 def _run_estimate(path: Path, out: Path) -> tuple[float, float, float]:
     """``impactid estimate PATH --fix-n 1.5``: (wall [s], CPU [s], peak resident memory [bytes])."""
     start = time.perf_counter()
     child = subprocess.Popen([*impactid_command(), "estimate", str(path), "--fix-n", "1.5", "--out", str(out)],
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=_WITH_BYTECODE)
     _, status, usage = os.wait4(child.pid, 0)
     wall = time.perf_counter() - start
     child.returncode = os.waitstatus_to_exitcode(status)
@@ -290,7 +296,11 @@ def main() -> None:
              "contact-duration check that pays for that refit replays 128 of the 959 events "
              "(impactid.rigs.pivoted.damping_diagnostics.DURATION_CHECK_EVENTS: 0.6 s per fit), and the "
              "distribution functions come from scipy.special instead of scipy.stats, whose import (with "
-             "scipy.signal's) took 0.4 s of every estimate. CPU seconds are the child's user + system time; on a "
+             "scipy.signal's) took 0.4 s of every estimate. Then (2026-11-27) a new machine, an AMD EPYC, slower than "
+             "the one before (the S1 event 36.6 us instead of 31.5): the command runs with Python's bytecode cache "
+             "allowed, as an installation has its bytecode (this workplace sets PYTHONDONTWRITEBYTECODE, under which a "
+             "development checkout compiled every module's source in every run: 5.16 s instead of 4.92 s here). "
+             "CPU seconds are the child's user + system time; on a "
              "loaded machine the wall time exceeds them by the load's share.")
     with BenchmarkPage(None if args.no_page or args.quick else PAGE, "Performance: the 60 s estimate", intro):
         print(f"load average (1 min) at the start {os.getloadavg()[0]:.2f}; {os.cpu_count()} cores; "

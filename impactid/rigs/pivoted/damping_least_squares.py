@@ -59,7 +59,8 @@ from impactid.rigs.pivoted.estimate_results import DampingEstimate, Progress
 __all__ = ["FINE_STRUCTURE_FLOORS", "MINIMA_SCAN_EXTENSIONS", "MINIMA_SCAN_HALF_WIDTH", "MINIMA_SCAN_STEP",
            "PHASE_REFIT_Z", "REFIT_PROBE", "CompetingMinima", "by_contact_duration", "cam_phase_refits",
            "cam_phase_shifts", "clip_to_search_box", "combine_phase", "competing_minima", "competing_minima_note",
-           "contact_counts", "fit_by_least_squares", "gauss_newton_search", "linearised_bootstrap", "n_interval",
+           "contact_counts", "gauss_newton_search", "least_squares_estimate",
+           "linearised_bootstrap", "n_interval",
            "phase_quantiles", "profile_interval", "quadrature", "standard_errors", "systematic_shifts", "valley_box"]
 
 #: A 10 % change of ``beta`` that moves the per-event residuals by less than this many residual floors (rms)
@@ -75,22 +76,14 @@ MINIMA_SCAN_HALF_WIDTH = 0.2
 MINIMA_SCAN_EXTENSIONS = 2
 
 
-def fit_by_least_squares(problem: DampingProblem, obj: DampingObjective, notes: list[str], progress: Progress,
-                         *, sensitivities: bool = True) -> DampingEstimate:
-    """The ``"least-squares"`` estimate of ``beta`` (and ``n``) as a :class:`DampingEstimate`.
-
-    Parameters
-    ----------
-    problem : the validated fit.
-    obj : its objective (counts the simulations of the whole fit).
-    notes : the fit's notes, appended to.
-    progress : callback ``(stage, fraction)``.
-    sensitivities : differentiate the residuals with the simulator's forward sensitivities (else
-        central differences of batched runs).
-    """
+def least_squares_estimate(problem: DampingProblem, obj: DampingObjective, fit: LeastSquaresFit,
+                           notes: list[str]) -> DampingEstimate:
+    """The :class:`DampingEstimate` of a finished :func:`gauss_newton_search`: its intervals (profile, competing
+    minima, cam phase, systematic error), bootstrap, model check and identifiability (the work after the search,
+    which a calibrated estimate skips for a first fit that it refits:
+    :func:`~impactid.rigs.pivoted.damping.start_contact_damping`)."""
     fix_n = problem.fix_n
     systematic = max(problem.residual_floor, problem.systematic)
-    fit = gauss_newton_search(problem, obj, systematic, notes, progress, sensitivities=sensitivities)
     logc_hat = fit.x[0]
     n_hat = float(fix_n) if fix_n is not None else fit.x[1]
     beta_hat = float(obj.beta(logc_hat, n_hat))
@@ -408,7 +401,7 @@ def cam_phase_shifts(problem: DampingProblem, obj: DampingObjective, fit: LeastS
 
 
 #: Standard errors of the cam phase at which :func:`cam_phase_refits` refits by default (the normal 95 % range;
-#: :func:`fit_by_least_squares` passes Student's t of each recording, :func:`phase_quantiles`).
+#: :func:`least_squares_estimate` passes Student's t of each recording, :func:`phase_quantiles`).
 PHASE_REFIT_Z = 1.96
 #: Spacing [decades of c] of the three points that test the linear prediction of a refit (2 % of beta).
 REFIT_PROBE = 0.01

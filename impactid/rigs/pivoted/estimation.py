@@ -30,6 +30,7 @@ from impactid.rigs.base import Estimator, PreparedRecording, options_record, pip
 from impactid.rigs.pivoted import figures
 from impactid.rigs.pivoted.arguments import ARGUMENTS, MAX_GRID_POINTS, TITLE
 from impactid.rigs.pivoted.calibration import RecordingSampling, pipeline_bias
+from impactid.rigs.pivoted.damping import DampingSearch, finish_contact_damping, start_contact_damping
 from impactid.rigs.pivoted.estimates import (
     BOOTSTRAP_RESAMPLES,
     BOOTSTRAP_SEED,
@@ -186,13 +187,16 @@ def fit(prepared: Sequence[PreparedRecording], options: Mapping[str, Any],
         raise ImpactidError("a joint fit needs recordings of the same rig (parameters other than the eccentricity "
                             "e equal); they differ between " + ", ".join(s.source for s in sets))
     fit_options = _fit_options(options)
-    damping = fit_contact_damping(sets, options["residual"], **fit_options, progress=progress, warn=False)
     calibration: list[dict] = []
     systematic = 0.0
     if _calibrated(options):
-        damping, sets, calibration, systematic = _calibrate(damping, [d.sampling for d in data], sets, fit_options,
+        # the first fit's intervals and checks only where no correction refits it (start_contact_damping)
+        search = start_contact_damping(sets, options["residual"], **fit_options, progress=progress, warn=False)
+        damping, sets, calibration, systematic = _calibrate(search, [d.sampling for d in data], sets, fit_options,
                                                             integration=options["integration"],
                                                             anchor=options["anchor"])
+    else:
+        damping = fit_contact_damping(sets, options["residual"], **fit_options, progress=progress, warn=False)
     collected += damping.warnings  # the final fit's notes: a calibrated refit's replace the first fit's
     # (which may say what the refit no longer finds: a "not determined" of the uncorrected data)
     damping = _with_reference_interval(damping, sets, fit_options, systematic)
@@ -237,26 +241,29 @@ def _usable(prepared: Sequence[PreparedRecording]) -> tuple[list[PreparedRecordi
     return usable, notes
 
 
-def _calibrate(damping, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
-    """Measure the pipeline's biases at the first estimate (:mod:`impactid.rigs.pivoted.calibration`): where the
-    alpha_m bias is significant and exceeds :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD` (or a
-    phase correction refits anyway: :func:`_corrections`), correct the measured alpha_m, and where a cam-phase bias
-    was measured (band-limited or noise-free recordings), correct the cam phase; then fit again, with the intervals'
-    indifference at least half the largest alpha_m correction and the phase's standard error widened."""
-    law = HuntCrossley(beta=damping.beta, n=damping.n)
+def _calibrate(search: DampingSearch, samplings, sets, fit_options: dict, *, integration: str, anchor: str):
+    """Measure the pipeline's biases at the first estimate (:mod:`impactid.rigs.pivoted.calibration`), the point
+    estimate of ``search``: where the alpha_m bias is significant and exceeds
+    :data:`~impactid.rigs.pivoted.estimates.CALIBRATION_THRESHOLD` (or a phase correction refits anyway:
+    :func:`_corrections`), correct the measured alpha_m, and where a cam-phase bias was measured (band-limited or
+    noise-free recordings), correct the cam phase; then fit again, with the intervals' indifference at least half
+    the largest alpha_m correction and the phase's standard error widened. Without a correction the first fit is
+    finished (its intervals and checks); with one it is not (the refit's replace them)."""
+    law = HuntCrossley(beta=search.beta, n=search.n)
     biases = [pipeline_bias(s, law, integration=integration, anchor=anchor) for s in samplings]
     applied, phased = _corrections(biases)
     if not any(applied) and not any(phased):
-        return damping, sets, _calibration_record(sets, biases), 0.0
+        return finish_contact_damping(search), sets, _calibration_record(sets, biases), 0.0
+    search.progress("done", 1.0)
     measured_at = law
-    simulations, seconds = damping.n_simulations, damping.seconds
+    simulations, seconds = search.n_simulations, search.seconds
     # a band-limited recording's phase bias depends on the law's pulse shape: measured again at the corrected
     # estimate until it agrees with the one applied (_settled), at most PHASE_CALIBRATION_ROUNDS fits
     for attempt in range(PHASE_CALIBRATION_ROUNDS):
         corrected = [_corrected_set(s, b, use, phase) for s, b, use, phase in zip(sets, biases, applied, phased)]
         systematic = max((0.5 * abs(b.alpha_m) + 2.0 * b.stderr for b, use in zip(biases, applied) if use),
                          default=0.0)
-        again = fit_contact_damping(corrected, damping.residual, **fit_options, systematic=systematic, warn=False)
+        again = fit_contact_damping(corrected, search.residual, **fit_options, systematic=systematic, warn=False)
         simulations, seconds = simulations + again.n_simulations, seconds + again.seconds
         # an unfiltered onset's phase bias barely moves with the law (the 60 s benchmark recording: -4.42e-5 to
         # -4.63e-5 rad over beta -0.05 % to +0.4 %): measured once; a band-limited one's with the filtered pulse
