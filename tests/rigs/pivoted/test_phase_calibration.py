@@ -17,6 +17,7 @@ import pytest
 
 from impactid import SUNDAR2016, HuntCrossley
 from impactid.pipeline import estimate
+from impactid.rigs.pivoted import damping, estimation
 from impactid.rigs.pivoted.calibration import NOISE_FREE_FRACTION, RecordingSampling, pipeline_bias
 from impactid.rigs.pivoted.reconstruct import reconstruct
 from impactid.rigs.pivoted.synth import synth_pivoted
@@ -88,3 +89,36 @@ def test_the_estimate_corrects_the_noise_free_phase(recording):
     low, high = result.damping.beta_interval
     assert low <= LAW.beta <= high
     assert abs(result.damping.beta / LAW.beta - 1.0) < 5e-5
+
+
+def test_a_refitted_first_fit_is_not_finished(recording, monkeypatch):
+    """The phase correction refits: the first fit's intervals and checks, which the refit's replace, are not
+    computed (one least_squares_estimate, the refit's); the search alone gives the law the bias is measured at."""
+    finished = []
+    original = damping.least_squares_estimate
+
+    def counting(problem, obj, fit, notes):
+        finished.append(problem.systematic)
+        return original(problem, obj, fit, notes)
+
+    monkeypatch.setattr(damping, "least_squares_estimate", counting)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = estimate([recording], fix_n=LAW.n)
+    assert "phase" in result.calibration[0]
+    assert len(finished) == 1
+    assert finished[0] > 0.0  # the refit's: its systematic error carries the correction
+
+
+def test_without_a_correction_the_calibrated_estimate_is_the_first_fit(recording):
+    """A calibration that corrects nothing (here, told not to by a threshold no bias reaches) finishes the first
+    fit: the same estimate, intervals and checks as the fit without a calibration."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plain = estimate([recording], fix_n=LAW.n, calibrate=False)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(estimation, "_corrections", lambda biases: ([False] * len(biases), [False] * len(biases)))
+            calibrated = estimate([recording], fix_n=LAW.n)
+    assert calibrated.damping.beta == plain.damping.beta
+    assert calibrated.damping.beta_interval == plain.damping.beta_interval
+    assert calibrated.damping.model_check == plain.damping.model_check
