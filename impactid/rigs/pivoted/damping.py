@@ -139,11 +139,11 @@ def fit_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "la
     ImpactidError : no events, or no finite objective anywhere in the bounds.
     ValueError : unknown residual or method, bad bounds.
     """
-    return finish_contact_damping(start_contact_damping(
+    return _finish(start_contact_damping(
         sets, residual, fix_n=fix_n, method=method, grid=grid, c_bounds=c_bounds, n_bounds=n_bounds,
         landscape=landscape, progress=progress, systematic=systematic, residual_floor=residual_floor,
         separability_width=separability_width, bootstrap_resamples=bootstrap_resamples,
-        bootstrap_seed=bootstrap_seed, warn=warn, jacobian=jacobian))
+        bootstrap_seed=bootstrap_seed, warn=warn, jacobian=jacobian), stacklevel=3)
 
 
 @dataclass(frozen=True)
@@ -168,6 +168,7 @@ class DampingSearch:
     notes: list[str] = field(repr=False)
     progress: Progress = field(repr=False)
     warn: bool = True
+    finished: list[bool] = field(default_factory=list, repr=False)  # [True] once finish_contact_damping ran
 
 
 def start_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "lambda1", *,
@@ -218,7 +219,22 @@ def start_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "
 
 def finish_contact_damping(search: DampingSearch) -> DampingEstimate:
     """The :class:`DampingEstimate` of a :func:`start_contact_damping`: the intervals, checks and diagnostics
-    of its estimate (the same as :func:`fit_contact_damping`'s). A search is finished once."""
+    of its estimate (the same as :func:`fit_contact_damping`'s; its notes are warned where the search was
+    started with ``warn``).
+
+    Raises
+    ------
+    ValueError : the search was finished already (its notes and simulation count would be added twice).
+    """
+    return _finish(search, stacklevel=3)
+
+
+def _finish(search: DampingSearch, stacklevel: int) -> DampingEstimate:
+    """:func:`finish_contact_damping`, its warnings attributed ``stacklevel`` frames up (to the caller of the
+    public function that was called)."""
+    if search.finished:
+        raise ValueError("this contact-damping search was finished already")
+    search.finished.append(True)
     t_start = time.perf_counter()
     if isinstance(search.found, DampingEstimate):
         estimate = search.found
@@ -229,7 +245,7 @@ def finish_contact_damping(search: DampingSearch) -> DampingEstimate:
             raise ImpactidError(f"simulation failed inside the search bounds: {exc}") from exc
     search.progress("done", 1.0)
     for message in estimate.warnings if search.warn else ():
-        warnings.warn(message, EstimationWarning, stacklevel=3)
+        warnings.warn(message, EstimationWarning, stacklevel=stacklevel)
     return replace(estimate, seconds=search.seconds + time.perf_counter() - t_start)
 
 
