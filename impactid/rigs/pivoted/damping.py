@@ -56,7 +56,7 @@ from dataclasses import dataclass, field, replace
 from impactid.engine.valley import LeastSquaresFit
 from impactid.errors import ImpactidError, SimulationError
 from impactid.rigs.pivoted.damping_diagnostics import SEPARABILITY_WIDTH
-from impactid.rigs.pivoted.damping_least_squares import gauss_newton_search, least_squares_estimate
+from impactid.rigs.pivoted.damping_least_squares import gauss_newton_search, least_squares_estimate, point_estimate
 from impactid.rigs.pivoted.damping_objective import (
     C_BOUNDS,
     N_BOUNDS,
@@ -201,14 +201,12 @@ def start_contact_damping(sets: EventSet | Sequence[EventSet], residual: str = "
     notes: list[str] = [m for s in problem.sets for m in s.dropped]
     progress("search", 0.0)
     if method == "least-squares":
-        systematic_floor = max(problem.residual_floor, problem.systematic)
         try:
-            found = gauss_newton_search(problem, obj, systematic_floor, notes, progress,
+            found = gauss_newton_search(problem, obj, problem.indifference, notes, progress,
                                         sensitivities=jacobian == "sensitivities")
         except SimulationError as exc:
             raise ImpactidError(f"simulation failed inside the search bounds: {exc}") from exc
-        n_hat = float(fix_n) if fix_n is not None else float(found.x[1])
-        beta_hat = float(obj.beta(found.x[0], n_hat))
+        beta_hat, n_hat = point_estimate(problem, obj, found)
     else:
         found = fit_by_search(problem, obj, method, grid, notes, progress)
         beta_hat, n_hat = found.beta, found.n

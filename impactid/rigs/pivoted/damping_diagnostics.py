@@ -463,7 +463,7 @@ def damping_model_check(problem: DampingProblem, per_event: np.ndarray, *, n_par
     covariate = covariate if np.isfinite(covariate).any() else None
     check = check_model(per_event[used], None, noise_reference="", what=problem.residual, n_params=n_params,
                         groups=owner[used], covariate=covariate, covariate_name="approach speed [m/s]",
-                        structure_floor=max(problem.residual_floor, problem.systematic), assumed_sd=assumed_sd,
+                        structure_floor=problem.indifference, assumed_sd=assumed_sd,
                         between=False)
     durations = contact_duration_check(problem, beta, n)
     if durations["verdict"] == "rejected":

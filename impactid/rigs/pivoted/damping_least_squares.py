@@ -59,9 +59,9 @@ from impactid.rigs.pivoted.estimate_results import DampingEstimate, Progress
 __all__ = ["FINE_STRUCTURE_FLOORS", "MINIMA_SCAN_EXTENSIONS", "MINIMA_SCAN_HALF_WIDTH", "MINIMA_SCAN_STEP",
            "PHASE_REFIT_Z", "REFIT_PROBE", "CompetingMinima", "by_contact_duration", "cam_phase_refits",
            "cam_phase_shifts", "clip_to_search_box", "combine_phase", "competing_minima", "competing_minima_note",
-           "contact_counts", "gauss_newton_search", "least_squares_estimate",
-           "linearised_bootstrap", "n_interval",
-           "phase_quantiles", "profile_interval", "quadrature", "standard_errors", "systematic_shifts", "valley_box"]
+           "contact_counts", "gauss_newton_search", "least_squares_estimate", "linearised_bootstrap", "n_interval",
+           "phase_quantiles", "point_estimate", "profile_interval", "quadrature", "standard_errors",
+           "systematic_shifts", "valley_box"]
 
 #: A 10 % change of ``beta`` that moves the per-event residuals by less than this many residual floors (rms)
 #: makes :func:`competing_minima` scan along ``beta``: the law then barely moves the residuals, and a replay's
@@ -76,6 +76,12 @@ MINIMA_SCAN_HALF_WIDTH = 0.2
 MINIMA_SCAN_EXTENSIONS = 2
 
 
+def point_estimate(problem: DampingProblem, obj: DampingObjective, fit: LeastSquaresFit) -> tuple[float, float]:
+    """``(beta, n)`` at the end of a :func:`gauss_newton_search` (``n`` the fixed one where fixed)."""
+    n_hat = float(problem.fix_n) if problem.fix_n is not None else float(fit.x[1])
+    return float(obj.beta(fit.x[0], n_hat)), n_hat
+
+
 def least_squares_estimate(problem: DampingProblem, obj: DampingObjective, fit: LeastSquaresFit,
                            notes: list[str]) -> DampingEstimate:
     """The :class:`DampingEstimate` of a finished :func:`gauss_newton_search`: its intervals (profile, competing
@@ -83,10 +89,9 @@ def least_squares_estimate(problem: DampingProblem, obj: DampingObjective, fit: 
     which a calibrated estimate skips for a first fit that it refits:
     :func:`~impactid.rigs.pivoted.damping.start_contact_damping`)."""
     fix_n = problem.fix_n
-    systematic = max(problem.residual_floor, problem.systematic)
+    systematic = problem.indifference
     logc_hat = fit.x[0]
-    n_hat = float(fix_n) if fix_n is not None else fit.x[1]
-    beta_hat = float(obj.beta(logc_hat, n_hat))
+    beta_hat, n_hat = point_estimate(problem, obj, fit)
     J, r = fit.jacobian, fit.residuals
     # d log(beta) / d(log10 c, n)
     grad = np.array([math.log(10.0), -math.log(obj.delta_ref)])[: J.shape[1]]

@@ -158,6 +158,12 @@ class DampingProblem:
     bootstrap_seed: int
     landscape: bool
 
+    @property
+    def indifference(self) -> float:
+        """The residual's error per event below which fits count as equally good: the larger of
+        :attr:`residual_floor` and :attr:`systematic` [residual units]."""
+        return max(self.residual_floor, self.systematic)
+
     def objective(self, sets: Sequence[EventSet] | None = None) -> DampingObjective:
         """A fresh objective (simulation counters at zero) over ``sets`` (default: the problem's own)."""
         return DampingObjective(self.sets if sets is None else sets, self.residual, self.delta_ref)

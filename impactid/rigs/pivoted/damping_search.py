@@ -324,7 +324,7 @@ def indifference_at(obj: DampingObjective, problem: DampingProblem, logc_hat: fl
     finite = np.isfinite(per_event_hat)
     n_used = int(finite.sum())
     se = float(np.std(np.abs(per_event_hat[finite]), ddof=1) / math.sqrt(n_used)) if n_used > 1 else math.inf
-    level = max(2.0 * se, problem.residual_floor, problem.systematic) if math.isfinite(se) else math.inf
+    level = max(2.0 * se, problem.indifference) if math.isfinite(se) else math.inf
     return Indifference(per_event=per_event_hat, finite=finite, standard_error=se, level=level)
 
 
